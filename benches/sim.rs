@@ -1,0 +1,2 @@
+//! Benchmark placeholder, filled by the owning work.
+fn main() {}

@@ -1,0 +1,978 @@
+//! Configuration: every number of the domain, with its default, its unit and its allowed range.
+//!
+//! The file format is TOML with kebab-case keys; unknown keys are rejected
+//! (`deny_unknown_fields`). Units are part of the key names (`_deg`, `_s`, `_mps`, `_t`). Angles
+//! are configured in degrees, which people read, and converted to radians, which the code uses,
+//! by the accessor methods (`*_rad()`).
+//!
+//! Loading is two steps, as in ntpd-rs: serde parses the shape ([`Config::from_toml_str`]),
+//! then [`Config::check`] enforces the semantic limits and names the offending key and its
+//! allowed range in a [`ConfigError`]. The binary maps any such error to exit code 78
+//! (`EX_CONFIG`).
+//!
+//! The defaults are the numbers of the domain brief (the ship, the servo, the autopilot, the
+//! sensors and sea states, HBT, CLFRT and the safety limits).
+
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// A configuration value outside its allowed range, or a file that does not parse.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// A key holds a value outside its allowed range.
+    #[error("configuration key `{key}` = {value}: allowed {allowed}")]
+    OutOfRange {
+        /// Dotted path of the key, e.g. `servo.max-rate-deg-s`.
+        key: String,
+        /// The offending value, as text.
+        value: String,
+        /// The allowed range or set, as text.
+        allowed: String,
+    },
+    /// The file is not valid TOML for this schema (unknown key, wrong type...).
+    #[error("configuration does not parse: {0}")]
+    Parse(String),
+    /// The file cannot be read.
+    #[error("cannot read configuration file {path}: {source}")]
+    Io {
+        /// The path given.
+        path: String,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+}
+
+impl ConfigError {
+    /// The sysexits code for configuration errors (`EX_CONFIG`).
+    pub const EXIT_CODE: i32 = 78;
+}
+
+/// Checks `lo <= v <= hi` (and finiteness), naming `key` on failure.
+pub fn check_range(key: &str, v: f64, lo: f64, hi: f64) -> Result<(), ConfigError> {
+    if v.is_finite() && v >= lo && v <= hi {
+        Ok(())
+    } else {
+        Err(ConfigError::OutOfRange {
+            key: key.to_string(),
+            value: format!("{v}"),
+            allowed: format!("[{lo}, {hi}]"),
+        })
+    }
+}
+
+/// Checks `lo < v <= hi` (and finiteness), naming `key` on failure.
+pub fn check_range_open_low(key: &str, v: f64, lo: f64, hi: f64) -> Result<(), ConfigError> {
+    if v.is_finite() && v > lo && v <= hi {
+        Ok(())
+    } else {
+        Err(ConfigError::OutOfRange {
+            key: key.to_string(),
+            value: format!("{v}"),
+            allowed: format!("({lo}, {hi}]"),
+        })
+    }
+}
+
+fn check_count(key: &str, v: u32, lo: u32, hi: u32) -> Result<(), ConfigError> {
+    if v >= lo && v <= hi {
+        Ok(())
+    } else {
+        Err(ConfigError::OutOfRange {
+            key: key.to_string(),
+            value: v.to_string(),
+            allowed: format!("integer in [{lo}, {hi}]"),
+        })
+    }
+}
+
+fn fail(key: &str, value: impl std::fmt::Display, allowed: &str) -> ConfigError {
+    ConfigError::OutOfRange {
+        key: key.to_string(),
+        value: value.to_string(),
+        allowed: allowed.to_string(),
+    }
+}
+
+const DEG: f64 = std::f64::consts::PI / 180.0;
+
+/// The whole configuration file.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
+pub struct Config {
+    /// The ship model and its nominal parameters.
+    pub ship: ShipConfig,
+    /// The rudder servo.
+    pub servo: ServoConfig,
+    /// The simulated heading autopilot (PID with wave filter).
+    pub autopilot: AutopilotConfig,
+    /// Sensor rates and noise.
+    pub sensors: SensorConfig,
+    /// Environmental disturbances per sea state.
+    pub sea: SeaConfig,
+    /// Simulation set-up (initial course, integration).
+    pub simulation: SimulationConfig,
+    /// When tests run.
+    pub scheduler: SchedulerConfig,
+    /// Harmonic balance (relay) test.
+    pub hbt: HbtConfig,
+    /// Closed-loop frequency response (multisine) test.
+    pub clfrt: ClfrtConfig,
+    /// Safety limits on excitation and abort conditions.
+    pub safety: SafetyConfig,
+    /// Input validation and stream alignment.
+    pub input: InputConfig,
+}
+
+impl Config {
+    /// Parses TOML text and checks every limit.
+    pub fn from_toml_str(text: &str) -> Result<Self, ConfigError> {
+        let cfg: Config = toml::from_str(text).map_err(|e| ConfigError::Parse(e.to_string()))?;
+        cfg.check()?;
+        Ok(cfg)
+    }
+
+    /// Reads, parses and checks a TOML file.
+    pub fn from_file(path: &Path) -> Result<Self, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Self::from_toml_str(&text)
+    }
+
+    /// Checks every semantic limit; the first violation is returned, naming its key.
+    pub fn check(&self) -> Result<(), ConfigError> {
+        self.ship.check()?;
+        self.servo.check()?;
+        self.autopilot.check()?;
+        self.sensors.check()?;
+        self.sea.check()?;
+        self.simulation.check()?;
+        self.scheduler.check()?;
+        self.hbt.check()?;
+        self.clfrt.check(self.sensors.rate_hz)?;
+        self.safety.check(&self.servo)?;
+        self.input.check()?;
+        Ok(())
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Ship
+
+/// Nomoto ship model parameters (DOMAIN: a = a0 u / l, b = 0.5 (u/l)^2 A l / V, V = D / rho).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
+pub struct ShipConfig {
+    /// Ship length l [m].
+    pub length_m: f64,
+    /// Non-dimensional yaw damping a0 (1/T').
+    pub yaw_damping_a0: f64,
+    /// Rudder area A [m^2].
+    pub rudder_area_m2: f64,
+    /// Sea-water density rho [t/m^3].
+    pub water_density_t_m3: f64,
+    /// Nominal speed through water [m/s].
+    pub nominal_speed_mps: f64,
+    /// Nominal displacement [t].
+    pub nominal_displacement_t: f64,
+    /// Speed range the method covers [m/s] (training range of the estimator).
+    pub speed_range_mps: [f64; 2],
+    /// Displacement range the method covers [t].
+    pub displacement_range_t: [f64; 2],
+}
+
+impl Default for ShipConfig {
+    fn default() -> Self {
+        Self {
+            length_m: 120.0,
+            yaw_damping_a0: 0.25,
+            rudder_area_m2: 20.0,
+            water_density_t_m3: 1.025,
+            nominal_speed_mps: 7.0,
+            nominal_displacement_t: 7000.0,
+            speed_range_mps: [4.0, 10.0],
+            displacement_range_t: [4000.0, 10000.0],
+        }
+    }
+}
+
+impl ShipConfig {
+    fn check(&self) -> Result<(), ConfigError> {
+        check_range_open_low("ship.length-m", self.length_m, 0.0, 500.0)?;
+        check_range_open_low("ship.yaw-damping-a0", self.yaw_damping_a0, 0.0, 10.0)?;
+        check_range_open_low("ship.rudder-area-m2", self.rudder_area_m2, 0.0, 500.0)?;
+        check_range("ship.water-density-t-m3", self.water_density_t_m3, 0.9, 1.1)?;
+        check_range("ship.speed-range-mps[0]", self.speed_range_mps[0], 0.5, 30.0)?;
+        check_range(
+            "ship.speed-range-mps[1]",
+            self.speed_range_mps[1],
+            self.speed_range_mps[0],
+            30.0,
+        )?;
+        check_range(
+            "ship.displacement-range-t[0]",
+            self.displacement_range_t[0],
+            1.0,
+            1.0e6,
+        )?;
+        check_range(
+            "ship.displacement-range-t[1]",
+            self.displacement_range_t[1],
+            self.displacement_range_t[0],
+            1.0e6,
+        )?;
+        check_range(
+            "ship.nominal-speed-mps",
+            self.nominal_speed_mps,
+            self.speed_range_mps[0],
+            self.speed_range_mps[1],
+        )?;
+        check_range(
+            "ship.nominal-displacement-t",
+            self.nominal_displacement_t,
+            self.displacement_range_t[0],
+            self.displacement_range_t[1],
+        )?;
+        Ok(())
+    }
+
+    /// Nomoto parameters `(a [1/s], b [1/s^2])` at speed `u` [m/s] and displacement `d` [t].
+    pub fn nomoto(&self, speed_mps: f64, displacement_t: f64) -> (f64, f64) {
+        let ul = speed_mps / self.length_m;
+        let volume_m3 = displacement_t / self.water_density_t_m3;
+        let a = self.yaw_damping_a0 * ul;
+        let b = 0.5 * ul * ul * self.rudder_area_m2 * self.length_m / volume_m3;
+        (a, b)
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Servo
+
+/// Rudder servo (DOMAIN, paper Fig. 7): command clamped, first-order lag, rate limit, angle limit.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
+pub struct ServoConfig {
+    /// Angle limit on command and rudder [deg].
+    pub max_angle_deg: f64,
+    /// Rate limit [deg/s].
+    pub max_rate_deg_s: f64,
+    /// Time constant T_r of the servo loop [s].
+    pub time_constant_s: f64,
+}
+
+impl Default for ServoConfig {
+    fn default() -> Self {
+        Self {
+            max_angle_deg: 30.0,
+            max_rate_deg_s: 4.0,
+            time_constant_s: 1.0,
+        }
+    }
+}
+
+impl ServoConfig {
+    fn check(&self) -> Result<(), ConfigError> {
+        check_range_open_low("servo.max-angle-deg", self.max_angle_deg, 0.0, 45.0)?;
+        check_range_open_low("servo.max-rate-deg-s", self.max_rate_deg_s, 0.0, 20.0)?;
+        check_range_open_low("servo.time-constant-s", self.time_constant_s, 0.0, 10.0)?;
+        Ok(())
+    }
+    /// Angle limit [rad].
+    pub fn max_angle_rad(&self) -> f64 {
+        self.max_angle_deg * DEG
+    }
+    /// Rate limit [rad/s].
+    pub fn max_rate_rad_s(&self) -> f64 {
+        self.max_rate_deg_s * DEG
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Autopilot
+
+/// Simulated heading autopilot: PID on the wave-filtered heading error, pole placement defaults.
+///
+/// Fossen: Kp = (T/K) wn^2, Td = T/(K Kp) (2 zeta wn - 1/T), Ti = factor / wn, computed for
+/// the nominal ship unless overridden.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
+pub struct AutopilotConfig {
+    /// Closed-loop natural frequency wn for pole placement [rad/s].
+    pub natural_frequency_rad_s: f64,
+    /// Closed-loop damping ratio zeta.
+    pub damping: f64,
+    /// Ti = integral-time-factor / wn.
+    pub integral_time_factor: f64,
+    /// Cut-off of the critically damped 2nd-order low-pass on the heading error [rad/s].
+    pub wave_filter_rad_s: f64,
+    /// Override of the proportional gain Kp [rad rudder / rad error].
+    pub kp: Option<f64>,
+    /// Override of the derivative time Td [s].
+    pub td_s: Option<f64>,
+    /// Override of the integral time Ti [s].
+    pub ti_s: Option<f64>,
+}
+
+impl Default for AutopilotConfig {
+    fn default() -> Self {
+        Self {
+            natural_frequency_rad_s: 0.05,
+            damping: 0.9,
+            integral_time_factor: 10.0,
+            wave_filter_rad_s: 0.25,
+            kp: None,
+            td_s: None,
+            ti_s: None,
+        }
+    }
+}
+
+/// PID gains resolved from [`AutopilotConfig`] and the nominal ship.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PidGains {
+    /// Proportional gain [rad/rad].
+    pub kp: f64,
+    /// Derivative time [s].
+    pub td_s: f64,
+    /// Integral time [s].
+    pub ti_s: f64,
+}
+
+impl AutopilotConfig {
+    fn check(&self) -> Result<(), ConfigError> {
+        check_range_open_low(
+            "autopilot.natural-frequency-rad-s",
+            self.natural_frequency_rad_s,
+            0.0,
+            1.0,
+        )?;
+        check_range_open_low("autopilot.damping", self.damping, 0.0, 5.0)?;
+        check_range_open_low(
+            "autopilot.integral-time-factor",
+            self.integral_time_factor,
+            0.0,
+            1000.0,
+        )?;
+        check_range_open_low("autopilot.wave-filter-rad-s", self.wave_filter_rad_s, 0.0, 10.0)?;
+        if let Some(kp) = self.kp {
+            check_range_open_low("autopilot.kp", kp, 0.0, 100.0)?;
+        }
+        if let Some(td) = self.td_s {
+            check_range("autopilot.td-s", td, 0.0, 1000.0)?;
+        }
+        if let Some(ti) = self.ti_s {
+            check_range_open_low("autopilot.ti-s", ti, 0.0, 1.0e5)?;
+        }
+        Ok(())
+    }
+
+    /// Gains by pole placement for the nominal ship of `ship`, with overrides applied.
+    pub fn gains(&self, ship: &ShipConfig) -> PidGains {
+        let (a, b) = ship.nomoto(ship.nominal_speed_mps, ship.nominal_displacement_t);
+        let t = 1.0 / a;
+        let k = b / a;
+        let wn = self.natural_frequency_rad_s;
+        let kp = self.kp.unwrap_or(t / k * wn * wn);
+        let td_s = self
+            .td_s
+            .unwrap_or((t / (k * kp) * (2.0 * self.damping * wn - 1.0 / t)).max(0.0));
+        let ti_s = self.ti_s.unwrap_or(self.integral_time_factor / wn);
+        PidGains { kp, td_s, ti_s }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Sensors
+
+/// Sensor rates and white-noise levels (standard deviations).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
+pub struct SensorConfig {
+    /// Sample rate of heading, rudder and speed [Hz] (also the autopilot's rate).
+    pub rate_hz: f64,
+    /// Gyro heading noise [deg].
+    pub heading_noise_deg: f64,
+    /// Rudder angle indicator noise [deg].
+    pub rudder_noise_deg: f64,
+    /// Speed log noise [m/s].
+    pub speed_noise_mps: f64,
+    /// Period of the autopilot state and target heading publications [s].
+    pub status_period_s: f64,
+}
+
+impl Default for SensorConfig {
+    fn default() -> Self {
+        Self {
+            rate_hz: 10.0,
+            heading_noise_deg: 0.05,
+            rudder_noise_deg: 0.1,
+            speed_noise_mps: 0.05,
+            status_period_s: 1.0,
+        }
+    }
+}
+
+impl SensorConfig {
+    fn check(&self) -> Result<(), ConfigError> {
+        check_range("sensors.rate-hz", self.rate_hz, 1.0, 100.0)?;
+        check_range("sensors.heading-noise-deg", self.heading_noise_deg, 0.0, 5.0)?;
+        check_range("sensors.rudder-noise-deg", self.rudder_noise_deg, 0.0, 5.0)?;
+        check_range("sensors.speed-noise-mps", self.speed_noise_mps, 0.0, 2.0)?;
+        check_range_open_low("sensors.status-period-s", self.status_period_s, 0.0, 60.0)?;
+        Ok(())
+    }
+    /// Sample period [s].
+    pub fn dt_s(&self) -> f64 {
+        1.0 / self.rate_hz
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Sea
+
+/// Named sea states of the domain brief.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Hash, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum SeaState {
+    /// Wave yaw 0.05 deg, bias 0.1 deg.
+    Calm,
+    /// Wave yaw 0.2 deg, bias 0.5 deg (default).
+    #[default]
+    Moderate,
+    /// Wave yaw 0.5 deg, bias 1.0 deg.
+    Rough,
+}
+
+impl SeaState {
+    /// All sea states, calm first.
+    pub const ALL: [SeaState; 3] = [SeaState::Calm, SeaState::Moderate, SeaState::Rough];
+    /// The lower-case name used on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            SeaState::Calm => "calm",
+            SeaState::Moderate => "moderate",
+            SeaState::Rough => "rough",
+        }
+    }
+}
+
+impl std::str::FromStr for SeaState {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "calm" => Ok(SeaState::Calm),
+            "moderate" => Ok(SeaState::Moderate),
+            "rough" => Ok(SeaState::Rough),
+            other => Err(format!(
+                "unknown sea state `{other}`: allowed calm, moderate, rough"
+            )),
+        }
+    }
+}
+
+/// Disturbance levels of one sea state (standard deviations).
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, rename_all = "kebab-case")]
+pub struct SeaLevels {
+    /// First-order wave yaw on the heading measurement [deg].
+    pub wave_yaw_deg: f64,
+    /// Rudder-equivalent slowly varying yaw moment (Markov bias) [deg].
+    pub bias_deg: f64,
+}
+
+/// Disturbance model: Markov rudder-equivalent bias and Fossen's wave filter on the heading.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
+pub struct SeaConfig {
+    /// Sea state used when none is given on the command line.
+    pub state: SeaState,
+    /// Time constant T_b of the first-order Markov bias [s].
+    pub bias_time_constant_s: f64,
+    /// Wave filter peak frequency w0 [rad/s].
+    pub wave_frequency_rad_s: f64,
+    /// Wave filter damping lambda.
+    pub wave_damping: f64,
+    /// Levels in a calm sea.
+    pub calm: SeaLevels,
+    /// Levels in a moderate sea.
+    pub moderate: SeaLevels,
+    /// Levels in a rough sea.
+    pub rough: SeaLevels,
+}
+
+impl Default for SeaConfig {
+    fn default() -> Self {
+        Self {
+            state: SeaState::Moderate,
+            bias_time_constant_s: 300.0,
+            wave_frequency_rad_s: 0.8,
+            wave_damping: 0.1,
+            calm: SeaLevels {
+                wave_yaw_deg: 0.05,
+                bias_deg: 0.1,
+            },
+            moderate: SeaLevels {
+                wave_yaw_deg: 0.2,
+                bias_deg: 0.5,
+            },
+            rough: SeaLevels {
+                wave_yaw_deg: 0.5,
+                bias_deg: 1.0,
+            },
+        }
+    }
+}
+
+impl SeaConfig {
+    fn check(&self) -> Result<(), ConfigError> {
+        check_range_open_low(
+            "sea.bias-time-constant-s",
+            self.bias_time_constant_s,
+            0.0,
+            1.0e5,
+        )?;
+        check_range_open_low("sea.wave-frequency-rad-s", self.wave_frequency_rad_s, 0.0, 10.0)?;
+        check_range_open_low("sea.wave-damping", self.wave_damping, 0.0, 2.0)?;
+        for (name, l) in [
+            ("calm", &self.calm),
+            ("moderate", &self.moderate),
+            ("rough", &self.rough),
+        ] {
+            check_range(&format!("sea.{name}.wave-yaw-deg"), l.wave_yaw_deg, 0.0, 10.0)?;
+            check_range(&format!("sea.{name}.bias-deg"), l.bias_deg, 0.0, 10.0)?;
+        }
+        Ok(())
+    }
+    /// Levels of a sea state.
+    pub fn levels(&self, state: SeaState) -> SeaLevels {
+        match state {
+            SeaState::Calm => self.calm,
+            SeaState::Moderate => self.moderate,
+            SeaState::Rough => self.rough,
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Simulation
+
+/// Simulation set-up.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
+pub struct SimulationConfig {
+    /// Course set on the autopilot at the start [deg, 0..360].
+    pub initial_course_deg: f64,
+    /// Integration sub-steps per sensor sample.
+    pub substeps: u32,
+    /// Time of the first sample [s] (any origin in simulation).
+    pub start_time_s: f64,
+    /// Vessel name used in the keys (`vessels/<vessel>/...`).
+    pub vessel: String,
+}
+
+impl Default for SimulationConfig {
+    fn default() -> Self {
+        Self {
+            initial_course_deg: 45.0,
+            substeps: 5,
+            start_time_s: 0.0,
+            vessel: "self".to_string(),
+        }
+    }
+}
+
+impl SimulationConfig {
+    fn check(&self) -> Result<(), ConfigError> {
+        check_range("simulation.initial-course-deg", self.initial_course_deg, 0.0, 360.0)?;
+        check_count("simulation.substeps", self.substeps, 1, 1000)?;
+        check_range("simulation.start-time-s", self.start_time_s, -1.0e12, 1.0e12)?;
+        check_vessel_name("simulation.vessel", &self.vessel)?;
+        Ok(())
+    }
+}
+
+/// A vessel name must be one non-empty Zenoh key chunk: no `/`, `*`, `$`, `#`, `?`, spaces.
+pub fn check_vessel_name(key: &str, name: &str) -> Result<(), ConfigError> {
+    let ok = !name.is_empty()
+        && name.len() <= 64
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_' || c == '.');
+    if ok {
+        Ok(())
+    } else {
+        Err(fail(
+            key,
+            format!("{name:?}"),
+            "1 to 64 characters among A-Z a-z 0-9 - _ .",
+        ))
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Monitor: scheduler, tests, safety, input
+
+/// Test method.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Hash)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// Harmonic balance test (relay feedback replaces the autopilot).
+    Hbt,
+    /// Closed-loop frequency response test (multisine added to the autopilot's command).
+    Clfrt,
+}
+
+impl Method {
+    /// Name on the wire (`"hbt"`, `"clfrt"`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Hbt => "hbt",
+            Method::Clfrt => "clfrt",
+        }
+    }
+}
+
+impl std::str::FromStr for Method {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "hbt" => Ok(Method::Hbt),
+            "clfrt" => Ok(Method::Clfrt),
+            other => Err(format!("unknown method `{other}`: allowed hbt, clfrt")),
+        }
+    }
+}
+
+/// When the monitor starts a test on its own.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
+pub struct SchedulerConfig {
+    /// Run tests on schedule (tests on trigger are always possible).
+    pub enabled: bool,
+    /// Methods run on schedule, in turn.
+    pub methods: Vec<Method>,
+    /// Minimum time from the end of one test to the start of the next [s].
+    pub interval_s: f64,
+    /// The course must be steady this long before a scheduled test [s].
+    pub steady_time_s: f64,
+    /// Steady: |heading error| below this [deg].
+    pub steady_heading_error_deg: f64,
+    /// Steady: |rudder - its mean over the steady window| below this [deg].
+    pub steady_rudder_deg: f64,
+    /// Steady: speed within this of its mean over the steady window [m/s].
+    pub steady_speed_mps: f64,
+}
+
+impl Default for SchedulerConfig {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            methods: vec![Method::Clfrt, Method::Hbt],
+            interval_s: 3600.0,
+            steady_time_s: 120.0,
+            steady_heading_error_deg: 3.0,
+            steady_rudder_deg: 5.0,
+            steady_speed_mps: 0.3,
+        }
+    }
+}
+
+impl SchedulerConfig {
+    fn check(&self) -> Result<(), ConfigError> {
+        if self.enabled && self.methods.is_empty() {
+            return Err(fail(
+                "scheduler.methods",
+                "[]",
+                "at least one of \"hbt\", \"clfrt\" when scheduler.enabled = true",
+            ));
+        }
+        check_range("scheduler.interval-s", self.interval_s, 0.0, 30.0 * 86400.0)?;
+        check_range("scheduler.steady-time-s", self.steady_time_s, 0.0, 3600.0)?;
+        check_range_open_low(
+            "scheduler.steady-heading-error-deg",
+            self.steady_heading_error_deg,
+            0.0,
+            45.0,
+        )?;
+        check_range_open_low("scheduler.steady-rudder-deg", self.steady_rudder_deg, 0.0, 30.0)?;
+        check_range_open_low("scheduler.steady-speed-mps", self.steady_speed_mps, 0.0, 5.0)?;
+        Ok(())
+    }
+}
+
+/// Relay feedback test (DOMAIN: HBT).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
+pub struct HbtConfig {
+    /// Relay height h around the trim rudder [deg].
+    pub relay_height_deg: f64,
+    /// Relay hysteresis eps on the heading error [deg]; must exceed the wave yaw.
+    pub hysteresis_deg: f64,
+    /// Time over which the trim rudder delta0 is measured before the relay starts [s].
+    pub trim_window_s: f64,
+    /// Limit-cycle periods to let settle before measuring.
+    pub settle_periods: u32,
+    /// Limit-cycle periods measured.
+    pub measure_periods: u32,
+    /// Abort when the measurement is not complete after this long [s] (no limit cycle formed).
+    pub timeout_s: f64,
+}
+
+impl Default for HbtConfig {
+    fn default() -> Self {
+        Self {
+            relay_height_deg: 5.0,
+            hysteresis_deg: 1.0,
+            trim_window_s: 60.0,
+            settle_periods: 2,
+            measure_periods: 3,
+            timeout_s: 1800.0,
+        }
+    }
+}
+
+impl HbtConfig {
+    fn check(&self) -> Result<(), ConfigError> {
+        check_range_open_low("hbt.relay-height-deg", self.relay_height_deg, 0.0, 15.0)?;
+        check_range_open_low("hbt.hysteresis-deg", self.hysteresis_deg, 0.0, 10.0)?;
+        check_range_open_low("hbt.trim-window-s", self.trim_window_s, 0.0, 600.0)?;
+        check_count("hbt.settle-periods", self.settle_periods, 1, 20)?;
+        check_count("hbt.measure-periods", self.measure_periods, 1, 50)?;
+        check_range_open_low("hbt.timeout-s", self.timeout_s, 0.0, 86400.0)?;
+        Ok(())
+    }
+    /// Relay height [rad].
+    pub fn relay_height_rad(&self) -> f64 {
+        self.relay_height_deg * DEG
+    }
+    /// Hysteresis [rad].
+    pub fn hysteresis_rad(&self) -> f64 {
+        self.hysteresis_deg * DEG
+    }
+}
+
+/// Multisine test (DOMAIN: CLFRT).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
+pub struct ClfrtConfig {
+    /// Analysis window T_w [s]; every tone has a whole number of periods in it.
+    pub window_s: f64,
+    /// Tone harmonics k of the window (omega_k = 2 pi k / T_w).
+    pub harmonics: Vec<u32>,
+    /// Amplitude of each tone [deg].
+    pub amplitude_deg: f64,
+    /// Windows to let settle before measuring.
+    pub settle_windows: u32,
+    /// Windows measured (averaged).
+    pub measure_windows: u32,
+    /// Fade-in and fade-out time of the excitation [s] (within the settle window).
+    pub fade_s: f64,
+    /// Seed of the crest-factor phase optimisation (the design is deterministic).
+    pub phase_seed: u64,
+}
+
+impl Default for ClfrtConfig {
+    fn default() -> Self {
+        Self {
+            window_s: 600.0,
+            harmonics: vec![3, 7, 17],
+            amplitude_deg: 2.0,
+            settle_windows: 1,
+            measure_windows: 2,
+            fade_s: 30.0,
+            phase_seed: 1,
+        }
+    }
+}
+
+impl ClfrtConfig {
+    fn check(&self, rate_hz: f64) -> Result<(), ConfigError> {
+        check_range("clfrt.window-s", self.window_s, 60.0, 7200.0)?;
+        if self.harmonics.is_empty() || self.harmonics.len() > 8 {
+            return Err(fail(
+                "clfrt.harmonics",
+                format!("{:?}", self.harmonics),
+                "1 to 8 distinct harmonics, increasing, each >= 1 and below the Nyquist bin",
+            ));
+        }
+        let nyquist_bin = (self.window_s * rate_hz / 2.0).floor() as u32;
+        let mut prev = 0;
+        for &k in &self.harmonics {
+            if k <= prev || k >= nyquist_bin {
+                return Err(fail(
+                    "clfrt.harmonics",
+                    format!("{:?}", self.harmonics),
+                    &format!("increasing harmonics in [1, {}) (the Nyquist bin)", nyquist_bin),
+                ));
+            }
+            prev = k;
+        }
+        check_range_open_low("clfrt.amplitude-deg", self.amplitude_deg, 0.0, 10.0)?;
+        check_count("clfrt.settle-windows", self.settle_windows, 0, 10)?;
+        check_count("clfrt.measure-windows", self.measure_windows, 1, 20)?;
+        check_range("clfrt.fade-s", self.fade_s, 0.0, self.window_s)?;
+        Ok(())
+    }
+    /// Tone amplitude [rad].
+    pub fn amplitude_rad(&self) -> f64 {
+        self.amplitude_deg * DEG
+    }
+    /// Tone frequencies [rad/s].
+    pub fn tone_frequencies_rad_s(&self) -> Vec<f64> {
+        self.harmonics
+            .iter()
+            .map(|&k| 2.0 * std::f64::consts::PI * k as f64 / self.window_s)
+            .collect()
+    }
+}
+
+/// Safety limits: bounded excitation and abort conditions (DOMAIN: Safety).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
+pub struct SafetyConfig {
+    /// Largest excitation value ever published, add or replace-minus-trim [deg].
+    pub max_excitation_deg: f64,
+    /// Largest change of the excitation value between two samples, divided by their
+    /// spacing [deg/s]. The relay's switch is a step and is exempt up to 2 h.
+    pub max_excitation_rate_deg_s: f64,
+    /// Abort when |heading - target| exceeds this during a test [deg].
+    pub max_heading_error_deg: f64,
+    /// Abort when |rudder| reaches this during a test [deg] (saturation).
+    pub rudder_saturation_deg: f64,
+    /// Abort when any stream is silent longer than this during a test [s].
+    pub stream_timeout_s: f64,
+    /// Abort when speed leaves the test's starting speed by more than this [m/s].
+    pub max_speed_change_mps: f64,
+    /// Validity of each excitation message (`hold_s` on the wire) [s].
+    pub hold_s: f64,
+    /// Hard limit on a test's total duration, settling included [s].
+    pub max_test_duration_s: f64,
+}
+
+impl Default for SafetyConfig {
+    fn default() -> Self {
+        Self {
+            max_excitation_deg: 10.0,
+            max_excitation_rate_deg_s: 2.0,
+            max_heading_error_deg: 10.0,
+            rudder_saturation_deg: 25.0,
+            stream_timeout_s: 2.0,
+            max_speed_change_mps: 0.5,
+            hold_s: 1.0,
+            max_test_duration_s: 2400.0,
+        }
+    }
+}
+
+impl SafetyConfig {
+    fn check(&self, servo: &ServoConfig) -> Result<(), ConfigError> {
+        check_range_open_low("safety.max-excitation-deg", self.max_excitation_deg, 0.0, 20.0)?;
+        check_range_open_low(
+            "safety.max-excitation-rate-deg-s",
+            self.max_excitation_rate_deg_s,
+            0.0,
+            20.0,
+        )?;
+        check_range_open_low(
+            "safety.max-heading-error-deg",
+            self.max_heading_error_deg,
+            0.0,
+            45.0,
+        )?;
+        check_range_open_low(
+            "safety.rudder-saturation-deg",
+            self.rudder_saturation_deg,
+            0.0,
+            servo.max_angle_deg,
+        )?;
+        check_range_open_low("safety.stream-timeout-s", self.stream_timeout_s, 0.0, 60.0)?;
+        check_range_open_low("safety.max-speed-change-mps", self.max_speed_change_mps, 0.0, 5.0)?;
+        check_range_open_low("safety.hold-s", self.hold_s, 0.0, 10.0)?;
+        check_range_open_low(
+            "safety.max-test-duration-s",
+            self.max_test_duration_s,
+            0.0,
+            86400.0,
+        )?;
+        Ok(())
+    }
+}
+
+/// Input validation and stream alignment.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
+pub struct InputConfig {
+    /// Samples of other streams are held this long waiting for alignment [s].
+    pub align_horizon_s: f64,
+    /// Largest plausible speed through water [m/s]; above is rejected.
+    pub max_speed_mps: f64,
+    /// Most samples kept per stream in the alignment buffers.
+    pub max_buffered_samples: u32,
+}
+
+impl Default for InputConfig {
+    fn default() -> Self {
+        Self {
+            align_horizon_s: 1.0,
+            max_speed_mps: 30.0,
+            max_buffered_samples: 256,
+        }
+    }
+}
+
+impl InputConfig {
+    fn check(&self) -> Result<(), ConfigError> {
+        check_range_open_low("input.align-horizon-s", self.align_horizon_s, 0.0, 60.0)?;
+        check_range_open_low("input.max-speed-mps", self.max_speed_mps, 0.0, 100.0)?;
+        check_count("input.max-buffered-samples", self.max_buffered_samples, 8, 100_000)?;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_pass_check() {
+        Config::default().check().unwrap();
+    }
+
+    #[test]
+    fn nominal_ship_matches_domain_brief() {
+        let s = ShipConfig::default();
+        let (a, b) = s.nomoto(7.0, 7000.0);
+        approx::assert_relative_eq!(a, 0.014583, max_relative = 1e-3);
+        approx::assert_relative_eq!(b, 5.98e-4, max_relative = 2e-3);
+        approx::assert_relative_eq!(b / a, 0.041, max_relative = 1e-2);
+    }
+
+    #[test]
+    fn pole_placement_gains_match_domain_brief() {
+        let g = AutopilotConfig::default().gains(&ShipConfig::default());
+        assert!((g.kp - 4.2).abs() < 0.1, "kp {}", g.kp);
+        assert!((g.td_s - 30.0).abs() < 1.5, "td {}", g.td_s);
+        approx::assert_relative_eq!(g.ti_s, 200.0, max_relative = 1e-12);
+    }
+
+    #[test]
+    fn unknown_key_is_rejected() {
+        let e = Config::from_toml_str("[servo]\nmax-rate-deg-s = 4\nbogus = 1\n").unwrap_err();
+        assert!(matches!(e, ConfigError::Parse(ref m) if m.contains("bogus")), "{e}");
+    }
+
+    #[test]
+    fn out_of_range_names_key_and_range() {
+        let e = Config::from_toml_str("[servo]\nmax-rate-deg-s = -1\n").unwrap_err();
+        let m = e.to_string();
+        assert!(m.contains("servo.max-rate-deg-s") && m.contains("(0, 20]"), "{m}");
+    }
+
+    #[test]
+    fn harmonics_must_increase() {
+        let e = Config::from_toml_str("[clfrt]\nharmonics = [7, 3]\n").unwrap_err();
+        assert!(e.to_string().contains("clfrt.harmonics"));
+    }
+}

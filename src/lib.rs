@@ -1,0 +1,38 @@
+//! # helmwatch: steering fault detection for ships
+//!
+//! helmwatch watches a ship's steering for faults by running short closed-loop excitation
+//! tests while the ship holds a steady course, measuring frequency features of the heading
+//! response, estimating the ship's speed and displacement from them, and comparing those with
+//! their nominal values in a parity space. Heading-sensor drift has no power at the excited
+//! frequencies, so a drifting gyro never raises an alarm.
+//!
+//! ## Module map
+//!
+//! | module | what it is | I/O? |
+//! |---|---|---|
+//! | [`config`] | every number of the domain, with units, defaults and checked ranges | reads a file |
+//! | [`wire`] | the Zenoh keys and JSON payloads of the contract, decode and encode | no |
+//! | [`angle`] | angle wrapping and unit conversions | no |
+//! | [`sim`] | the simulated ship: Nomoto model, servo, autopilot, sea, sensors, faults | no |
+//! | [`dsp`] | spectra, detrending, multisine design, tone analysis, relay limit-cycle theory | no |
+//! | [`monitor`] | the monitor core: a pure state machine fed timestamped samples | no |
+//! | [`probe`] | virtual-time driver: simulated ship + monitor core in lockstep | no |
+//! | [`cli`] | the `helmwatch` command line (subcommands are thin drivers) | yes |
+//!
+//! ## Data flow
+//!
+//! A ship sample (Zenoh or a recording line) is decoded by [`wire::decode`] into a
+//! [`wire::Input`], handed to [`monitor::Monitor::handle_input`], which validates it (counted
+//! rejections), aligns it with the other streams by `t`, and on every accepted heading sample
+//! queues exactly one [`wire::Excitation`]. Drivers drain [`monitor::Monitor::poll_output`]
+//! and publish what comes out (excitation, status, report, notification). The core never reads
+//! a clock or a global random generator: time comes with the samples, randomness from seeds.
+
+pub mod angle;
+pub mod cli;
+pub mod config;
+pub mod dsp;
+pub mod monitor;
+pub mod probe;
+pub mod sim;
+pub mod wire;

@@ -1,0 +1,1 @@
+//! The monitor core (see docs/architecture.md).

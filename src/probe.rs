@@ -1,0 +1,1 @@
+//! Virtual-time driver: simulated ship and monitor core in lockstep.

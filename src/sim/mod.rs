@@ -1,0 +1,1 @@
+//! The simulated ship (owned by the sim work; see docs/architecture.md).
