@@ -1,0 +1,267 @@
+//! HBT run: the relay test (harmonic balance), as a step function of heading samples.
+//!
+//! The relay replaces the autopilot: `rudder command = delta0 + h sign(e)` with hysteresis:
+//! the sign changes only when the heading error `e = target - heading` passes `+eps` (to
+//! `+h`, starboard) or `-eps` (to `-h`). `delta0` is the trim rudder, the mean rudder over
+//! `hbt.trim-window-s` of autopilot steering before the relay starts. The hysteresis must
+//! exceed the wave yaw on the heading, or the relay chatters at wave frequency.
+//!
+//! An ideal relay on `b / (s (s + a))` has no finite-frequency limit cycle; the hysteresis and
+//! the servo's lag and rate limit give one, of period P_u and heading amplitude a_u
+//! (describing function: `N(A) = 4h / (pi A) exp(-i asin(eps / A))`). The period is measured
+//! from the relay's switching instants (interpolated crossings of `+eps`; the zero crossings
+//! of a noisy heading would be useless), the amplitude as the first-harmonic Fourier integral
+//! of the detrended heading over the measured whole periods ([`crate::dsp::relay`]).
+//!
+//! Settling: `hbt.settle-periods` periods after the first switch to `+h`; measuring: the
+//! next `hbt.measure-periods` periods. No limit cycle within `hbt.timeout-s`: abort.
+
+use super::record::{Record, RecordError};
+use super::{Features, Step};
+use crate::config::Config;
+use crate::dsp::relay::{analyse_limit_cycle, HbtFeatures};
+use crate::wire::{ExcitationMode, MonitorState};
+
+/// Features of a completed relay test (the report's `features`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct HbtReport {
+    /// Period, frequency and amplitude of the limit cycle.
+    pub cycle: HbtFeatures,
+    /// Ultimate gain with hysteresis, `K_u = 4 h / (pi sqrt(a^2 - eps^2))` [1/rad * rad].
+    pub ultimate_gain: f64,
+    /// Relay height h [rad].
+    pub relay_height_rad: f64,
+    /// Hysteresis eps [rad].
+    pub hysteresis_rad: f64,
+    /// Trim rudder delta0 the relay is centred on [rad].
+    pub trim_rad: f64,
+    /// Shortest time between two consecutive relay switches [s] (chatter check).
+    pub min_switch_interval_s: f64,
+    /// Relay switches in the whole test.
+    pub switches: usize,
+}
+
+impl HbtReport {
+    /// JSON of the report's `features`.
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "period_s": self.cycle.period_s,
+            "omega_u_rad_s": self.cycle.omega_u_rad_s,
+            "amplitude_rad": self.cycle.amplitude_rad,
+            "periods": self.cycle.periods,
+            "period_std_s": self.cycle.period_std_s,
+            "ultimate_gain": self.ultimate_gain,
+            "relay_height_rad": self.relay_height_rad,
+            "hysteresis_rad": self.hysteresis_rad,
+            "trim_rad": self.trim_rad,
+            "min_switch_interval_s": self.min_switch_interval_s,
+            "switches": self.switches,
+        })
+    }
+}
+
+/// State of one relay test.
+#[derive(Debug)]
+pub(crate) struct HbtRun {
+    /// Relay height [rad].
+    h_rad: f64,
+    /// Hysteresis [rad].
+    eps_rad: f64,
+    settle_periods: usize,
+    measure_periods: usize,
+    timeout_s: f64,
+    /// Grid step for the analysis [s].
+    dt_s: f64,
+    /// Largest gap interpolated across [s].
+    max_gap_s: f64,
+    /// End of the trim measurement [s].
+    trim_end_s: f64,
+    /// Sum and count of rudder samples in the trim window.
+    trim_sum: f64,
+    trim_n: u64,
+    /// delta0 once measured [rad].
+    trim_rad: Option<f64>,
+    /// Start of the relay [s].
+    relay_start_s: Option<f64>,
+    /// Current relay side, +1 or -1.
+    sign: f64,
+    /// Previous heading error sample `(t, e)`.
+    prev: Option<(f64, f64)>,
+    /// Interpolated instants of the switches to `+h` [s].
+    up_switches: Vec<f64>,
+    /// Instant of the last switch, either direction [s].
+    last_switch_s: Option<f64>,
+    min_switch_interval_s: f64,
+    switches: usize,
+    /// Continuous heading from the relay start [rad].
+    heading: Record,
+    scratch: Vec<f64>,
+}
+
+impl HbtRun {
+    /// A relay test starting at `t_start_s`.
+    pub(crate) fn new(cfg: &Config, t_start_s: f64) -> Self {
+        let h = &cfg.hbt;
+        let rate = cfg.sensors.rate_hz;
+        let capacity = ((h.timeout_s + 60.0) * rate * 2.0).ceil() as usize;
+        Self {
+            h_rad: h.relay_height_rad(),
+            eps_rad: h.hysteresis_rad(),
+            settle_periods: h.settle_periods as usize,
+            measure_periods: h.measure_periods as usize,
+            timeout_s: h.timeout_s,
+            dt_s: 1.0 / rate,
+            max_gap_s: cfg.safety.stream_timeout_s,
+            trim_end_s: t_start_s + h.trim_window_s,
+            trim_sum: 0.0,
+            trim_n: 0,
+            trim_rad: None,
+            relay_start_s: None,
+            sign: 1.0,
+            prev: None,
+            up_switches: Vec::with_capacity((h.settle_periods + h.measure_periods + 2) as usize),
+            last_switch_s: None,
+            min_switch_interval_s: f64::INFINITY,
+            switches: 0,
+            heading: Record::with_capacity(capacity),
+            scratch: Vec::new(),
+        }
+    }
+
+    /// The trim the relay is centred on (0 before it is measured) [rad].
+    pub(crate) fn trim_rad(&self) -> f64 {
+        self.trim_rad.unwrap_or(0.0)
+    }
+
+    /// A rudder sample: accumulates the trim during the trim window.
+    pub(crate) fn push_rudder(&mut self, t: f64, rudder_rad: f64) -> Result<(), RecordError> {
+        if t < self.trim_end_s {
+            self.trim_sum += rudder_rad;
+            self.trim_n += 1;
+        }
+        Ok(())
+    }
+
+    /// A heading sample: `continuous_rad` the unwrapped heading, `error_rad` target - heading.
+    pub(crate) fn on_heading(&mut self, t: f64, continuous_rad: f64, error_rad: f64) -> Step {
+        let idle = |phase| Step {
+            mode: ExcitationMode::None,
+            value: 0.0,
+            phase,
+            done: None,
+        };
+        if t < self.trim_end_s {
+            return idle(None);
+        }
+        let trim = match self.trim_rad {
+            Some(x) => x,
+            None => {
+                if self.trim_n == 0 {
+                    return Step {
+                        done: Some(Err("no rudder samples during the trim window".into())),
+                        ..idle(None)
+                    };
+                }
+                let x = self.trim_sum / self.trim_n as f64;
+                self.trim_rad = Some(x);
+                self.relay_start_s = Some(t);
+                self.sign = if error_rad >= 0.0 { 1.0 } else { -1.0 };
+                x
+            }
+        };
+        let relay_start = self.relay_start_s.unwrap_or(t);
+        if let Err(e) = self.heading.push(t, continuous_rad) {
+            return Step {
+                done: Some(Err(e.to_string())),
+                ..idle(None)
+            };
+        }
+
+        // Relay with hysteresis; switching instants interpolated at the threshold crossing.
+        let new_sign = if error_rad > self.eps_rad {
+            1.0
+        } else if error_rad < -self.eps_rad {
+            -1.0
+        } else {
+            self.sign
+        };
+        let mut phase = None;
+        if new_sign != self.sign {
+            let threshold = new_sign * self.eps_rad;
+            let t_switch = match self.prev {
+                Some((tp, ep)) if error_rad != ep => {
+                    let w = ((threshold - ep) / (error_rad - ep)).clamp(0.0, 1.0);
+                    tp + w * (t - tp)
+                }
+                _ => t,
+            };
+            if let Some(last) = self.last_switch_s {
+                self.min_switch_interval_s = self.min_switch_interval_s.min(t_switch - last);
+            }
+            self.last_switch_s = Some(t_switch);
+            self.switches += 1;
+            self.sign = new_sign;
+            if new_sign > 0.0 {
+                self.up_switches.push(t_switch);
+                if self.up_switches.len() == self.settle_periods + 1 {
+                    phase = Some(MonitorState::Exciting);
+                }
+            }
+        }
+        self.prev = Some((t, error_rad));
+
+        let needed = self.settle_periods + self.measure_periods + 1;
+        if self.up_switches.len() >= needed {
+            let features = self.analyse(t, trim);
+            return Step {
+                mode: ExcitationMode::None,
+                value: 0.0,
+                phase: Some(MonitorState::Analysing),
+                done: Some(features),
+            };
+        }
+        if t - relay_start > self.timeout_s {
+            return Step {
+                done: Some(Err(format!(
+                    "no limit cycle within {:.0} s ({} switches to +h)",
+                    self.timeout_s,
+                    self.up_switches.len()
+                ))),
+                ..idle(None)
+            };
+        }
+        Step {
+            mode: ExcitationMode::Replace,
+            value: trim + self.sign * self.h_rad,
+            phase,
+            done: None,
+        }
+    }
+
+    fn analyse(&mut self, t_now: f64, trim: f64) -> Result<Features, String> {
+        let measured = &self.up_switches[self.settle_periods..];
+        let first = measured.first().copied().unwrap_or(t_now);
+        let t0 = (first - 2.0 * self.dt_s).max(self.relay_start_s.unwrap_or(first));
+        let n = ((t_now - t0) / self.dt_s).floor() as usize + 1;
+        self.heading
+            .resample(t0, self.dt_s, n, self.max_gap_s, &mut self.scratch)
+            .map_err(|e| format!("analysis: {e}"))?;
+        let cycle = analyse_limit_cycle(t0, self.dt_s, &self.scratch, measured)
+            .map_err(|e| format!("analysis: {e}"))?;
+        let a = cycle.amplitude_rad;
+        let ultimate_gain = if a > self.eps_rad {
+            4.0 * self.h_rad / (std::f64::consts::PI * (a * a - self.eps_rad * self.eps_rad).sqrt())
+        } else {
+            f64::NAN
+        };
+        Ok(Features::Hbt(HbtReport {
+            cycle,
+            ultimate_gain,
+            relay_height_rad: self.h_rad,
+            hysteresis_rad: self.eps_rad,
+            trim_rad: trim,
+            min_switch_interval_s: self.min_switch_interval_s,
+            switches: self.switches,
+        }))
+    }
+}
