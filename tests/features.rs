@@ -1,0 +1,362 @@
+//! Accuracy of the two tests' features, measured end to end (simulated ship + monitor core in
+//! lockstep) against independent answers: the analytic transfer function b / (jw (jw + a)) for
+//! CLFRT, the reference table of DOMAIN.md and the describing function for HBT.
+//!
+//! Runs are spread over both cores with scoped threads; each run is a few tens of
+//! milliseconds of CPU in the `ci` profile.
+
+use helmwatch::config::{Config, Method, SeaState};
+use helmwatch::dsp::relay::limit_cycle_describing_function;
+use helmwatch::probe::{run_probe, ProbeOptions};
+use helmwatch::sim::{Fault, Scenario};
+use helmwatch::wire::{Outcome, Report};
+use std::f64::consts::PI;
+
+const GRID: [(f64, f64); 6] = [
+    (4.0, 4000.0),
+    (4.0, 10000.0),
+    (7.0, 4000.0),
+    (7.0, 10000.0),
+    (10.0, 4000.0),
+    (10.0, 10000.0),
+];
+
+fn probe(method: Method, u: f64, d: f64, sea: SeaState, seed: u64, faults: Vec<Fault>) -> Report {
+    let cfg = Config::default();
+    let sc = Scenario {
+        speed_mps: u,
+        displacement_t: d,
+        sea,
+        faults,
+        seed,
+    };
+    let r = run_probe(&cfg, &sc, &ProbeOptions::new(&cfg, method))
+        .unwrap()
+        .report;
+    assert_eq!(
+        r.outcome,
+        Outcome::Completed,
+        "u {u} D {d} {sea:?} seed {seed}: {:?}",
+        r.reason
+    );
+    r
+}
+
+/// Runs `jobs` on two threads, keeping the order.
+fn par_map<T: Send, R: Send>(jobs: Vec<T>, f: impl Fn(T) -> R + Sync) -> Vec<R> {
+    let n = jobs.len();
+    let mut slots: Vec<Option<R>> = (0..n).map(|_| None).collect();
+    let mut items: Vec<(usize, T)> = jobs.into_iter().enumerate().collect();
+    let half = items.split_off(n / 2);
+    let f = &f;
+    let (a, b) = std::thread::scope(|s| {
+        let h = s.spawn(move || half.into_iter().map(|(i, t)| (i, f(t))).collect::<Vec<_>>());
+        let a: Vec<_> = items.into_iter().map(|(i, t)| (i, f(t))).collect();
+        (a, h.join().unwrap())
+    });
+    for (i, r) in a.into_iter().chain(b) {
+        slots[i] = Some(r);
+    }
+    slots.into_iter().map(|r| r.unwrap()).collect()
+}
+
+fn f64_at(v: &serde_json::Value, k: &str) -> f64 {
+    v.get(k)
+        .and_then(|x| x.as_f64())
+        .unwrap_or_else(|| panic!("missing {k} in {v}"))
+}
+
+/// `(gain, phase_rad)` of b / (jw (jw + a)), phase in (-pi, 0].
+fn nomoto_response(u: f64, d: f64, w: f64) -> (f64, f64) {
+    let (a, b) = Config::default().ship.nomoto(u, d);
+    let gain = b / (w * (w * w + a * a).sqrt());
+    let phase = -PI / 2.0 - (w / a).atan();
+    (gain, phase)
+}
+
+struct Tone {
+    omega: f64,
+    gain: f64,
+    phase: f64,
+    gain_ci: f64,
+    phase_ci: f64,
+}
+
+fn tones(r: &Report) -> Vec<Tone> {
+    r.features["tones"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| Tone {
+            omega: f64_at(t, "omega_rad_s"),
+            gain: f64_at(t, "gain"),
+            phase: f64_at(t, "phase_rad"),
+            gain_ci: f64_at(t, "gain_ci90_rel"),
+            phase_ci: f64_at(t, "phase_ci90_rad"),
+        })
+        .collect()
+}
+
+/// Phase difference wrapped to (-pi, pi].
+fn dphase(a: f64, b: f64) -> f64 {
+    let d = (a - b).rem_euclid(2.0 * PI);
+    if d > PI {
+        d - 2.0 * PI
+    } else {
+        d
+    }
+}
+
+fn clfrt_runs(sea: SeaState, seeds: u64) -> Vec<((f64, f64), Report)> {
+    let jobs: Vec<(f64, f64, u64)> = GRID
+        .iter()
+        .flat_map(|&(u, d)| (0..seeds).map(move |s| (u, d, 1000 + s)))
+        .collect();
+    par_map(jobs, |(u, d, seed)| {
+        ((u, d), probe(Method::Clfrt, u, d, sea, seed, vec![]))
+    })
+}
+
+/// Fraction of runs inside the CLFRT accuracy bounds, per tone.
+#[test]
+fn clfrt_calm_gain_and_phase_match_the_transfer_function() {
+    let runs = clfrt_runs(SeaState::Calm, 50);
+    let bounds = [(0.05, 3.0), (0.05, 3.0), (0.10, 10.0)];
+    let mut inside = [0usize; 3];
+    let mut worst = [(0.0f64, 0.0f64); 3];
+    for ((u, d), r) in &runs {
+        for (i, t) in tones(r).iter().enumerate() {
+            let (g0, p0) = nomoto_response(*u, *d, t.omega);
+            let ge = (t.gain / g0 - 1.0).abs();
+            let pe = dphase(t.phase, p0).abs().to_degrees();
+            worst[i] = (worst[i].0.max(ge), worst[i].1.max(pe));
+            if ge <= bounds[i].0 && pe <= bounds[i].1 {
+                inside[i] += 1;
+            }
+        }
+    }
+    let n = runs.len() as f64;
+    for i in 0..3 {
+        let frac = inside[i] as f64 / n;
+        println!(
+            "tone {i}: {:.1} % of {} runs within {:.0} % / {:.0} deg (worst {:.1} % / {:.2} deg)",
+            100.0 * frac,
+            runs.len(),
+            100.0 * bounds[i].0,
+            bounds[i].1,
+            100.0 * worst[i].0,
+            worst[i].1
+        );
+        assert!(frac >= 0.90, "tone {i}: only {:.1} % of runs in bounds", 100.0 * frac);
+    }
+}
+
+/// The reported 90 % intervals hold the true value in 85 to 97 % of runs.
+fn check_calibration(sea: SeaState) {
+    let runs = clfrt_runs(sea, 50);
+    let mut cover = [[0usize; 2]; 3];
+    for ((u, d), r) in &runs {
+        for (i, t) in tones(r).iter().enumerate() {
+            let (g0, p0) = nomoto_response(*u, *d, t.omega);
+            if (t.gain / g0 - 1.0).abs() <= t.gain_ci {
+                cover[i][0] += 1;
+            }
+            if dphase(t.phase, p0).abs() <= t.phase_ci {
+                cover[i][1] += 1;
+            }
+        }
+    }
+    let n = runs.len() as f64;
+    let mut bad = Vec::new();
+    for (i, c) in cover.iter().enumerate() {
+        for (j, name) in ["gain", "phase"].iter().enumerate() {
+            let frac = c[j] as f64 / n;
+            println!("{sea:?} tone {i} {name}: coverage {:.1} %", 100.0 * frac);
+            if !(0.85..=0.97).contains(&frac) {
+                bad.push(format!("tone {i} {name} {:.1} %", 100.0 * frac));
+            }
+        }
+    }
+    assert!(bad.is_empty(), "{sea:?}: miscalibrated: {bad:?}");
+}
+
+#[test]
+fn clfrt_uncertainty_is_calibrated_in_a_calm_sea() {
+    check_calibration(SeaState::Calm);
+}
+
+#[test]
+fn clfrt_uncertainty_is_calibrated_in_a_moderate_sea() {
+    check_calibration(SeaState::Moderate);
+}
+
+/// The DOMAIN.md reference table: (u, D, period s, first-harmonic amplitude deg).
+const HBT_TABLE: [(f64, f64, f64, f64); 6] = [
+    (4.0, 4000.0, 255.0, 3.38),
+    (4.0, 10000.0, 345.0, 2.38),
+    (7.0, 7000.0, 180.0, 2.88),
+    (7.0, 7700.0, 187.0, 2.81),
+    (10.0, 4000.0, 110.0, 3.90),
+    (10.0, 10000.0, 145.0, 2.62),
+];
+
+/// The describing function reproduces the reference table (so it can stand in where the
+/// table has no row).
+#[test]
+fn describing_function_agrees_with_the_reference_table() {
+    let cfg = Config::default();
+    for (u, d, p, a_deg) in HBT_TABLE {
+        let (a, b) = cfg.ship.nomoto(u, d);
+        let (w, amp) = limit_cycle_describing_function(
+            a,
+            b,
+            cfg.hbt.relay_height_rad(),
+            cfg.hbt.hysteresis_rad(),
+            &cfg.servo,
+        )
+        .unwrap();
+        let pe = (2.0 * PI / w / p - 1.0).abs();
+        let ae = (amp.to_degrees() / a_deg - 1.0).abs();
+        println!("u {u} D {d}: DF period {:.1} s ({:.1} %), amplitude {:.3} deg ({:.1} %)", 2.0 * PI / w, 100.0 * pe, amp.to_degrees(), 100.0 * ae);
+        assert!(pe < 0.03 && ae < 0.05, "u {u} D {d}: {pe} {ae}");
+    }
+}
+
+#[test]
+fn hbt_calm_matches_the_independent_answer() {
+    let cfg = Config::default();
+    let jobs: Vec<(f64, f64, u64)> = GRID
+        .iter()
+        .flat_map(|&(u, d)| (0..3).map(move |s| (u, d, 2000 + s)))
+        .collect();
+    let runs = par_map(jobs, |(u, d, seed)| {
+        ((u, d), probe(Method::Hbt, u, d, SeaState::Calm, seed, vec![]))
+    });
+    for ((u, d), r) in runs {
+        // The table where it has the row, the describing function elsewhere.
+        let (p_ref, a_ref) = match HBT_TABLE.iter().find(|x| x.0 == u && x.1 == d) {
+            Some(&(_, _, p, a)) => (p, a.to_radians()),
+            None => {
+                let (a, b) = cfg.ship.nomoto(u, d);
+                let (w, amp) = limit_cycle_describing_function(
+                    a,
+                    b,
+                    cfg.hbt.relay_height_rad(),
+                    cfg.hbt.hysteresis_rad(),
+                    &cfg.servo,
+                )
+                .unwrap();
+                (2.0 * PI / w, amp)
+            }
+        };
+        let p = f64_at(&r.features, "period_s");
+        let amp = f64_at(&r.features, "amplitude_rad");
+        println!(
+            "u {u} D {d}: period {p:.1} s vs {p_ref:.1}, amplitude {:.3} deg vs {:.3}",
+            amp.to_degrees(),
+            a_ref.to_degrees()
+        );
+        assert!((p / p_ref - 1.0).abs() < 0.03, "u {u} D {d}: period {p} vs {p_ref}");
+        assert!((amp / a_ref - 1.0).abs() < 0.05, "u {u} D {d}: amplitude {amp} vs {a_ref}");
+        let w = f64_at(&r.features, "omega_u_rad_s");
+        assert!((w * p / (2.0 * PI) - 1.0).abs() < 1e-9);
+    }
+}
+
+#[test]
+fn hbt_moderate_sea_does_not_chatter_and_completes() {
+    let jobs: Vec<(f64, f64, u64)> = GRID
+        .iter()
+        .flat_map(|&(u, d)| (0..4).map(move |s| (u, d, 3000 + s)))
+        .collect();
+    let runs = par_map(jobs, |(u, d, seed)| {
+        ((u, d), probe(Method::Hbt, u, d, SeaState::Moderate, seed, vec![]))
+    });
+    for ((u, d), r) in runs {
+        let min_gap = f64_at(&r.features, "min_switch_interval_s");
+        assert!(min_gap > 20.0, "u {u} D {d}: switches {min_gap:.1} s apart");
+    }
+}
+
+/// A heading drift of 1 deg/min changes no feature by more than 1 % (gains, amplitude,
+/// period) or 1 deg (phases): same seed, drift on and off.
+#[test]
+fn heading_drift_does_not_disturb_the_features() {
+    let drift: Fault = "heading_drift_deg_per_min:1@0".parse().unwrap();
+    for sea in [SeaState::Calm, SeaState::Moderate] {
+        for (u, d) in [(7.0, 7000.0), (4.0, 10000.0), (10.0, 4000.0)] {
+            for seed in [11, 12] {
+                let a = probe(Method::Clfrt, u, d, sea, seed, vec![]);
+                let b = probe(Method::Clfrt, u, d, sea, seed, vec![drift.clone()]);
+                for (x, y) in tones(&a).iter().zip(tones(&b).iter()) {
+                    let ge = (y.gain / x.gain - 1.0).abs();
+                    let pe = dphase(y.phase, x.phase).abs().to_degrees();
+                    assert!(ge < 0.01 && pe < 1.0, "CLFRT {sea:?} u {u} D {d} w {}: {ge} {pe}", x.omega);
+                }
+                let a = probe(Method::Hbt, u, d, sea, seed, vec![]);
+                let b = probe(Method::Hbt, u, d, sea, seed, vec![drift.clone()]);
+                for k in ["period_s", "amplitude_rad"] {
+                    let e = (f64_at(&b.features, k) / f64_at(&a.features, k) - 1.0).abs();
+                    assert!(e < 0.01, "HBT {sea:?} u {u} D {d} {k}: {e}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn same_seed_same_report_other_seed_other_report() {
+    for method in [Method::Hbt, Method::Clfrt] {
+        let a = probe(method, 7.0, 7000.0, SeaState::Moderate, 5, vec![]);
+        let b = probe(method, 7.0, 7000.0, SeaState::Moderate, 5, vec![]);
+        let c = probe(method, 7.0, 7000.0, SeaState::Moderate, 6, vec![]);
+        let js = |r: &Report| serde_json::to_string(r).unwrap();
+        assert_eq!(js(&a), js(&b));
+        assert_ne!(js(&a), js(&c));
+    }
+}
+
+/// NaN, infinite and out-of-order samples mixed into a real test's streams are rejected and
+/// counted, and the test still completes with finite features.
+#[test]
+fn bad_samples_mixed_into_a_test_are_rejected_and_the_test_completes() {
+    use helmwatch::monitor::Output;
+    use helmwatch::probe::Lockstep;
+    use helmwatch::wire::{Input, Scalar};
+    let mut cfg = Config::default();
+    cfg.scheduler.enabled = false;
+    let mut ls = Lockstep::new(&cfg, &Scenario::nominal(&cfg, 3)).unwrap();
+    let mut out = Vec::new();
+    ls.run_until(600.0, &mut out);
+    assert!(ls.trigger(Method::Clfrt).accepted);
+    let mut report = None;
+    let mut injected = 0u64;
+    for k in 0..30_000u64 {
+        if k % 97 == 0 {
+            let t = ls.time_s();
+            let bad = [
+                Input::Heading(Scalar { t, value: f64::NAN }),
+                Input::Rudder(Scalar { t: t - 50.0, value: 0.0 }),
+                Input::Heading(Scalar { t: f64::INFINITY, value: 1.0 }),
+                Input::Heading(Scalar { t, value: 9.0 }),
+            ];
+            for b in bad {
+                assert!(ls.monitor.handle_input(b).is_err());
+                injected += 1;
+            }
+        }
+        out.clear();
+        ls.tick(&mut out, false);
+        if let Some(r) = out.iter().find_map(|o| match o {
+            Output::Report(r) => Some(r.clone()),
+            _ => None,
+        }) {
+            report = Some(r);
+            break;
+        }
+    }
+    let r = report.expect("a report");
+    assert_eq!(r.outcome, Outcome::Completed, "{:?}", r.reason);
+    assert!(tones(&r).iter().all(|t| t.gain.is_finite() && t.phase.is_finite()));
+    assert_eq!(ls.monitor.counters().rejected_total(), injected);
+}
