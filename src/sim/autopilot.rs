@@ -201,6 +201,7 @@ impl Autopilot {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
     use nalgebra::{Matrix3, Vector2};
