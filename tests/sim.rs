@@ -272,7 +272,7 @@ fn course_change_settles_with_small_overshoot() {
         for k in 0..ticks(900.0, &cfg) {
             ship.step();
             let err = ship.truth().psi_rad - target;
-            reached |= err > -1.0 * DEG;
+            reached |= err > -DEG;
             overshoot = overshoot.max(err);
             if k as f64 * ship.dt_s() > 400.0 {
                 late_error = late_error.max(err.abs());
