@@ -31,7 +31,8 @@
 //!
 //! States: `auto` (the above) and `standby`, where the autopilot holds its last rudder
 //! command, ignores excitation and freezes its integral; the filter keeps running, so
-//! re-engaging is smooth.
+//! re-engaging is smooth. A test override of the command (open loop) also freezes the
+//! integral.
 
 use crate::angle::{wrap_2pi, wrap_pi};
 use crate::config::PidGains;
@@ -201,6 +202,7 @@ impl Autopilot {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
     use nalgebra::{Matrix3, Vector2};

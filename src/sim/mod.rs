@@ -491,6 +491,11 @@ impl Ship {
         self.autopilot.set_engaged(engaged);
     }
 
+    /// Whether the autopilot is in `auto` (else `standby`).
+    pub fn autopilot_engaged(&self) -> bool {
+        self.autopilot.engaged()
+    }
+
     /// Open-loop mode for tests: the rudder command is `cmd_rad` (bypasses the autopilot and excitation); None restores.
     pub fn set_command_override(&mut self, cmd_rad: Option<f64>) {
         self.override_rad = cmd_rad;

@@ -160,6 +160,7 @@ impl WaveYaw {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
     use rand::SeedableRng;
@@ -199,6 +200,7 @@ mod tests {
                 sum2 += w.value_rad().powi(2);
             }
             let std = (sum2 / steps as f64).sqrt();
+            eprintln!("wave yaw dt = {dt}: std / target = {:.4}", std / sigma);
             // About 16000 correlation times (1 / (lambda w0) = 12.5 s): ~0.6 % standard error.
             approx::assert_relative_eq!(std, sigma, max_relative = 0.03);
         }
@@ -220,6 +222,11 @@ mod tests {
         }
         let var = hist.iter().map(|v| v * v).sum::<f64>() / steps as f64;
         let cov = hist.windows(lag + 1).map(|w| w[0] * w[lag]).sum::<f64>() / (steps - lag) as f64;
+        eprintln!(
+            "bias: std / target = {:.4}, rho(T_b) = {:.4}",
+            var.sqrt() / sigma,
+            cov / var
+        );
         approx::assert_relative_eq!(var.sqrt(), sigma, max_relative = 0.02);
         // rho(T_b) = exp(-1) = 0.368.
         assert!(
