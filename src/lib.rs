@@ -32,6 +32,7 @@ pub mod angle;
 pub mod cli;
 pub mod config;
 pub mod dsp;
+pub mod estimator;
 pub mod monitor;
 pub mod probe;
 pub mod sim;
