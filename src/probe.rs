@@ -10,9 +10,11 @@
 //! benchmarks all use it); [`run_probe`] runs one test after a warm-up and returns its report.
 
 use crate::config::{Config, Method};
+use crate::estimator::Estimator;
 use crate::monitor::{Monitor, Output};
 use crate::sim::{Scenario, Ship, SimError};
 use crate::wire::{Input, Report, Status, TriggerReply};
+use std::sync::Arc;
 
 /// Errors of the virtual-time drivers.
 #[derive(Debug, thiserror::Error)]
@@ -44,9 +46,22 @@ pub struct Lockstep {
 impl Lockstep {
     /// A ship for `scenario` and a monitor for vessel `cfg.simulation.vessel`.
     pub fn new(cfg: &Config, scenario: &Scenario) -> Result<Self, SimError> {
+        Self::with_estimator(cfg, scenario, None)
+    }
+
+    /// As [`Lockstep::new`], the monitor carrying `estimator` when given.
+    pub fn with_estimator(
+        cfg: &Config,
+        scenario: &Scenario,
+        estimator: Option<Arc<Estimator>>,
+    ) -> Result<Self, SimError> {
+        let vessel = &cfg.simulation.vessel;
         Ok(Self {
             ship: Ship::new(cfg, scenario)?,
-            monitor: Monitor::new(cfg, &cfg.simulation.vessel),
+            monitor: match estimator {
+                Some(e) => Monitor::with_estimator(cfg, vessel, e),
+                None => Monitor::new(cfg, vessel),
+            },
             inputs: Vec::with_capacity(8),
             rejected: 0,
         })
@@ -101,6 +116,8 @@ pub struct ProbeOptions {
     pub warmup_s: f64,
     /// Give up when no report arrived after this much ship time from the trigger [s].
     pub max_test_s: f64,
+    /// Networks for the report's `estimate` (none: features only).
+    pub estimator: Option<Arc<Estimator>>,
 }
 
 impl ProbeOptions {
@@ -110,6 +127,7 @@ impl ProbeOptions {
             method,
             warmup_s: 600.0,
             max_test_s: cfg.safety.max_test_duration_s + 120.0,
+            estimator: None,
         }
     }
 }
@@ -123,7 +141,8 @@ pub struct ProbeResult {
     pub statuses: Vec<Status>,
 }
 
-/// Runs one test on a simulated ship in virtual time and returns its report. The scheduler
+/// Runs one test on a simulated ship in virtual time and returns its report (with an
+/// `estimate` when `opts.estimator` is set). The scheduler
 /// is switched off: the test starts on trigger after the warm-up (retried each second while
 /// the monitor refuses, for up to the warm-up time again).
 pub fn run_probe(
@@ -133,7 +152,7 @@ pub fn run_probe(
 ) -> Result<ProbeResult, ProbeError> {
     let mut cfg = cfg.clone();
     cfg.scheduler.enabled = false;
-    let mut ls = Lockstep::new(&cfg, scenario)?;
+    let mut ls = Lockstep::with_estimator(&cfg, scenario, opts.estimator.clone())?;
     let mut out = Vec::new();
     let t0 = ls.time_s();
     ls.run_until(t0 + opts.warmup_s, &mut out);

@@ -25,6 +25,15 @@
 //!   `clfrt.measure-windows` windows recorded; analysing = features, then the excitation ramps
 //!   to zero at the safety rate limit, then the report.
 //!
+//! ## Estimate
+//!
+//! A completed test's `features` also carry `speed_log_mps`, the mean of the speed-log
+//! samples received from the test's start to its end (settling included): the measured speed
+//! that the displacement network reads, defined once here for the daemon and the training
+//! database alike. When the monitor was built with an estimator
+//! ([`Monitor::with_estimator`]), the report's `estimate` holds the networks' speed and
+//! displacement ([`crate::estimator`]); the decision stays `inconclusive`.
+//!
 //! ## Safety (checked at every heading sample of a test; an abort sends `mode: none` at once)
 //!
 //! Autopilot not in `auto`; |heading error| over `safety.max-heading-error-deg`; |rudder| at
@@ -42,12 +51,15 @@ pub mod record;
 
 use crate::angle::wrap_pi;
 use crate::config::{Config, Method};
+use crate::estimator::features::SPEED_LOG_FIELD;
+use crate::estimator::{Estimator, EstimatorScratch};
 use crate::wire::{
     Decision, Excitation, ExcitationMode, Input, MonitorState, Notification, Outcome, Report,
     Status, Stream, TriggerReply,
 };
 use input::{Counters, Latest, Limits, RejectReason, Rejection};
 use std::collections::VecDeque;
+use std::sync::Arc;
 
 /// Something the driver publishes.
 #[derive(Debug, Clone, PartialEq)]
@@ -118,6 +130,9 @@ struct Run {
     phase: MonitorState,
     target_rad: f64,
     speed_start_mps: f64,
+    /// Sum and count of the speed-log samples since the start (for `speed_log_mps`).
+    speed_sum_mps: f64,
+    speed_n: u64,
     kind: RunKind,
 }
 
@@ -176,6 +191,8 @@ pub struct Monitor {
     last_excitation: Option<(f64, ExcitationMode, f64)>,
     /// The CLFRT multisine, designed once from the configuration (or why it could not be).
     multisine: Result<crate::dsp::multisine::Multisine, String>,
+    /// The networks that turn features into an estimate, with their buffers (optional).
+    estimator: Option<(Arc<Estimator>, EstimatorScratch)>,
 }
 
 impl Monitor {
@@ -208,7 +225,17 @@ impl Monitor {
                 cfg.clfrt.phase_seed,
             )
             .map_err(|e| format!("multisine design failed: {e}")),
+            estimator: None,
         }
+    }
+
+    /// A monitor whose completed tests carry an `estimate` from `estimator` (validated for
+    /// `cfg`, e.g. by [`Estimator::load_dir`] or [`Estimator::embedded`]).
+    pub fn with_estimator(cfg: &Config, vessel: &str, estimator: Arc<Estimator>) -> Self {
+        let mut m = Self::new(cfg, vessel);
+        let scratch = estimator.scratch();
+        m.estimator = Some((estimator, scratch));
+        m
     }
 
     /// The vessel this monitor watches.
@@ -335,6 +362,10 @@ impl Monitor {
     }
 
     fn on_speed(&mut self, t: f64, speed_mps: f64) {
+        if let Some(run) = &mut self.run {
+            run.speed_sum_mps += speed_mps;
+            run.speed_n += 1;
+        }
         self.speed_smooth = Some(match self.speed_smooth {
             None => (speed_mps, t),
             Some((s, t_prev)) => {
@@ -494,6 +525,8 @@ impl Monitor {
             phase: MonitorState::Settling,
             target_rad,
             speed_start_mps,
+            speed_sum_mps: 0.0,
+            speed_n: 0,
             kind,
         });
         self.stats.tests_started += 1;
@@ -614,14 +647,34 @@ impl Monitor {
     fn finish(&mut self, t: f64, result: Result<Features, String>) {
         let Some(run) = self.run.take() else { return };
         self.last_test_end = Some(t);
+        let mut estimate = None;
         let (outcome, reason, features, message) = match result {
             Ok(f) => {
                 self.stats.tests_completed += 1;
-                let msg = format!(
-                    "{} test completed; features measured, no estimator loaded, no decision",
-                    run.method.name().to_uppercase()
-                );
-                (Outcome::Completed, None, f.to_json(), msg)
+                let mut features = f.to_json();
+                if run.speed_n > 0 {
+                    if let Some(obj) = features.as_object_mut() {
+                        let mean = run.speed_sum_mps / run.speed_n as f64;
+                        obj.insert(SPEED_LOG_FIELD.into(), mean.into());
+                    }
+                }
+                let name = run.method.name().to_uppercase();
+                let msg = match &mut self.estimator {
+                    None => format!(
+                        "{name} test completed; features measured, no estimator loaded, no decision"
+                    ),
+                    Some((est, scratch)) => match est.estimate(run.method, &features, scratch) {
+                        Ok(e) => {
+                            estimate = Some(e);
+                            format!(
+                                "{name} test completed; estimate {:.2} m/s, {:.0} t; no decision",
+                                e.speed_mps, e.displacement_t
+                            )
+                        }
+                        Err(e) => format!("{name} test completed; no estimate: {e}; no decision"),
+                    },
+                };
+                (Outcome::Completed, None, features, msg)
             }
             Err(reason) => {
                 self.stats.tests_aborted += 1;
@@ -650,7 +703,7 @@ impl Monitor {
             outcome,
             reason: reason.clone(),
             features,
-            estimate: None,
+            estimate,
             residuals: serde_json::Value::Object(Default::default()),
             decision: Decision::Inconclusive,
             isolation: Vec::new(),
