@@ -19,9 +19,11 @@
 
 pub mod multisine;
 pub mod spectrum;
+pub mod tones;
 
 pub use multisine::Multisine;
 pub use spectrum::{detrend_linear, detrend_linear_keep_bins, naive_dft, Spectrum};
+pub use tones::{analyse_tones, ToneAnalyser, ToneEstimate};
 
 /// Why a signal-processing function refused its input or could not produce a result.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
