@@ -330,7 +330,7 @@ pub fn analyse_tones(
     for i in 0..harmonics.len() {
         let b = an.tone_bins[i];
         let r = an.reference[b];
-        if !(r.norm_sqr() > 1e-9 * ref_energy) {
+        if !above(r.norm_sqr(), 1e-9 * ref_energy) {
             return Err(DspError::Degenerate("reference has no power at a tone"));
         }
         an.select_neighbours(b, n);
@@ -367,7 +367,7 @@ pub fn analyse_tones(
         let (psi_b, delta_b) = (an.psi[b] - tp, an.delta[b] - td);
         let s_psi_r = psi_b * r.conj();
         let s_delta_r = delta_b * r.conj();
-        if !(s_delta_r.norm() > 0.0) {
+        if !above(s_delta_r.norm(), 0.0) {
             return Err(DspError::Degenerate("rudder has no power at a tone"));
         }
         let g = s_psi_r / s_delta_r;
@@ -375,7 +375,7 @@ pub fn analyse_tones(
             return Err(DspError::Degenerate("rudder has no power at a tone"));
         }
         let signal = psi_b.norm_sqr();
-        if !(signal > 0.0) {
+        if !above(signal, 0.0) {
             return Err(DspError::Degenerate("heading has no power at a tone"));
         }
         // Output-error residuals e(j) = Psi(j) - G Delta(j), minus their local fit.
@@ -431,12 +431,17 @@ pub fn analyse_tones(
     Ok(out)
 }
 
+/// `a > b`, false when either is NaN.
+fn above(a: f64, b: f64) -> bool {
+    a > b
+}
+
 /// Upper quantile `t_p` of Student's t with `nu` degrees of freedom (`P(T <= t_p) = p`,
 /// 0.5 <= p < 1), by bisection on the closed-form CDF (Abramowitz & Stegun 26.7.3-4).
 ///
 /// `nu = 0` is treated as 1; `nu` above 10^5 uses 10^5 (within 1e-5 of the normal quantile).
 pub fn student_t_quantile(p: f64, nu: u32) -> f64 {
-    if !(p.is_finite() && p >= 0.5 && p < 1.0) {
+    if !(0.5..1.0).contains(&p) {
         return f64::NAN;
     }
     let target = 2.0 * p - 1.0; // P(|T| <= t)
