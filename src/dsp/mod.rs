@@ -18,10 +18,12 @@
 //! Functions never panic on bad input: they return a [`DspError`].
 
 pub mod multisine;
+pub mod relay;
 pub mod spectrum;
 pub mod tones;
 
 pub use multisine::Multisine;
+pub use relay::{analyse_limit_cycle, limit_cycle_describing_function, HbtFeatures};
 pub use spectrum::{detrend_linear, detrend_linear_keep_bins, naive_dft, Spectrum};
 pub use tones::{analyse_tones, ToneAnalyser, ToneEstimate};
 
