@@ -624,4 +624,22 @@ mod tests {
             assert!(f.periods >= 3);
         }
     }
+
+    proptest::proptest! {
+        #[test]
+        fn never_panics_on_arbitrary_input(
+            t0 in proptest::prelude::any::<f64>(),
+            dt in proptest::prelude::any::<f64>(),
+            x in proptest::collection::vec(proptest::prelude::any::<f64>(), 0..50),
+            sw in proptest::collection::vec(-10.0..10.0f64, 0..6),
+            a in -1.0..1.0f64,
+            b in -1.0..1.0f64,
+            h in -1.0..1.0f64,
+            eps in -0.1..0.5f64,
+        ) {
+            let _ = analyse_limit_cycle(t0, dt, &x, &sw);
+            let _ = analyse_limit_cycle(0.0, 0.5, &x, &sw);
+            let _ = limit_cycle_describing_function(a, b, h, eps, &ServoConfig::default());
+        }
+    }
 }

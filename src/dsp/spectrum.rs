@@ -84,7 +84,8 @@ pub fn detrend_linear_keep_bins(x: &mut [f64], bins: &[usize]) -> Result<(f64, f
     }
     check_finite("x", x)?;
     for (i, &k) in bins.iter().enumerate() {
-        if k == 0 || 2 * k >= n {
+        // 0 < k < N/2, written without overflow for any k.
+        if k == 0 || k > (n - 1) / 2 {
             return Err(DspError::InvalidParameter {
                 name: "bins",
                 value: k as f64,
@@ -370,6 +371,11 @@ mod tests {
         assert!(detrend_linear_keep_bins(&mut x, &[0]).is_err());
         assert!(detrend_linear_keep_bins(&mut x, &[5]).is_err());
         assert!(detrend_linear_keep_bins(&mut x, &[2, 2]).is_err());
+        assert!(detrend_linear_keep_bins(&mut x, &[usize::MAX]).is_err());
+        assert!(detrend_linear_keep_bins(&mut x, &[4]).is_ok());
+        let mut odd = vec![0.0; 9];
+        assert!(detrend_linear_keep_bins(&mut odd, &[4]).is_ok());
+        assert!(detrend_linear_keep_bins(&mut odd, &[5]).is_err());
         assert!(detrend_linear_keep_bins(&mut x[..2], &[]).is_err());
         x[3] = f64::INFINITY;
         assert_eq!(

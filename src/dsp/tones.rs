@@ -722,6 +722,22 @@ mod tests {
         }
     }
 
+    proptest::proptest! {
+        #[test]
+        fn never_panics_on_arbitrary_input(
+            x in proptest::collection::vec(-1.0..1.0f64, 0..64),
+            w in 0usize..40,
+            harmonics in proptest::collection::vec(0u32..30, 0..4),
+            dt in proptest::prelude::any::<f64>(),
+            pairs in 1usize..5,
+        ) {
+            let mut an = ToneAnalyser::with_neighbour_pairs(pairs).unwrap();
+            let y: Vec<f64> = x.iter().map(|v| v * 0.5 + 0.1).collect();
+            let _ = analyse_tones(&mut an, &x, &y, &x, dt, w, &harmonics);
+            let _ = analyse_tones(&mut an, &x, &y, &y, 0.1, w, &harmonics);
+        }
+    }
+
     // -----------------------------------------------------------------------------------
     // Closed-loop calibration.
 
