@@ -357,10 +357,12 @@ mod tests {
         let z = Multisine::with_phases(600.0, &[3, 7, 17], 2.0 * DEG, &[PI / 2.0; 3]).unwrap();
         let cf = m.crest_factor();
         println!(
-            "crest factor: optimised {cf:.4}, Schroeder {:.4}, zero {:.4}, phases {:?}",
+            "crest factor: optimised {cf:.4}, Schroeder {:.4}, zero {:.4}, phases {:?}, peak {} rad, rate {} rad/s",
             s.crest_factor(),
             z.crest_factor(),
-            m.phases()
+            m.phases(),
+            m.peak_rad(),
+            m.max_rate_rad_s()
         );
         assert!(cf < 2.0, "crest factor {cf}");
         assert!(
