@@ -13,7 +13,7 @@
 //!   over the whole periods between the first and last switch, where `x~` is `x` minus a
 //!   straight line. The line is fitted jointly with the harmonics `m omega_u`, `m = 1..15`
 //!   (below the sampling Nyquist frequency) and only the line is removed: a plain line fit
-//!   over three periods takes ~7 % of the first harmonic with it (a sinusoid still correlates
+//!   over three periods takes up to ~7 % of the first harmonic with it (a sinusoid still correlates
 //!   with a ramp). With `tau = t - (s_0 + s_n)/2`, `u = t - s_0`, and the harmonics orthogonal
 //!   to each other and to the constant over whole periods,
 //!
