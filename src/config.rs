@@ -203,12 +203,7 @@ impl ShipConfig {
         check_range_open_low("ship.yaw-damping-a0", self.yaw_damping_a0, 0.0, 10.0)?;
         check_range_open_low("ship.rudder-area-m2", self.rudder_area_m2, 0.0, 500.0)?;
         check_range("ship.water-density-t-m3", self.water_density_t_m3, 0.9, 1.1)?;
-        check_range(
-            "ship.speed-range-mps[0]",
-            self.speed_range_mps[0],
-            0.5,
-            30.0,
-        )?;
+        check_range("ship.speed-range-mps[0]", self.speed_range_mps[0], 0.5, 30.0)?;
         check_range(
             "ship.speed-range-mps[1]",
             self.speed_range_mps[1],
@@ -360,12 +355,7 @@ impl AutopilotConfig {
             0.0,
             1000.0,
         )?;
-        check_range_open_low(
-            "autopilot.wave-filter-rad-s",
-            self.wave_filter_rad_s,
-            0.0,
-            10.0,
-        )?;
+        check_range_open_low("autopilot.wave-filter-rad-s", self.wave_filter_rad_s, 0.0, 10.0)?;
         if let Some(kp) = self.kp {
             check_range_open_low("autopilot.kp", kp, 0.0, 100.0)?;
         }
@@ -427,12 +417,7 @@ impl Default for SensorConfig {
 impl SensorConfig {
     fn check(&self) -> Result<(), ConfigError> {
         check_range("sensors.rate-hz", self.rate_hz, 1.0, 100.0)?;
-        check_range(
-            "sensors.heading-noise-deg",
-            self.heading_noise_deg,
-            0.0,
-            5.0,
-        )?;
+        check_range("sensors.heading-noise-deg", self.heading_noise_deg, 0.0, 5.0)?;
         check_range("sensors.rudder-noise-deg", self.rudder_noise_deg, 0.0, 5.0)?;
         check_range("sensors.speed-noise-mps", self.speed_noise_mps, 0.0, 2.0)?;
         check_range_open_low("sensors.status-period-s", self.status_period_s, 0.0, 60.0)?;
@@ -548,24 +533,14 @@ impl SeaConfig {
             0.0,
             1.0e5,
         )?;
-        check_range_open_low(
-            "sea.wave-frequency-rad-s",
-            self.wave_frequency_rad_s,
-            0.0,
-            10.0,
-        )?;
+        check_range_open_low("sea.wave-frequency-rad-s", self.wave_frequency_rad_s, 0.0, 10.0)?;
         check_range_open_low("sea.wave-damping", self.wave_damping, 0.0, 2.0)?;
         for (name, l) in [
             ("calm", &self.calm),
             ("moderate", &self.moderate),
             ("rough", &self.rough),
         ] {
-            check_range(
-                &format!("sea.{name}.wave-yaw-deg"),
-                l.wave_yaw_deg,
-                0.0,
-                10.0,
-            )?;
+            check_range(&format!("sea.{name}.wave-yaw-deg"), l.wave_yaw_deg, 0.0, 10.0)?;
             check_range(&format!("sea.{name}.bias-deg"), l.bias_deg, 0.0, 10.0)?;
         }
         Ok(())
@@ -610,19 +585,9 @@ impl Default for SimulationConfig {
 
 impl SimulationConfig {
     fn check(&self) -> Result<(), ConfigError> {
-        check_range(
-            "simulation.initial-course-deg",
-            self.initial_course_deg,
-            0.0,
-            360.0,
-        )?;
+        check_range("simulation.initial-course-deg", self.initial_course_deg, 0.0, 360.0)?;
         check_count("simulation.substeps", self.substeps, 1, 1000)?;
-        check_range(
-            "simulation.start-time-s",
-            self.start_time_s,
-            -1.0e12,
-            1.0e12,
-        )?;
+        check_range("simulation.start-time-s", self.start_time_s, -1.0e12, 1.0e12)?;
         check_vessel_name("simulation.vessel", &self.vessel)?;
         Ok(())
     }
@@ -731,18 +696,8 @@ impl SchedulerConfig {
             0.0,
             45.0,
         )?;
-        check_range_open_low(
-            "scheduler.steady-rudder-deg",
-            self.steady_rudder_deg,
-            0.0,
-            30.0,
-        )?;
-        check_range_open_low(
-            "scheduler.steady-speed-mps",
-            self.steady_speed_mps,
-            0.0,
-            5.0,
-        )?;
+        check_range_open_low("scheduler.steady-rudder-deg", self.steady_rudder_deg, 0.0, 30.0)?;
+        check_range_open_low("scheduler.steady-speed-mps", self.steady_speed_mps, 0.0, 5.0)?;
         Ok(())
     }
 }
@@ -849,10 +804,7 @@ impl ClfrtConfig {
                 return Err(fail(
                     "clfrt.harmonics",
                     format!("{:?}", self.harmonics),
-                    &format!(
-                        "increasing harmonics in [1, {}) (the Nyquist bin)",
-                        nyquist_bin
-                    ),
+                    &format!("increasing harmonics in [1, {}) (the Nyquist bin)", nyquist_bin),
                 ));
             }
             prev = k;
@@ -916,12 +868,7 @@ impl Default for SafetyConfig {
 
 impl SafetyConfig {
     fn check(&self, servo: &ServoConfig) -> Result<(), ConfigError> {
-        check_range_open_low(
-            "safety.max-excitation-deg",
-            self.max_excitation_deg,
-            0.0,
-            20.0,
-        )?;
+        check_range_open_low("safety.max-excitation-deg", self.max_excitation_deg, 0.0, 20.0)?;
         check_range_open_low(
             "safety.max-excitation-rate-deg-s",
             self.max_excitation_rate_deg_s,
@@ -941,12 +888,7 @@ impl SafetyConfig {
             servo.max_angle_deg,
         )?;
         check_range_open_low("safety.stream-timeout-s", self.stream_timeout_s, 0.0, 60.0)?;
-        check_range_open_low(
-            "safety.max-speed-change-mps",
-            self.max_speed_change_mps,
-            0.0,
-            5.0,
-        )?;
+        check_range_open_low("safety.max-speed-change-mps", self.max_speed_change_mps, 0.0, 5.0)?;
         check_range_open_low("safety.hold-s", self.hold_s, 0.0, 10.0)?;
         check_range_open_low(
             "safety.max-test-duration-s",
@@ -984,12 +926,7 @@ impl InputConfig {
     fn check(&self) -> Result<(), ConfigError> {
         check_range_open_low("input.align-horizon-s", self.align_horizon_s, 0.0, 60.0)?;
         check_range_open_low("input.max-speed-mps", self.max_speed_mps, 0.0, 100.0)?;
-        check_count(
-            "input.max-buffered-samples",
-            self.max_buffered_samples,
-            8,
-            100_000,
-        )?;
+        check_count("input.max-buffered-samples", self.max_buffered_samples, 8, 100_000)?;
         Ok(())
     }
 }
@@ -1023,20 +960,14 @@ mod tests {
     #[test]
     fn unknown_key_is_rejected() {
         let e = Config::from_toml_str("[servo]\nmax-rate-deg-s = 4\nbogus = 1\n").unwrap_err();
-        assert!(
-            matches!(e, ConfigError::Parse(ref m) if m.contains("bogus")),
-            "{e}"
-        );
+        assert!(matches!(e, ConfigError::Parse(ref m) if m.contains("bogus")), "{e}");
     }
 
     #[test]
     fn out_of_range_names_key_and_range() {
         let e = Config::from_toml_str("[servo]\nmax-rate-deg-s = -1\n").unwrap_err();
         let m = e.to_string();
-        assert!(
-            m.contains("servo.max-rate-deg-s") && m.contains("(0, 20]"),
-            "{m}"
-        );
+        assert!(m.contains("servo.max-rate-deg-s") && m.contains("(0, 20]"), "{m}");
     }
 
     #[test]

@@ -353,7 +353,9 @@ impl Input {
     /// Ship time of the sample [s].
     pub fn t(&self) -> f64 {
         match self {
-            Input::Heading(s) | Input::Rudder(s) | Input::Speed(s) | Input::TargetHeading(s) => s.t,
+            Input::Heading(s) | Input::Rudder(s) | Input::Speed(s) | Input::TargetHeading(s) => {
+                s.t
+            }
             Input::AutopilotState(s) => s.t,
         }
     }
@@ -418,7 +420,10 @@ mod tests {
             "vessels/self/steering/autopilot/target/headingTrue"
         );
         assert_eq!(k.excitation(), "vessels/self/steering/autopilot/excitation");
-        assert_eq!(k.notification(), "vessels/self/notifications/steering/fdi");
+        assert_eq!(
+            k.notification(),
+            "vessels/self/notifications/steering/fdi"
+        );
         assert_eq!(
             k.stream_of("vessels/self/steering/rudderAngle"),
             Some(Stream::Rudder)
