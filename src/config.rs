@@ -318,6 +318,11 @@ pub struct AutopilotConfig {
     pub td_s: Option<f64>,
     /// Override of the integral time Ti [s].
     pub ti_s: Option<f64>,
+    /// Gain scheduling on speed, as commercial autopilots do with their speed input: the
+    /// pole placement uses the ship at its speed (and nominal displacement). Off: the gains
+    /// are those of the nominal ship at every speed (the loop then loses its margins on a
+    /// fast, light ship: |S| peaks near 13 at 10 m/s, 4000 t).
+    pub speed_scheduling: bool,
 }
 
 impl Default for AutopilotConfig {
@@ -330,6 +335,7 @@ impl Default for AutopilotConfig {
             kp: None,
             td_s: None,
             ti_s: None,
+            speed_scheduling: true,
         }
     }
 }
@@ -380,7 +386,21 @@ impl AutopilotConfig {
 
     /// Gains by pole placement for the nominal ship of `ship`, with overrides applied.
     pub fn gains(&self, ship: &ShipConfig) -> PidGains {
-        let (a, b) = ship.nomoto(ship.nominal_speed_mps, ship.nominal_displacement_t);
+        self.gains_for(ship, ship.nominal_speed_mps)
+    }
+
+    /// Gains for a ship sailing at `speed_mps`: pole placement at that speed and the nominal
+    /// displacement when `speed-scheduling` is on, else the nominal ship's gains.
+    pub fn gains_at(&self, ship: &ShipConfig, speed_mps: f64) -> PidGains {
+        if self.speed_scheduling {
+            self.gains_for(ship, speed_mps)
+        } else {
+            self.gains(ship)
+        }
+    }
+
+    fn gains_for(&self, ship: &ShipConfig, speed_mps: f64) -> PidGains {
+        let (a, b) = ship.nomoto(speed_mps, ship.nominal_displacement_t);
         let t = 1.0 / a;
         let k = b / a;
         let wn = self.natural_frequency_rad_s;
@@ -763,6 +783,15 @@ pub struct HbtConfig {
     pub measure_periods: u32,
     /// Abort when the measurement is not complete after this long [s] (no limit cycle formed).
     pub timeout_s: f64,
+    /// Relay-centre adaptation per period, in [0, 1]: after each full period the centre moves
+    /// this fraction of the way to the period's mean rudder, which makes the cycle symmetric.
+    /// A heading-sensor drift or a slow yaw moment then leaves the cycle unchanged (the ship
+    /// turns with the drift at the mean rudder; superposition). 0 keeps delta0 fixed; 1 is a
+    /// full Newton step, at the edge of a period-2 oscillation of the centre; 0.5 is damped.
+    pub bias_adaptation: f64,
+    /// Abort when two relay switches come closer than this [s]: the relay chatters (waves
+    /// above the hysteresis), which only wears the steering gear.
+    pub min_switch_interval_s: f64,
 }
 
 impl Default for HbtConfig {
@@ -773,7 +802,9 @@ impl Default for HbtConfig {
             trim_window_s: 60.0,
             settle_periods: 2,
             measure_periods: 3,
-            timeout_s: 1800.0,
+            timeout_s: 2400.0,
+            bias_adaptation: 0.5,
+            min_switch_interval_s: 10.0,
         }
     }
 }
@@ -786,6 +817,13 @@ impl HbtConfig {
         check_count("hbt.settle-periods", self.settle_periods, 1, 20)?;
         check_count("hbt.measure-periods", self.measure_periods, 1, 50)?;
         check_range_open_low("hbt.timeout-s", self.timeout_s, 0.0, 86400.0)?;
+        check_range("hbt.bias-adaptation", self.bias_adaptation, 0.0, 1.0)?;
+        check_range(
+            "hbt.min-switch-interval-s",
+            self.min_switch_interval_s,
+            0.0,
+            600.0,
+        )?;
         Ok(())
     }
     /// Relay height [rad].
@@ -909,7 +947,7 @@ impl Default for SafetyConfig {
             stream_timeout_s: 2.0,
             max_speed_change_mps: 0.5,
             hold_s: 1.0,
-            max_test_duration_s: 2400.0,
+            max_test_duration_s: 3000.0,
         }
     }
 }
