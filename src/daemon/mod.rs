@@ -695,3 +695,53 @@ async fn ask_vessel(fleet: &Fleet, i: usize, method: Method) -> TriggerReply {
         _ => refusal("the vessel's monitor did not answer".into()),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fleet(capacity: usize) -> (Fleet, mpsc::Receiver<Msg>) {
+        let (tx, rx) = mpsc::channel(capacity);
+        let fleet = Fleet {
+            index: [("self".to_string(), 0)].into_iter().collect(),
+            names: vec!["self".into()],
+            senders: vec![tx],
+            shared: vec![Arc::new(Shared::default())],
+            trigger_keys: vec![KeyExpr::try_from("vessels/self/fdi/trigger").unwrap()],
+            unknown: AtomicU64::new(0),
+            queries_dropped: AtomicU64::new(0),
+        };
+        (fleet, rx)
+    }
+
+    #[test]
+    fn a_flood_is_dropped_and_counted_never_queued() {
+        let (fleet, mut rx) = fleet(16);
+        for _ in 0..100 {
+            fleet.dispatch(
+                Stream::Rudder,
+                "vessels/self/steering/rudderAngle",
+                b"{}".to_vec(),
+            );
+        }
+        assert_eq!(fleet.shared[0].flood.load(Ordering::Relaxed), 84);
+        let mut queued = 0;
+        while rx.try_recv().is_ok() {
+            queued += 1;
+        }
+        assert_eq!(queued, 16);
+    }
+
+    #[test]
+    fn keys_of_other_vessels_are_counted_apart() {
+        let (fleet, _rx) = fleet(16);
+        fleet.dispatch(
+            Stream::Heading,
+            "vessels/other/navigation/headingTrue",
+            vec![],
+        );
+        fleet.dispatch(Stream::Heading, "elsewhere", vec![]);
+        assert_eq!(fleet.unknown.load(Ordering::Relaxed), 2);
+        assert_eq!(fleet.vessel_of("vessels/self/fdi/trigger"), Some(0));
+    }
+}
