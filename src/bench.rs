@@ -136,32 +136,45 @@ pub async fn fleet(
     let delays: Arc<Mutex<Vec<f64>>> = Arc::new(Mutex::new(Vec::new()));
     let warmup_ticks = 10usize;
     let ticks = warmup_ticks + (window.as_secs_f64() / dt).round() as usize;
-    let (s2, d2) = (sent.clone(), delays.clone());
-    let sub = feeder
-        .declare_subscriber("vessels/*/steering/autopilot/excitation")
-        .callback(move |sample| {
-            let now = Instant::now();
-            let Ok(e) = serde_json::from_slice::<Excitation>(&sample.payload().to_bytes()) else {
-                return;
-            };
-            let k = (e.t / dt).round() as usize;
-            if k < warmup_ticks {
-                return;
-            }
-            let at = s2.lock().ok().and_then(|s| s.get(k).copied().flatten());
-            if let (Some(at), Ok(mut d)) = (at, d2.lock()) {
-                d.push(now.duration_since(at).as_secs_f64() * 1e3);
-            }
-        })
-        .await
-        .map_err(other)?;
-    let mut pubs = Vec::with_capacity(vessels * 3);
+    // One excitation subscriber per vessel, as each ship has its own.
+    let mut subs = Vec::with_capacity(vessels);
+    for n in &names {
+        let (s2, d2) = (sent.clone(), delays.clone());
+        let sub = feeder
+            .declare_subscriber(Keys::new(n).excitation())
+            .callback(move |sample| {
+                let now = Instant::now();
+                let Ok(e) = serde_json::from_slice::<Excitation>(&sample.payload().to_bytes())
+                else {
+                    return;
+                };
+                let k = (e.t / dt).round() as usize;
+                if k < warmup_ticks {
+                    return;
+                }
+                let at = s2.lock().ok().and_then(|s| s.get(k).copied().flatten());
+                if let (Some(at), Ok(mut d)) = (at, d2.lock()) {
+                    d.push(now.duration_since(at).as_secs_f64() * 1e3);
+                }
+            })
+            .await
+            .map_err(other)?;
+        subs.push(sub);
+    }
+    let mut pubs = Vec::with_capacity(vessels * 5);
     for n in &names {
         let k = Keys::new(n);
-        for s in [Stream::Rudder, Stream::Speed, Stream::Heading] {
+        for s in [
+            Stream::Rudder,
+            Stream::Speed,
+            Stream::AutopilotState,
+            Stream::TargetHeading,
+            Stream::Heading,
+        ] {
+            let ke = feeder.declare_keyexpr(k.stream(s)).await.map_err(other)?;
             pubs.push(
                 feeder
-                    .declare_publisher(k.stream(s))
+                    .declare_publisher(ke)
                     .encoding(zenoh::bytes::Encoding::APPLICATION_JSON)
                     .await
                     .map_err(other)?,
@@ -183,22 +196,19 @@ pub async fn fleet(
         let t = k as f64 * dt;
         let js = |v: f64| serde_json::to_vec(&Scalar { t, value: v }).unwrap_or_default();
         let (rudder, speed, heading) = (js(0.01), js(7.0), js(target + 0.001 * (0.3 * t).sin()));
-        for (i, n) in names.iter().enumerate() {
-            let _ = pubs[3 * i].put(rudder.clone()).await;
-            let _ = pubs[3 * i + 1].put(speed.clone()).await;
+        let state = serde_json::to_vec(&StateValue {
+            t,
+            value: "auto".into(),
+        })
+        .unwrap_or_default();
+        for i in 0..names.len() {
+            let _ = pubs[5 * i].put(rudder.clone()).await;
+            let _ = pubs[5 * i + 1].put(speed.clone()).await;
             if k % 10 == 0 {
-                let keys = Keys::new(n);
-                let state = serde_json::to_vec(&StateValue {
-                    t,
-                    value: "auto".into(),
-                })
-                .unwrap_or_default();
-                let _ = feeder.put(keys.stream(Stream::AutopilotState), state).await;
-                let _ = feeder
-                    .put(keys.stream(Stream::TargetHeading), js(target))
-                    .await;
+                let _ = pubs[5 * i + 2].put(state.clone()).await;
+                let _ = pubs[5 * i + 3].put(js(target)).await;
             }
-            let _ = pubs[3 * i + 2].put(heading.clone()).await;
+            let _ = pubs[5 * i + 4].put(heading.clone()).await;
             if k >= warmup_ticks {
                 headings += 1;
             }
@@ -207,7 +217,9 @@ pub async fn fleet(
     tokio::time::sleep(Duration::from_millis(500)).await;
     let rss = rss_mib();
     let flood_drops = daemon.flood_drops();
-    let _ = sub.undeclare().await;
+    for sub in subs {
+        let _ = sub.undeclare().await;
+    }
     let _ = feeder.close().await;
     daemon.stop().await;
     let mut d = delays.lock().map(|d| d.clone()).unwrap_or_default();

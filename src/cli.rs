@@ -128,7 +128,7 @@ struct BenchArgs {
     #[arg(long, default_value_t = 1800.0)]
     lockstep_s: f64,
     /// Fleet sizes tried, in order, until one is not kept up with.
-    #[arg(long, value_delimiter = ',', default_values_t = vec![100, 300, 1000, 2000])]
+    #[arg(long, value_delimiter = ',', default_values_t = vec![100, 250, 500, 1000, 2000])]
     fleet: Vec<usize>,
     /// Measurement window of each fleet size [s of wall time].
     #[arg(long, default_value_t = 5.0)]
@@ -616,8 +616,8 @@ fn bench(cfg: &Config, a: BenchArgs) -> Result<(), Failure> {
                 "--one-fleet",
                 &n.to_string(),
             ])
-            .env("RUST_LOG", "warn")
-            .stderr(std::process::Stdio::inherit())
+            .env("RUST_LOG", "off")
+            .stderr(std::process::Stdio::null())
             .output()
             .map_err(|e| fail(EX_OSERR)(e.into()))?;
         let text = String::from_utf8_lossy(&out.stdout);

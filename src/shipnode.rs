@@ -162,12 +162,15 @@ impl ShipNode {
         ] {
             // Index order = Stream::index().
             let key = keys.stream(s);
+            // A declared key expression travels as a numeric id: the daemon caches its route.
+            let ke = session.declare_keyexpr(key.clone()).await.map_err(z)?;
             let p = session
-                .declare_publisher(key.clone())
+                .declare_publisher(ke)
                 .encoding(Encoding::APPLICATION_JSON)
                 .congestion_control(cc)
                 .priority(Priority::Data)
-                .express(true)
+                // Heading last and express: it flushes the tick's batch in one write.
+                .express(s == Stream::Heading)
                 .await
                 .map_err(z)?;
             pubs.push(p);

@@ -4,7 +4,7 @@
 //!
 //! | task | owns | does |
 //! |---|---|---|
-//! | Zenoh subscriber callbacks (5, one per input stream) | nothing | copy the payload, `try_send` it to the vessel's queue; a full queue drops and counts (`dropped.flood`) |
+//! | Zenoh subscriber callbacks (one per vessel and input stream) | nothing | copy the payload, `try_send` it to the vessel's queue; a full queue drops and counts (`dropped.flood`) |
 //! | one vessel task per vessel | its `Monitor`, its publishers | decodes, feeds the core, drains every output at once (the excitation first, so a lockstep ship is answered promptly), checks silence every `daemon.tick-s`, publishes statistics |
 //! | the trigger task | the queries | parses `method=hbt\|clfrt`, asks the vessel task, replies with its [`TriggerReply`] |
 //!
@@ -238,14 +238,19 @@ impl Daemon {
             queries_dropped: AtomicU64::new(0),
         });
 
-        // Subscribers: one per stream, exact for one vessel, wildcard for a fleet.
+        // Subscribers: one per vessel and stream, on exact keys. (A wildcard subscription
+        // per stream would be fewer declarations, but Zenoh then computes the route of every
+        // sample: a fleet daemon kept up with a third as many vessels in the benchmark.)
         let single = (names.len() == 1).then(|| Keys::new(&names[0]));
-        let mut subscribers = Vec::with_capacity(Stream::ALL.len());
-        for stream in Stream::ALL {
-            let key = match &single {
-                Some(k) => k.stream(stream),
-                None => format!("vessels/*/{}", stream.path()),
-            };
+        let mut sub_keys = Vec::with_capacity(Stream::ALL.len() * names.len());
+        for n in &names {
+            let keys = Keys::new(n);
+            for stream in Stream::ALL {
+                sub_keys.push((stream, keys.stream(stream)));
+            }
+        }
+        let mut subscribers = Vec::with_capacity(sub_keys.len());
+        for (stream, key) in sub_keys {
             let f = fleet.clone();
             let sub = session
                 .declare_subscriber(key.clone())
@@ -396,11 +401,16 @@ impl Publishers {
         stats: bool,
     ) -> Result<Self, DaemonError> {
         let json = || Encoding::APPLICATION_JSON;
+        // Declared key expressions travel as numeric ids and let the receivers cache routes.
         let excitation_key = keys.excitation();
+        let ke = session
+            .declare_keyexpr(excitation_key.clone())
+            .await
+            .map_err(DaemonError::declare("key expression", &excitation_key))?;
         let excitation = session
-            .declare_publisher(excitation_key.clone())
+            .declare_publisher(ke)
             .encoding(json())
-            .congestion_control(CongestionControl::Drop)
+            .congestion_control(CongestionControl::Block)
             .priority(Priority::RealTime)
             .express(true)
             .await
