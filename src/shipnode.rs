@@ -300,7 +300,13 @@ impl ShipNode {
                         _ = tokio::time::sleep_until(deadline) => {
                             summary.excitation_timeouts += 1;
                             if summary.excitation_timeouts.is_power_of_two() {
-                                tracing::warn!(t, count = summary.excitation_timeouts, "no excitation for this heading in time: stepping on");
+                                tracing::warn!(
+                                    t,
+                                    count = summary.excitation_timeouts,
+                                    "no excitation for this heading in time: stepping on (a daemon that saw a later t, \
+                                     e.g. from an earlier simulated ship, rejects these samples as out of order: \
+                                     restart it, or set simulation.start-time-s past that t)"
+                                );
                             }
                             break;
                         }

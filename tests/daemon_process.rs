@@ -9,6 +9,7 @@ use helmwatch::config::Config;
 use helmwatch::net::loopback_peer;
 use helmwatch::shipnode::{ShipNode, ShipNodeOptions};
 use helmwatch::sim::{CommandSource, Scenario};
+use serde_json::Value;
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
@@ -187,36 +188,81 @@ async fn sigterm_exits_0_after_mode_none_and_a_final_status() {
         log(&dir, "daemon")
     );
 
-    // After the exit, what the daemon sent last: mode none, the aborted report, idle.
-    let none = obs
-        .wait_for("steering/autopilot/excitation", LIMIT, |e| {
-            e["mode"] == "none" && e["test"].is_null()
-        })
-        .await;
-    let excitations = obs.on("steering/autopilot/excitation");
-    let last = excitations.last().unwrap();
-    assert_eq!(
-        last["mode"], "none",
-        "the last excitation stops the test: {last}"
-    );
-    assert!(none["t"].as_f64().is_some());
+    // After the exit, what the daemon sent last: the aborted report, the idle status, and
+    // (first, on its own real-time queue) mode none.
     let report = obs
         .wait_for("fdi/report", LIMIT, |r| r["outcome"] == "aborted")
         .await;
     assert_eq!(report["reason"], "daemon stopping", "{report}");
-    let final_status = obs.on("fdi/status").last().cloned().unwrap();
+    let final_status = obs
+        .wait_for("fdi/status", LIMIT, |s| {
+            s["reason"]
+                .as_str()
+                .is_some_and(|r| r.contains("daemon stopping"))
+        })
+        .await;
     assert_eq!(final_status["state"], "idle", "{final_status}");
-    assert!(
-        final_status["reason"]
-            .as_str()
-            .is_some_and(|r| r.contains("daemon stopping")),
-        "{final_status}"
+    assert_eq!(
+        obs.on("fdi/status").last(),
+        Some(&final_status),
+        "the final status is the last one"
     );
+    let mut last = Value::Null;
+    for _ in 0..(LIMIT.as_millis() / 20) {
+        last = obs
+            .on("steering/autopilot/excitation")
+            .last()
+            .cloned()
+            .unwrap_or_default();
+        if last["mode"] == "none" {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    assert_eq!(
+        last["mode"], "none",
+        "the last excitation stops the test: {last}"
+    );
+    assert!(last["test"].is_null() && last["value"] == 0.0, "{last}");
 
     // The ship peer stops cleanly on SIGTERM too.
     signal(&ship, "-TERM");
     let status = wait_exit(&mut ship).await;
     assert_eq!(status.code(), Some(0), "ship log:\n{}", log(&dir, "ship"));
     obs.close().await;
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_zenoh_settings_exit_78_or_64_naming_what() {
+    let dir = temp_dir("badzenoh");
+    let cfg = dir.join("bad.toml");
+    std::fs::write(
+        &cfg,
+        "[zenoh]\nconfig-file = \"/nonexistent/zenoh.json5\"\n",
+    )
+    .unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_helmwatch"))
+        .arg("--config")
+        .arg(&cfg)
+        .arg("run")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(78));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent/zenoh.json5"));
+    std::fs::write(&cfg, "[zenoh]\nlisten = [\"nonsense\"]\n").unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_helmwatch"))
+        .arg("--config")
+        .arg(&cfg)
+        .arg("run")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(78));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("zenoh.listen[0]"));
+    let out = Command::new(env!("CARGO_BIN_EXE_helmwatch"))
+        .args(["run", "--connect", "nonsense"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(64));
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -63,7 +63,15 @@ async fn nominal_run_reports_arrive_with_features_and_no_alarm() {
     assert!(ran_to_analysis(&r2), "{r2}");
     assert_ne!(r2["decision"], "fault", "{r2}");
 
-    // Status went through settling and back to idle for each test.
+    // Status went through settling and back to idle for each test (the idle status follows
+    // the report: wait for the second one).
+    let idle = |s: &serde_json::Value| s["state"] == "idle";
+    for _ in 0..600 {
+        if obs.on("fdi/status").iter().filter(|s| idle(s)).count() >= 2 {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
     let states: Vec<String> = obs
         .on("fdi/status")
         .iter()
