@@ -16,8 +16,12 @@ pub const EX_OK: i32 = 0;
 pub const EX_USAGE: i32 = 64;
 /// Exit code: bad input data.
 pub const EX_DATAERR: i32 = 65;
+/// Exit code: a service is unavailable (the Zenoh session cannot be opened).
+pub const EX_UNAVAILABLE: i32 = 69;
 /// Exit code: internal software error.
 pub const EX_SOFTWARE: i32 = 70;
+/// Exit code: operating system error (no runtime).
+pub const EX_OSERR: i32 = 71;
 /// Exit code: I/O error.
 pub const EX_IOERR: i32 = 74;
 /// Exit code: configuration error.
@@ -45,6 +49,93 @@ enum Command {
     Probe(ProbeArgs),
     /// Check a configuration file and print it with every default filled in.
     CheckConfig,
+    /// The daemon: monitor the configured vessels over Zenoh until SIGTERM or SIGINT.
+    Run(RunArgs),
+    /// The simulated ship as a Zenoh peer (lockstep with the daemon, or real time).
+    Ship(ShipPeerArgs),
+    /// Daemon and simulated ship in one process over Zenoh on loopback, accelerated time:
+    /// a few nominal tests, then a displacement fault; prints each decision as it arrives.
+    Demo(DemoArgs),
+    /// Run the monitor core over a recording (JSON lines, as `simulate` writes) and print
+    /// its reports.
+    Replay(ReplayArgs),
+    /// Print the daemon's benchmark figures (lockstep speed, vessels kept up with, memory).
+    Bench(BenchArgs),
+}
+
+#[derive(Debug, Args)]
+struct RunArgs {
+    /// Endpoint to listen on, e.g. tcp/127.0.0.1:7447 (repeatable; replaces `zenoh.listen`).
+    #[arg(long, value_name = "ENDPOINT")]
+    listen: Vec<String>,
+    /// Endpoint to connect to (repeatable; replaces `zenoh.connect`).
+    #[arg(long, value_name = "ENDPOINT")]
+    connect: Vec<String>,
+}
+
+#[derive(Debug, Args)]
+struct ShipPeerArgs {
+    #[command(flatten)]
+    ship: ShipArgs,
+    /// Vessel name in the keys (default: `simulation.vessel`).
+    #[arg(long)]
+    vessel: Option<String>,
+    /// Tick on a timer instead of waiting for the daemon's excitation (lockstep).
+    #[arg(long)]
+    real_time: bool,
+    /// Ship seconds per wall second on the timer (default: `ship-peer.speed-up`).
+    #[arg(long)]
+    speed_up: Option<f64>,
+    /// Stop after this much ship time [s] (default: run until SIGTERM or SIGINT).
+    #[arg(long)]
+    duration_s: Option<f64>,
+    /// Endpoint to listen on (repeatable; replaces `ship-peer.listen`).
+    #[arg(long, value_name = "ENDPOINT")]
+    listen: Vec<String>,
+    /// Endpoint to connect to (repeatable; replaces `ship-peer.connect`).
+    #[arg(long, value_name = "ENDPOINT")]
+    connect: Vec<String>,
+    /// Record every publication as JSON lines (the `simulate` format, input of `replay`).
+    #[arg(long, value_name = "FILE")]
+    record: Option<PathBuf>,
+}
+
+#[derive(Debug, Args)]
+struct DemoArgs {
+    /// Seed of the simulated ship.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// The fault, KIND:VALUE@ONSET_S.
+    #[arg(long, default_value = "displacement_pct:+25@5000")]
+    fault: String,
+    /// Reports of the faulty ship to wait for before stopping.
+    #[arg(long, default_value_t = 2)]
+    fault_reports: usize,
+}
+
+#[derive(Debug, Args)]
+struct ReplayArgs {
+    /// The recording (JSON lines {"key": .., "payload": ..}); `-` for standard input.
+    file: PathBuf,
+    /// Print each report as one JSON line (the `fdi/report` payload).
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Debug, Args)]
+struct BenchArgs {
+    /// Ship time of the lockstep figure [s].
+    #[arg(long, default_value_t = 1800.0)]
+    lockstep_s: f64,
+    /// Fleet sizes tried, in order, until one is not kept up with.
+    #[arg(long, value_delimiter = ',', default_values_t = vec![100, 250, 500, 1000, 2000])]
+    fleet: Vec<usize>,
+    /// Measurement window of each fleet size [s of wall time].
+    #[arg(long, default_value_t = 5.0)]
+    window_s: f64,
+    /// Internal: measure one fleet size in this process and print it as JSON.
+    #[arg(long, hide = true)]
+    one_fleet: Option<usize>,
 }
 
 /// The simulated ship of one run.
@@ -119,6 +210,11 @@ pub fn main() -> i32 {
         Command::Simulate(a) => simulate(&cfg, a),
         Command::Probe(a) => probe(&cfg, a),
         Command::CheckConfig => check_config(&cfg),
+        Command::Run(a) => run_daemon(&cfg, a),
+        Command::Ship(a) => ship(&cfg, a),
+        Command::Demo(a) => demo(&cfg, a),
+        Command::Replay(a) => replay(&cfg, a),
+        Command::Bench(a) => bench(&cfg, a),
     };
     match result {
         Ok(()) => EX_OK,
@@ -140,8 +236,11 @@ fn fail(code: i32) -> impl FnOnce(anyhow::Error) -> Failure {
 }
 
 fn init_logging() {
+    // The demo prints to standard output; its default log level keeps standard error quiet.
+    let quiet = std::env::args().nth(1).is_some_and(|a| a == "demo");
+    let default = if quiet { "error" } else { "info,zenoh=warn" };
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
     let _ = tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)
@@ -264,4 +363,300 @@ fn check_config(cfg: &Config) -> Result<(), Failure> {
     let text = toml::to_string_pretty(cfg).map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
     println!("{text}");
     Ok(())
+}
+
+fn runtime() -> Result<tokio::runtime::Runtime, Failure> {
+    tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .map_err(|e| fail(EX_OSERR)(anyhow::anyhow!("cannot start the async runtime: {e}")))
+}
+
+/// Completes on SIGTERM or SIGINT.
+async fn signals() {
+    use tokio::signal::unix::{signal, SignalKind};
+    match signal(SignalKind::terminate()) {
+        Ok(mut term) => {
+            tokio::select! {
+                _ = term.recv() => tracing::info!("SIGTERM received"),
+                _ = tokio::signal::ctrl_c() => tracing::info!("SIGINT received"),
+            }
+        }
+        Err(e) => {
+            tracing::warn!("cannot watch SIGTERM ({e}); SIGINT only");
+            let _ = tokio::signal::ctrl_c().await;
+        }
+    }
+}
+
+fn check_endpoints(flag: &str, eps: &[String]) -> Result<(), Failure> {
+    for e in eps {
+        crate::config::check_endpoint(flag, e).map_err(|e| fail(EX_USAGE)(e.into()))?;
+    }
+    Ok(())
+}
+
+fn run_daemon(cfg: &Config, a: RunArgs) -> Result<(), Failure> {
+    use crate::daemon::{Daemon, DaemonError};
+    use sd_notify::NotifyState;
+    check_endpoints("--listen", &a.listen)?;
+    check_endpoints("--connect", &a.connect)?;
+    let zcfg = crate::net::zenoh_config(&cfg.zenoh, &a.listen, &a.connect)
+        .map_err(|e| fail(EX_CONFIG)(e.into()))?;
+    let rt = runtime()?;
+    rt.block_on(async {
+        let daemon = Daemon::start(cfg, zcfg).await.map_err(|e| {
+            let code = match e {
+                DaemonError::Config(_) => EX_CONFIG,
+                DaemonError::Open(_) => EX_UNAVAILABLE,
+                DaemonError::Declare { .. } => EX_SOFTWARE,
+            };
+            fail(code)(e.into())
+        })?;
+        let status = format!("monitoring {} vessel(s)", daemon.vessels().len());
+        if let Err(e) = sd_notify::notify(&[NotifyState::Ready, NotifyState::Status(&status)]) {
+            tracing::warn!("sd_notify READY: {e}");
+        }
+        // The watchdog is fed from the runtime that drives the daemon, at half its period:
+        // a stuck runtime stops feeding it and systemd restarts the service.
+        let watchdog = sd_notify::watchdog_enabled().map(|period| {
+            tracing::info!(?period, "systemd watchdog enabled");
+            tokio::spawn(async move {
+                let mut i = tokio::time::interval(period / 2);
+                loop {
+                    i.tick().await;
+                    let _ = sd_notify::notify(&[NotifyState::Watchdog]);
+                }
+            })
+        });
+        daemon
+            .run(async {
+                signals().await;
+                let _ = sd_notify::notify(&[NotifyState::Stopping]);
+            })
+            .await;
+        if let Some(w) = watchdog {
+            w.abort();
+        }
+        Ok(())
+    })
+}
+
+fn ship(cfg: &Config, a: ShipPeerArgs) -> Result<(), Failure> {
+    use crate::shipnode::{ShipNode, ShipNodeOptions};
+    let mut sc = scenario(cfg, &a.ship)?;
+    let mut faults = cfg
+        .ship_peer
+        .faults
+        .iter()
+        .map(|f| f.parse::<Fault>())
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| fail(EX_CONFIG)(e.into()))?;
+    faults.append(&mut sc.faults);
+    sc.faults = faults;
+    let mut opts = ShipNodeOptions::from_config(cfg);
+    if let Some(v) = a.vessel {
+        crate::config::check_vessel_name("--vessel", &v).map_err(|e| fail(EX_USAGE)(e.into()))?;
+        opts.vessel = v;
+    }
+    if a.real_time {
+        opts.lockstep = false;
+    }
+    if let Some(s) = a.speed_up {
+        crate::config::check_range_open_low("--speed-up", s, 0.0, 10000.0)
+            .map_err(|e| fail(EX_USAGE)(e.into()))?;
+        opts.speed_up = s;
+    }
+    if let Some(d) = a.duration_s {
+        crate::config::check_range_open_low("--duration-s", d, 0.0, 366.0 * 86400.0)
+            .map_err(|e| fail(EX_USAGE)(e.into()))?;
+        opts.duration_s = Some(d);
+    }
+    check_endpoints("--listen", &a.listen)?;
+    check_endpoints("--connect", &a.connect)?;
+    let zcfg = crate::net::zenoh_config(&cfg.ship_peer.zenoh(), &a.listen, &a.connect)
+        .map_err(|e| fail(EX_CONFIG)(e.into()))?;
+    let mut node = ShipNode::new(cfg, &sc, opts).map_err(|e| fail(EX_USAGE)(e.into()))?;
+    if let Some(path) = &a.record {
+        let file = std::fs::File::create(path)
+            .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", path.display())))?;
+        node = node.record_to(file);
+    }
+    let rt = runtime()?;
+    let summary = rt
+        .block_on(node.run(zcfg, signals()))
+        .map_err(|e| fail(EX_UNAVAILABLE)(e.into()))?;
+    println!(
+        "ship: {} ticks, t = {:.1} s, {} excitations received, {} lockstep timeouts",
+        summary.ticks, summary.t_end_s, summary.excitations, summary.excitation_timeouts
+    );
+    Ok(())
+}
+
+fn demo(cfg: &Config, a: DemoArgs) -> Result<(), Failure> {
+    let fault = a
+        .fault
+        .parse::<Fault>()
+        .map_err(|e| fail(EX_USAGE)(anyhow::anyhow!("--fault {}: {e}", a.fault)))?;
+    let opts = crate::demo::DemoOptions {
+        seed: a.seed,
+        fault,
+        fault_reports: a.fault_reports,
+        ..crate::demo::DemoOptions::default()
+    };
+    let rt = runtime()?;
+    let mut out = std::io::stdout();
+    rt.block_on(crate::demo::run(cfg, &opts, &mut out))
+        .map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
+    Ok(())
+}
+
+fn replay(cfg: &Config, a: ReplayArgs) -> Result<(), Failure> {
+    use crate::monitor::Output;
+    let reader: Box<dyn std::io::BufRead> = if a.file.as_os_str() == "-" {
+        Box::new(std::io::BufReader::new(std::io::stdin()))
+    } else {
+        let f = std::fs::File::open(&a.file)
+            .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", a.file.display())))?;
+        Box::new(std::io::BufReader::new(f))
+    };
+    let json = a.json;
+    let sum = crate::replay::replay(cfg, reader, |vessel, out| {
+        if let Output::Report(r) = out {
+            if json {
+                if let Ok(line) = serde_json::to_string(r) {
+                    println!("{line}");
+                }
+            } else {
+                println!(
+                    "{vessel}: {} test {} t = {:.1} .. {:.1} s: {:?}{}",
+                    r.method.name(),
+                    r.test,
+                    r.t_start,
+                    r.t_end,
+                    r.outcome,
+                    r.reason
+                        .as_ref()
+                        .map(|x| format!(" ({x})"))
+                        .unwrap_or_default()
+                );
+                print_features(&r.features);
+                println!("  decision: {:?}; {}", r.decision, r.message);
+            }
+        }
+    })
+    .map_err(|e| fail(EX_IOERR)(e.into()))?;
+    tracing::info!(
+        lines = sum.lines,
+        bad_lines = sum.bad_lines,
+        skipped = sum.skipped,
+        rejected = sum.rejected,
+        reports = sum.reports,
+        vessels = sum.vessels,
+        "replay done"
+    );
+    if sum.lines > 0 && sum.bad_lines == sum.lines {
+        return Err(fail(EX_DATAERR)(anyhow::anyhow!(
+            "{}: no line is a {{\"key\", \"payload\"}} object",
+            a.file.display()
+        )));
+    }
+    Ok(())
+}
+
+fn bench(cfg: &Config, a: BenchArgs) -> Result<(), Failure> {
+    let rt = runtime()?;
+    let window = std::time::Duration::from_secs_f64(a.window_s.clamp(1.0, 600.0));
+    if let Some(n) = a.one_fleet {
+        let f = rt
+            .block_on(crate::bench::fleet(cfg, n, window))
+            .map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
+        println!(
+            "{}",
+            serde_json::json!({
+                "vessels": f.vessels, "headings": f.headings, "excitations": f.excitations,
+                "p50_ms": f.p50_ms, "p99_ms": f.p99_ms, "flood_drops": f.flood_drops,
+                "rss_mib": f.rss_mib, "kept_up": f.kept_up,
+            })
+        );
+        return Ok(());
+    }
+    let profile = if cfg!(debug_assertions) {
+        "an optimised build with debug assertions (profile ci) or a debug build"
+    } else {
+        "a release build"
+    };
+    println!(
+        "helmwatch bench ({profile}; {} CPUs)",
+        std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(1)
+    );
+    let l = rt
+        .block_on(crate::bench::lockstep(cfg, a.lockstep_s))
+        .map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
+    println!(
+        "lockstep, one vessel over Zenoh at {} Hz: {:.0} ship s in {:.2} wall s = {:.0}x real time ({} lockstep timeouts)",
+        cfg.sensors.rate_hz, l.ship_s, l.wall_s, l.ratio, l.excitation_timeouts
+    );
+    drop(rt);
+    // Each fleet size in a fresh process, so its memory is its own.
+    let exe = std::env::current_exe().map_err(|e| fail(EX_OSERR)(e.into()))?;
+    let mut best = 0usize;
+    for n in a.fleet {
+        let mut cmd = std::process::Command::new(&exe);
+        if let Some(c) = &cli_config_path() {
+            cmd.arg("--config").arg(c);
+        }
+        let out = cmd
+            .args([
+                "bench",
+                "--window-s",
+                &a.window_s.to_string(),
+                "--one-fleet",
+                &n.to_string(),
+            ])
+            .env("RUST_LOG", "off")
+            .stderr(std::process::Stdio::null())
+            .output()
+            .map_err(|e| fail(EX_OSERR)(e.into()))?;
+        let text = String::from_utf8_lossy(&out.stdout);
+        let Some(v) = text
+            .lines()
+            .rev()
+            .find_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        else {
+            println!("fleet of {n}: the measurement failed ({})", out.status);
+            break;
+        };
+        let g = |k: &str| v.get(k).and_then(|x| x.as_f64()).unwrap_or(f64::NAN);
+        let kept = v.get("kept_up").and_then(|x| x.as_bool()).unwrap_or(false);
+        println!(
+            "fleet of {n} vessels at 10 Hz: {:.0}/{:.0} headings answered, delay p50 {:.1} ms p99 {:.1} ms, {:.0} flood drops, RSS {:.0} MiB: {}",
+            g("excitations"), g("headings"), g("p50_ms"), g("p99_ms"), g("flood_drops"), g("rss_mib"),
+            if kept { "kept up" } else { "NOT kept up" }
+        );
+        if !kept {
+            break;
+        }
+        best = n;
+    }
+    println!("vessels kept up with at 10 Hz: {best} (largest size tried that passed)");
+    Ok(())
+}
+
+/// The `--config` path of this invocation, to pass on to child processes.
+fn cli_config_path() -> Option<PathBuf> {
+    let mut args = std::env::args_os();
+    while let Some(a) = args.next() {
+        if a == "--config" {
+            return args.next().map(PathBuf::from);
+        }
+        if let Some(s) = a.to_str() {
+            if let Some(p) = s.strip_prefix("--config=") {
+                return Some(PathBuf::from(p));
+            }
+        }
+    }
+    None
 }

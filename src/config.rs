@@ -121,6 +121,12 @@ pub struct Config {
     pub safety: SafetyConfig,
     /// Input validation (plausibility limits on incoming samples).
     pub input: InputConfig,
+    /// The daemon (`helmwatch run`): vessels, queues, timers.
+    pub daemon: DaemonConfig,
+    /// The daemon's Zenoh session.
+    pub zenoh: ZenohConfig,
+    /// The simulated ship as a Zenoh peer (`helmwatch ship`).
+    pub ship_peer: ShipPeerConfig,
 }
 
 impl Config {
@@ -153,6 +159,9 @@ impl Config {
         self.clfrt.check(self.sensors.rate_hz)?;
         self.safety.check(&self.servo)?;
         self.input.check()?;
+        self.daemon.check()?;
+        self.zenoh.check("zenoh")?;
+        self.ship_peer.check()?;
         Ok(())
     }
 }
@@ -318,6 +327,11 @@ pub struct AutopilotConfig {
     pub td_s: Option<f64>,
     /// Override of the integral time Ti [s].
     pub ti_s: Option<f64>,
+    /// Gain scheduling on speed, as commercial autopilots do with their speed input: the
+    /// pole placement uses the ship at its speed (and nominal displacement). Off: the gains
+    /// are those of the nominal ship at every speed (the loop then loses its margins on a
+    /// fast, light ship: |S| peaks near 13 at 10 m/s, 4000 t).
+    pub speed_scheduling: bool,
 }
 
 impl Default for AutopilotConfig {
@@ -330,6 +344,7 @@ impl Default for AutopilotConfig {
             kp: None,
             td_s: None,
             ti_s: None,
+            speed_scheduling: true,
         }
     }
 }
@@ -380,7 +395,21 @@ impl AutopilotConfig {
 
     /// Gains by pole placement for the nominal ship of `ship`, with overrides applied.
     pub fn gains(&self, ship: &ShipConfig) -> PidGains {
-        let (a, b) = ship.nomoto(ship.nominal_speed_mps, ship.nominal_displacement_t);
+        self.gains_for(ship, ship.nominal_speed_mps)
+    }
+
+    /// Gains for a ship sailing at `speed_mps`: pole placement at that speed and the nominal
+    /// displacement when `speed-scheduling` is on, else the nominal ship's gains.
+    pub fn gains_at(&self, ship: &ShipConfig, speed_mps: f64) -> PidGains {
+        if self.speed_scheduling {
+            self.gains_for(ship, speed_mps)
+        } else {
+            self.gains(ship)
+        }
+    }
+
+    fn gains_for(&self, ship: &ShipConfig, speed_mps: f64) -> PidGains {
+        let (a, b) = ship.nomoto(speed_mps, ship.nominal_displacement_t);
         let t = 1.0 / a;
         let k = b / a;
         let wn = self.natural_frequency_rad_s;
@@ -763,6 +792,15 @@ pub struct HbtConfig {
     pub measure_periods: u32,
     /// Abort when the measurement is not complete after this long [s] (no limit cycle formed).
     pub timeout_s: f64,
+    /// Relay-centre adaptation per period, in [0, 1]: after each full period the centre moves
+    /// this fraction of the way to the period's mean rudder, which makes the cycle symmetric.
+    /// A heading-sensor drift or a slow yaw moment then leaves the cycle unchanged (the ship
+    /// turns with the drift at the mean rudder; superposition). 0 keeps delta0 fixed; 1 is a
+    /// full Newton step, at the edge of a period-2 oscillation of the centre; 0.5 is damped.
+    pub bias_adaptation: f64,
+    /// Abort when two relay switches come closer than this [s]: the relay chatters (waves
+    /// above the hysteresis), which only wears the steering gear.
+    pub min_switch_interval_s: f64,
 }
 
 impl Default for HbtConfig {
@@ -773,7 +811,9 @@ impl Default for HbtConfig {
             trim_window_s: 60.0,
             settle_periods: 2,
             measure_periods: 3,
-            timeout_s: 1800.0,
+            timeout_s: 2400.0,
+            bias_adaptation: 0.5,
+            min_switch_interval_s: 10.0,
         }
     }
 }
@@ -786,6 +826,13 @@ impl HbtConfig {
         check_count("hbt.settle-periods", self.settle_periods, 1, 20)?;
         check_count("hbt.measure-periods", self.measure_periods, 1, 50)?;
         check_range_open_low("hbt.timeout-s", self.timeout_s, 0.0, 86400.0)?;
+        check_range("hbt.bias-adaptation", self.bias_adaptation, 0.0, 1.0)?;
+        check_range(
+            "hbt.min-switch-interval-s",
+            self.min_switch_interval_s,
+            0.0,
+            600.0,
+        )?;
         Ok(())
     }
     /// Relay height [rad].
@@ -909,7 +956,7 @@ impl Default for SafetyConfig {
             stream_timeout_s: 2.0,
             max_speed_change_mps: 0.5,
             hold_s: 1.0,
-            max_test_duration_s: 2400.0,
+            max_test_duration_s: 3000.0,
         }
     }
 }
@@ -985,6 +1032,231 @@ impl InputConfig {
     }
 }
 
+// ---------------------------------------------------------------------------------------------
+// Daemon, Zenoh, ship peer
+
+/// The daemon (`helmwatch run`): one monitor core per vessel, each fed by a bounded queue.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
+pub struct DaemonConfig {
+    /// Vessels monitored, one monitor core each (`vessels/<vessel>/...`); 1 to 100000 names.
+    pub vessels: Vec<String>,
+    /// Capacity of each vessel's input queue [messages]. A full queue drops new samples and
+    /// counts them (`dropped.flood` in the stats): a flood never grows memory.
+    pub queue_capacity: u32,
+    /// Period of the silence check [s]: ship time is estimated as the last heading's `t` plus
+    /// the wall time since it arrived, so a silent heading stream aborts a test.
+    pub tick_s: f64,
+    /// Period of the statistics (log at debug level, `fdi/stats` publication) [s]; 0 = never.
+    pub stats_period_s: f64,
+    /// Publish the statistics on `vessels/<v>/fdi/stats` (an addition to the contract).
+    pub publish_stats: bool,
+    /// Longest wait for the final publications (`mode: none`, status) at shutdown [s].
+    pub shutdown_timeout_s: f64,
+}
+
+impl Default for DaemonConfig {
+    fn default() -> Self {
+        Self {
+            vessels: vec!["self".to_string()],
+            queue_capacity: 256,
+            tick_s: 0.5,
+            stats_period_s: 60.0,
+            publish_stats: true,
+            shutdown_timeout_s: 5.0,
+        }
+    }
+}
+
+impl DaemonConfig {
+    fn check(&self) -> Result<(), ConfigError> {
+        if self.vessels.is_empty() || self.vessels.len() > 100_000 {
+            return Err(fail(
+                "daemon.vessels",
+                format!("{} names", self.vessels.len()),
+                "1 to 100000 vessel names",
+            ));
+        }
+        let mut seen = std::collections::HashSet::new();
+        for (i, v) in self.vessels.iter().enumerate() {
+            let key = format!("daemon.vessels[{i}]");
+            check_vessel_name(&key, v)?;
+            if !seen.insert(v.as_str()) {
+                return Err(fail(&key, format!("{v:?}"), "each vessel once"));
+            }
+        }
+        check_count("daemon.queue-capacity", self.queue_capacity, 16, 1_000_000)?;
+        check_range_open_low("daemon.tick-s", self.tick_s, 0.0, 10.0)?;
+        check_range("daemon.stats-period-s", self.stats_period_s, 0.0, 86400.0)?;
+        check_range_open_low(
+            "daemon.shutdown-timeout-s",
+            self.shutdown_timeout_s,
+            0.0,
+            60.0,
+        )?;
+        Ok(())
+    }
+}
+
+/// Zenoh node mode.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum ZenohMode {
+    /// Peer: talks directly to other peers and routers (default).
+    #[default]
+    Peer,
+    /// Client: talks through one router.
+    Client,
+    /// Router: routes for others (a shore server usually runs `zenohd` instead).
+    Router,
+}
+
+impl ZenohMode {
+    /// The name Zenoh uses (`"peer"`, `"client"`, `"router"`).
+    pub fn name(self) -> &'static str {
+        match self {
+            ZenohMode::Peer => "peer",
+            ZenohMode::Client => "client",
+            ZenohMode::Router => "router",
+        }
+    }
+}
+
+/// A Zenoh session: mode, endpoints, scouting, or a Zenoh JSON5 configuration file.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
+pub struct ZenohConfig {
+    /// Node mode: `peer`, `client` or `router`.
+    pub mode: ZenohMode,
+    /// Endpoints to listen on, e.g. `tcp/127.0.0.1:7447` (`--listen` overrides).
+    pub listen: Vec<String>,
+    /// Endpoints to connect to, e.g. `tcp/192.0.2.10:7447` (`--connect` overrides).
+    pub connect: Vec<String>,
+    /// UDP multicast scouting (off: only the endpoints above are used).
+    pub multicast_scouting: bool,
+    /// A Zenoh JSON5 configuration file (routers, TLS, access control). When set, the session
+    /// is configured from that file alone and the four keys above are ignored; `--listen` and
+    /// `--connect` still override its endpoints.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub config_file: Option<std::path::PathBuf>,
+}
+
+impl Default for ZenohConfig {
+    fn default() -> Self {
+        Self {
+            mode: ZenohMode::Peer,
+            listen: vec!["tcp/127.0.0.1:7447".to_string()],
+            connect: Vec::new(),
+            multicast_scouting: false,
+            config_file: None,
+        }
+    }
+}
+
+/// Checks that `endpoint` parses as a Zenoh endpoint (`proto/address[?metadata][#config]`).
+pub fn check_endpoint(key: &str, endpoint: &str) -> Result<(), ConfigError> {
+    match endpoint.parse::<zenoh::config::EndPoint>() {
+        Ok(_) => Ok(()),
+        Err(e) => Err(fail(
+            key,
+            format!("{endpoint:?}"),
+            &format!("a Zenoh endpoint such as \"tcp/127.0.0.1:7447\" ({e})"),
+        )),
+    }
+}
+
+impl ZenohConfig {
+    /// Checks the endpoints; `section` names the table in errors (`zenoh`, `ship-peer`).
+    pub fn check(&self, section: &str) -> Result<(), ConfigError> {
+        for (i, e) in self.listen.iter().enumerate() {
+            check_endpoint(&format!("{section}.listen[{i}]"), e)?;
+        }
+        for (i, e) in self.connect.iter().enumerate() {
+            check_endpoint(&format!("{section}.connect[{i}]"), e)?;
+        }
+        if self.mode == ZenohMode::Client && self.connect.is_empty() && self.config_file.is_none() {
+            return Err(fail(
+                &format!("{section}.connect"),
+                "[]",
+                "at least one endpoint when mode = \"client\"",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The simulated ship as a Zenoh peer (`helmwatch ship`): its pace, its faults, its session.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
+pub struct ShipPeerConfig {
+    /// Lockstep: after each heading, wait for the daemon's excitation with that `t` (while a
+    /// daemon holds `fdi/alive`); otherwise tick on a timer.
+    pub lockstep: bool,
+    /// Ship seconds per wall second when ticking on the timer (real time = 1), (0, 10000].
+    pub speed_up: f64,
+    /// Longest wait for the excitation of one heading in lockstep [s, wall]; then the ship
+    /// steps on with what its autopilot holds (its own command once `hold_s` has run out).
+    pub excitation_timeout_s: f64,
+    /// Faults `KIND:VALUE@ONSET_S` (e.g. `displacement_pct:+10@300`); `--fault` adds more.
+    pub faults: Vec<String>,
+    /// Zenoh node mode of the ship.
+    pub mode: ZenohMode,
+    /// Endpoints the ship listens on (none by default).
+    pub listen: Vec<String>,
+    /// Endpoints the ship connects to (the daemon's by default).
+    pub connect: Vec<String>,
+    /// UDP multicast scouting.
+    pub multicast_scouting: bool,
+}
+
+impl Default for ShipPeerConfig {
+    fn default() -> Self {
+        Self {
+            lockstep: true,
+            speed_up: 1.0,
+            excitation_timeout_s: 1.0,
+            faults: Vec::new(),
+            mode: ZenohMode::Peer,
+            listen: Vec::new(),
+            connect: vec!["tcp/127.0.0.1:7447".to_string()],
+            multicast_scouting: false,
+        }
+    }
+}
+
+impl ShipPeerConfig {
+    fn check(&self) -> Result<(), ConfigError> {
+        check_range_open_low("ship-peer.speed-up", self.speed_up, 0.0, 10000.0)?;
+        check_range_open_low(
+            "ship-peer.excitation-timeout-s",
+            self.excitation_timeout_s,
+            0.0,
+            60.0,
+        )?;
+        for (i, f) in self.faults.iter().enumerate() {
+            if let Err(e) = f.parse::<crate::sim::Fault>() {
+                return Err(fail(
+                    &format!("ship-peer.faults[{i}]"),
+                    format!("{f:?}"),
+                    &format!("KIND:VALUE@ONSET_S ({e})"),
+                ));
+            }
+        }
+        self.zenoh().check("ship-peer")
+    }
+
+    /// The ship's Zenoh session settings.
+    pub fn zenoh(&self) -> ZenohConfig {
+        ZenohConfig {
+            mode: self.mode,
+            listen: self.listen.clone(),
+            connect: self.connect.clone(),
+            multicast_scouting: self.multicast_scouting,
+            config_file: None,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1028,6 +1300,20 @@ mod tests {
             m.contains("servo.max-rate-deg-s") && m.contains("(0, 20]"),
             "{m}"
         );
+    }
+
+    #[test]
+    fn daemon_and_zenoh_keys_are_checked() {
+        let e = Config::from_toml_str("[daemon]\nvessels = [\"a\", \"a\"]\n").unwrap_err();
+        assert!(e.to_string().contains("daemon.vessels[1]"), "{e}");
+        let e = Config::from_toml_str("[daemon]\nvessels = [\"a/b\"]\n").unwrap_err();
+        assert!(e.to_string().contains("daemon.vessels[0]"), "{e}");
+        let e = Config::from_toml_str("[zenoh]\nlisten = [\"nonsense\"]\n").unwrap_err();
+        assert!(e.to_string().contains("zenoh.listen[0]"), "{e}");
+        let e = Config::from_toml_str("[ship-peer]\nfaults = [\"bogus:1@0\"]\n").unwrap_err();
+        assert!(e.to_string().contains("ship-peer.faults[0]"), "{e}");
+        let e = Config::from_toml_str("[daemon]\ntick-s = 0\n").unwrap_err();
+        assert!(e.to_string().contains("daemon.tick-s"), "{e}");
     }
 
     #[test]

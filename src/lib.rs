@@ -17,6 +17,12 @@
 //! | [`dsp`] | spectra, detrending, multisine design, tone analysis, relay limit-cycle theory | no |
 //! | [`monitor`] | the monitor core: a pure state machine fed timestamped samples | no |
 //! | [`probe`] | virtual-time driver: simulated ship + monitor core in lockstep | no |
+//! | [`replay`] | the monitor core over a recording (JSON lines) | reads a file |
+//! | [`net`] | Zenoh session configuration shared by the drivers below | no |
+//! | [`daemon`] | the Zenoh daemon: one task per vessel owning its core, trigger queryable, liveliness | Zenoh |
+//! | [`shipnode`] | the simulated ship as a Zenoh peer (lockstep or real time) | Zenoh |
+//! | [`demo`] | daemon and simulated ship in one process over Zenoh on loopback | Zenoh, stdout |
+//! | [`bench`] | benchmark figures of the daemon over Zenoh (`helmwatch bench`) | Zenoh, stdout |
 //! | [`cli`] | the `helmwatch` command line (subcommands are thin drivers) | yes |
 //!
 //! ## Data flow
@@ -29,11 +35,17 @@
 //! a clock or a global random generator: time comes with the samples, randomness from seeds.
 
 pub mod angle;
+pub mod bench;
 pub mod cli;
 pub mod config;
+pub mod daemon;
+pub mod demo;
 pub mod dsp;
 pub mod estimator;
 pub mod monitor;
+pub mod net;
 pub mod probe;
+pub mod replay;
+pub mod shipnode;
 pub mod sim;
 pub mod wire;

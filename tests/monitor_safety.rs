@@ -114,7 +114,11 @@ fn started(method: Method) -> (Monitor, Feed) {
 /// The tick that aborts: its excitation is `none`, and an aborted report comes with it.
 fn assert_aborts_now(out: &[Output], reason_part: &str) {
     let exc = excitations(out);
-    assert_eq!(exc.len(), 1, "exactly one excitation for the heading sample");
+    assert_eq!(
+        exc.len(),
+        1,
+        "exactly one excitation for the heading sample"
+    );
     assert_eq!(exc[0].mode, ExcitationMode::None);
     assert_eq!(exc[0].value, 0.0);
     let reps = reports(out);
@@ -123,7 +127,9 @@ fn assert_aborts_now(out: &[Output], reason_part: &str) {
     assert!(reps[0].estimate.is_none());
     let reason = reps[0].reason.as_deref().unwrap_or("");
     assert!(reason.contains(reason_part), "reason {reason:?}");
-    assert!(out.iter().any(|o| matches!(o, Output::Status(s) if s.state == MonitorState::Idle)));
+    assert!(out
+        .iter()
+        .any(|o| matches!(o, Output::Status(s) if s.state == MonitorState::Idle)));
 }
 
 #[test]
@@ -169,7 +175,10 @@ fn silence_noticed_by_timeout_aborts_without_a_heading_sample() {
     let (mut m, f) = started(Method::Clfrt);
     let last = m.last_heading_t().unwrap();
     m.handle_timeout(last + 1.0);
-    assert!(m.poll_output().is_none(), "1 s of silence is within the limit");
+    assert!(
+        m.poll_output().is_none(),
+        "1 s of silence is within the limit"
+    );
     m.handle_timeout(last + 3.0);
     let out: Vec<Output> = std::iter::from_fn(|| m.poll_output()).collect();
     assert!(excitations(&out).is_empty());

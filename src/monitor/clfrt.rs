@@ -17,7 +17,7 @@ use super::record::{Record, RecordError};
 use super::{Features, Step};
 use crate::config::Config;
 use crate::dsp::multisine::Multisine;
-use crate::dsp::tones::{ToneAnalyser, ToneEstimate};
+use crate::dsp::tones::{analyse_tones, ToneAnalyser, ToneEstimate};
 use crate::wire::{ExcitationMode, MonitorState};
 
 /// Features of a completed multisine test (the report's `features`).
@@ -221,10 +221,16 @@ impl ClfrtRun {
             .map_err(|e| format!("analysis: rudder: {e}"))?;
         r.clear();
         r.extend((0..n).map(|i| self.multisine.value(t0 + i as f64 * self.dt_s - self.t0_s)));
-        let tones = self
-            .analyser
-            .analyse(h, d, r, self.dt_s, self.window_samples, &self.harmonics)
-            .map_err(|e| format!("analysis: {e}"))?;
+        let tones = analyse_tones(
+            &mut self.analyser,
+            h,
+            d,
+            r,
+            self.dt_s,
+            self.window_samples,
+            &self.harmonics,
+        )
+        .map_err(|e| format!("analysis: {e}"))?;
         Ok(Features::Clfrt(ClfrtReport {
             tones,
             window_s: self.window_s,

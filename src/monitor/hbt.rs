@@ -15,6 +15,16 @@
 //!
 //! Settling: `hbt.settle-periods` periods after the first switch to `+h`; measuring: the
 //! next `hbt.measure-periods` periods. No limit cycle within `hbt.timeout-s`: abort.
+//!
+//! Relay-centre adaptation (`hbt.bias-adaptation`): at each switch to `+h` the centre moves
+//! towards the mean rudder of the period just ended, `delta0 += g h (t+ - t-) / P`. When the
+//! heading reading drifts, the relay can only keep its error bounded by making the ship turn
+//! with the drift, which needs a mean rudder off delta0: a fixed centre buys it with an
+//! asymmetric duty cycle that changes the period and amplitude; an adapted centre supplies it
+//! and the cycle, by superposition on the linear ship, is the drift-free one.
+//!
+//! Chatter (two switches closer than `hbt.min-switch-interval-s`: heading noise above the
+//! hysteresis) aborts at once; a cycle not larger than the hysteresis is refused.
 
 use super::record::{Record, RecordError};
 use super::{Features, Step};
@@ -33,8 +43,10 @@ pub struct HbtReport {
     pub relay_height_rad: f64,
     /// Hysteresis eps [rad].
     pub hysteresis_rad: f64,
-    /// Trim rudder delta0 the relay is centred on [rad].
+    /// Relay centre at the end of the test (adapted) [rad].
     pub trim_rad: f64,
+    /// Trim rudder delta0 measured before the relay started [rad].
+    pub initial_trim_rad: f64,
     /// Shortest time between two consecutive relay switches [s] (chatter check).
     pub min_switch_interval_s: f64,
     /// Relay switches in the whole test.
@@ -54,6 +66,7 @@ impl HbtReport {
             "relay_height_rad": self.relay_height_rad,
             "hysteresis_rad": self.hysteresis_rad,
             "trim_rad": self.trim_rad,
+            "initial_trim_rad": self.initial_trim_rad,
             "min_switch_interval_s": self.min_switch_interval_s,
             "switches": self.switches,
         })
@@ -70,6 +83,14 @@ pub(crate) struct HbtRun {
     settle_periods: usize,
     measure_periods: usize,
     timeout_s: f64,
+    /// Chatter limit [s].
+    min_switch_interval_s: f64,
+    /// Relay-centre adaptation gain per period.
+    bias_adaptation: f64,
+    /// Instant of the last switch to `-h` [s].
+    last_down_s: Option<f64>,
+    /// The trim measured before the relay started [rad].
+    initial_trim_rad: f64,
     /// Grid step for the analysis [s].
     dt_s: f64,
     /// Largest gap interpolated across [s].
@@ -91,7 +112,8 @@ pub(crate) struct HbtRun {
     up_switches: Vec<f64>,
     /// Instant of the last switch, either direction [s].
     last_switch_s: Option<f64>,
-    min_switch_interval_s: f64,
+    /// Shortest interval between two switches so far [s].
+    shortest_switch_s: f64,
     switches: usize,
     /// Continuous heading from the relay start [rad].
     heading: Record,
@@ -110,6 +132,10 @@ impl HbtRun {
             settle_periods: h.settle_periods as usize,
             measure_periods: h.measure_periods as usize,
             timeout_s: h.timeout_s,
+            min_switch_interval_s: h.min_switch_interval_s,
+            bias_adaptation: h.bias_adaptation,
+            last_down_s: None,
+            initial_trim_rad: 0.0,
             dt_s: 1.0 / rate,
             max_gap_s: cfg.safety.stream_timeout_s,
             trim_end_s: t_start_s + h.trim_window_s,
@@ -121,7 +147,7 @@ impl HbtRun {
             prev: None,
             up_switches: Vec::with_capacity((h.settle_periods + h.measure_periods + 2) as usize),
             last_switch_s: None,
-            min_switch_interval_s: f64::INFINITY,
+            shortest_switch_s: f64::INFINITY,
             switches: 0,
             heading: Record::with_capacity(capacity),
             scratch: Vec::new(),
@@ -164,6 +190,7 @@ impl HbtRun {
                 }
                 let x = self.trim_sum / self.trim_n as f64;
                 self.trim_rad = Some(x);
+                self.initial_trim_rad = x;
                 self.relay_start_s = Some(t);
                 self.sign = if error_rad >= 0.0 { 1.0 } else { -1.0 };
                 x
@@ -196,12 +223,36 @@ impl HbtRun {
                 _ => t,
             };
             if let Some(last) = self.last_switch_s {
-                self.min_switch_interval_s = self.min_switch_interval_s.min(t_switch - last);
+                let interval = t_switch - last;
+                self.shortest_switch_s = self.shortest_switch_s.min(interval);
+                if interval < self.min_switch_interval_s {
+                    return Step {
+                        done: Some(Err(format!(
+                            "relay chatter: switches {interval:.1} s apart (heading noise above \
+                             the {:.2} deg hysteresis?)",
+                            self.eps_rad.to_degrees()
+                        ))),
+                        ..idle(None)
+                    };
+                }
             }
             self.last_switch_s = Some(t_switch);
             self.switches += 1;
             self.sign = new_sign;
+            if new_sign < 0.0 {
+                self.last_down_s = Some(t_switch);
+            }
             if new_sign > 0.0 {
+                // A full period ended: centre the relay on its mean rudder.
+                if let (Some(&up), Some(down)) = (self.up_switches.last(), self.last_down_s) {
+                    let period = t_switch - up;
+                    if down > up && period > 0.0 {
+                        let t_plus = down - up;
+                        let asym = (2.0 * t_plus - period) / period;
+                        let centre = trim + self.bias_adaptation * self.h_rad * asym;
+                        self.trim_rad = Some(centre);
+                    }
+                }
                 self.up_switches.push(t_switch);
                 if self.up_switches.len() == self.settle_periods + 1 {
                     phase = Some(MonitorState::Exciting);
@@ -210,9 +261,15 @@ impl HbtRun {
         }
         self.prev = Some((t, error_rad));
 
+        // Analyse once the last measured switch lies two samples inside the record, so the
+        // uniform analysis grid (which ends at or before the latest sample) covers it.
         let needed = self.settle_periods + self.measure_periods + 1;
-        if self.up_switches.len() >= needed {
-            let features = self.analyse(t, trim);
+        let covered = self
+            .up_switches
+            .get(needed - 1)
+            .is_some_and(|&ts| t >= ts + 2.0 * self.dt_s);
+        if covered {
+            let features = self.analyse(t, self.trim_rad());
             return Step {
                 mode: ExcitationMode::None,
                 value: 0.0,
@@ -232,14 +289,15 @@ impl HbtRun {
         }
         Step {
             mode: ExcitationMode::Replace,
-            value: trim + self.sign * self.h_rad,
+            value: self.trim_rad() + self.sign * self.h_rad,
             phase,
             done: None,
         }
     }
 
     fn analyse(&mut self, t_now: f64, trim: f64) -> Result<Features, String> {
-        let measured = &self.up_switches[self.settle_periods..];
+        let needed = self.settle_periods + self.measure_periods + 1;
+        let measured = &self.up_switches[self.settle_periods..needed];
         let first = measured.first().copied().unwrap_or(t_now);
         let t0 = (first - 2.0 * self.dt_s).max(self.relay_start_s.unwrap_or(first));
         let n = ((t_now - t0) / self.dt_s).floor() as usize + 1;
@@ -249,18 +307,24 @@ impl HbtRun {
         let cycle = analyse_limit_cycle(t0, self.dt_s, &self.scratch, measured)
             .map_err(|e| format!("analysis: {e}"))?;
         let a = cycle.amplitude_rad;
-        let ultimate_gain = if a > self.eps_rad {
-            4.0 * self.h_rad / (std::f64::consts::PI * (a * a - self.eps_rad * self.eps_rad).sqrt())
-        } else {
-            f64::NAN
-        };
+        if a <= self.eps_rad {
+            // A limit cycle through the hysteresis band cannot be smaller than the band.
+            return Err(format!(
+                "implausible limit cycle: amplitude {:.2} deg within the {:.2} deg hysteresis",
+                a.to_degrees(),
+                self.eps_rad.to_degrees()
+            ));
+        }
+        let ultimate_gain = 4.0 * self.h_rad
+            / (std::f64::consts::PI * (a * a - self.eps_rad * self.eps_rad).sqrt());
         Ok(Features::Hbt(HbtReport {
             cycle,
             ultimate_gain,
             relay_height_rad: self.h_rad,
             hysteresis_rad: self.eps_rad,
             trim_rad: trim,
-            min_switch_interval_s: self.min_switch_interval_s,
+            initial_trim_rad: self.initial_trim_rad,
+            min_switch_interval_s: self.shortest_switch_s,
             switches: self.switches,
         }))
     }

@@ -800,3 +800,31 @@ impl Monitor {
         }));
     }
 }
+
+impl Monitor {
+    /// The driver is stopping (daemon shutdown): stops any excitation and closes the books.
+    ///
+    /// Queues, in order: an excitation `none` at the last accepted heading's `t` (it supersedes
+    /// what the autopilot holds, so it reverts at once instead of after `hold_s`); then, if a
+    /// test is under way, its report (aborted with `reason`) and the idle status; otherwise an
+    /// idle status with `reason`. Call it once, drain [`Monitor::poll_output`], publish.
+    pub fn shutdown(&mut self, reason: &str) {
+        let t_heading = self.last_heading_t();
+        if let Some(t) = t_heading {
+            self.push_excitation(t, ExcitationMode::None, 0.0, None);
+        }
+        let t = t_heading
+            .or_else(|| {
+                Stream::ALL
+                    .into_iter()
+                    .filter_map(|s| self.latest.t(s))
+                    .reduce(f64::max)
+            })
+            .unwrap_or(0.0);
+        if self.run.is_some() {
+            self.finish(t, Err(reason.to_string()));
+        } else {
+            self.emit_status_for(t, MonitorState::Idle, None, None, Some(reason.to_string()));
+        }
+    }
+}

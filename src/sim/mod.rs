@@ -306,7 +306,7 @@ impl Ship {
         let course = deg(cfg.simulation.initial_course_deg);
         let (a, _) = cfg.ship.nomoto(scenario.speed_mps, scenario.displacement_t);
         let autopilot = Autopilot::new(
-            cfg.autopilot.gains(&cfg.ship),
+            cfg.autopilot.gains_at(&cfg.ship, scenario.speed_mps),
             cfg.autopilot.wave_filter_rad_s,
             max,
             course,

@@ -1,0 +1,308 @@
+//! The daemon and the simulated ship as separate Zenoh sessions on loopback (in one process),
+//! in lockstep: nominal runs, faults, a ship that disconnects, hostile samples in the streams.
+//! No timing is asserted: every wait is bounded and polls for an event.
+
+mod common;
+
+use common::{daemon_config, endpoint, ran_to_analysis, Observer};
+use helmwatch::config::Config;
+use helmwatch::daemon::Daemon;
+use helmwatch::net::loopback_peer;
+use helmwatch::shipnode::{ShipNode, ShipNodeOptions, ShipSummary};
+use helmwatch::sim::Scenario;
+use std::time::Duration;
+use tokio::task::JoinHandle;
+use tokio_util::sync::CancellationToken;
+
+const LIMIT: Duration = Duration::from_secs(120);
+
+/// A lockstep ship connected to `ep`, running until the returned token is cancelled.
+fn spawn_ship(
+    cfg: &Config,
+    scenario: &Scenario,
+    ep: &str,
+) -> (
+    CancellationToken,
+    JoinHandle<Result<ShipSummary, helmwatch::shipnode::ShipNodeError>>,
+) {
+    let mut opts = ShipNodeOptions::from_config(cfg);
+    opts.lockstep = true;
+    let node = ShipNode::new(cfg, scenario, opts).unwrap();
+    let stop = CancellationToken::new();
+    let s = stop.clone();
+    let zcfg = loopback_peer(&[], &[ep.to_string()]).unwrap();
+    let task = tokio::spawn(node.run(zcfg, async move { s.cancelled().await }));
+    (stop, task)
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn nominal_run_reports_arrive_with_features_and_no_alarm() {
+    let ep = endpoint();
+    let cfg = daemon_config();
+    let daemon = Daemon::start(&cfg, loopback_peer(&[ep.clone()], &[]).unwrap())
+        .await
+        .unwrap();
+    let obs = Observer::new(&ep, "self", false).await;
+    let (stop, ship) = spawn_ship(&cfg, &Scenario::nominal(&cfg, 7), &ep);
+
+    // The scheduler starts the first test (CLFRT) on the steady ship by itself.
+    let r1 = obs.wait_for("fdi/report", LIMIT, |_| true).await;
+    assert_eq!(r1["method"], "clfrt", "{r1}");
+    assert!(ran_to_analysis(&r1), "{r1}");
+    assert_ne!(r1["decision"], "fault", "{r1}");
+
+    // A bad trigger is refused with a reason; a good one starts an HBT test.
+    let bad = obs.trigger_once("zigzag").await.unwrap();
+    assert!(!bad.accepted && bad.reason.is_some(), "{bad:?}");
+    let reply = obs.trigger("hbt").await;
+    let id = reply.test.clone().unwrap();
+    let r2 = obs
+        .wait_for("fdi/report", LIMIT, |r| r["test"] == id.as_str())
+        .await;
+    assert_eq!(r2["method"], "hbt");
+    assert!(ran_to_analysis(&r2), "{r2}");
+    assert_ne!(r2["decision"], "fault", "{r2}");
+
+    // Status went through settling and back to idle for each test (the idle status follows
+    // the report: wait for the second one).
+    let idle = |s: &serde_json::Value| s["state"] == "idle";
+    for _ in 0..600 {
+        if obs.on("fdi/status").iter().filter(|s| idle(s)).count() >= 2 {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    let states: Vec<String> = obs
+        .on("fdi/status")
+        .iter()
+        .filter_map(|s| s["state"].as_str().map(String::from))
+        .collect();
+    assert!(
+        states.iter().filter(|s| *s == "settling").count() >= 2,
+        "{states:?}"
+    );
+    assert_eq!(
+        states.last().map(String::as_str),
+        Some("idle"),
+        "{states:?}"
+    );
+    // No alarm on the nominal ship.
+    for n in obs.on("notifications/steering/fdi") {
+        assert!(
+            n["state"] == "normal",
+            "no alarm on the nominal ship, got {n}"
+        );
+    }
+
+    stop.cancel();
+    let summary = ship.await.unwrap().unwrap();
+    assert_eq!(summary.excitation_timeouts, 0, "{summary:?}");
+    assert!(summary.excitations >= summary.ticks, "{summary:?}");
+    daemon.stop().await;
+    obs.close().await;
+}
+
+#[tokio::test(flavor = "multi_thread")]
+#[ignore = "needs the estimator (issue 4) and FDI (issue 5)"]
+async fn displacement_fault_raises_the_alarm() {
+    let ep = endpoint();
+    let mut cfg = daemon_config();
+    cfg.scheduler.enabled = false;
+    let daemon = Daemon::start(&cfg, loopback_peer(&[ep.clone()], &[]).unwrap())
+        .await
+        .unwrap();
+    let obs = Observer::new(&ep, "self", false).await;
+    let mut scenario = Scenario::nominal(&cfg, 11);
+    scenario.faults = vec!["displacement_pct:+30@0".parse().unwrap()];
+    let (stop, ship) = spawn_ship(&cfg, &scenario, &ep);
+
+    let mut fault_seen = false;
+    for method in ["clfrt", "hbt", "clfrt"] {
+        let id = obs.trigger(method).await.test.unwrap();
+        let r = obs
+            .wait_for("fdi/report", LIMIT, |r| r["test"] == id.as_str())
+            .await;
+        assert_eq!(r["outcome"], "completed", "{r}");
+        assert!(
+            r["estimate"]["displacement_t"].as_f64().unwrap() > 8000.0,
+            "{r}"
+        );
+        if r["decision"] == "fault" {
+            let isolation = r["isolation"].as_array().unwrap();
+            assert!(
+                isolation
+                    .iter()
+                    .any(|c| c == "displacement_or_rudder_effectiveness"),
+                "{r}"
+            );
+            fault_seen = true;
+            break;
+        }
+    }
+    assert!(
+        fault_seen,
+        "a 30 % displacement step must be declared a fault"
+    );
+    let n = obs
+        .wait_for("notifications/steering/fdi", LIMIT, |n| {
+            n["state"] != "normal"
+        })
+        .await;
+    assert!(n["state"] == "alarm" || n["state"] == "warn", "{n}");
+
+    stop.cancel();
+    ship.await.unwrap().unwrap();
+    daemon.stop().await;
+    obs.close().await;
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn ship_disconnecting_mid_test_aborts_the_test_with_a_report() {
+    let ep = endpoint();
+    let mut cfg = daemon_config();
+    cfg.scheduler.enabled = false;
+    let daemon = Daemon::start(&cfg, loopback_peer(&[ep.clone()], &[]).unwrap())
+        .await
+        .unwrap();
+    let obs = Observer::new(&ep, "self", false).await;
+    let (stop, ship) = spawn_ship(&cfg, &Scenario::nominal(&cfg, 3), &ep);
+
+    let id = obs.trigger("clfrt").await.test.unwrap();
+    obs.wait_for("fdi/status", LIMIT, |s| s["test"] == id.as_str())
+        .await;
+    // The ship goes away in the middle of the test.
+    stop.cancel();
+    ship.await.unwrap().unwrap();
+
+    let r = obs
+        .wait_for("fdi/report", LIMIT, |r| r["test"] == id.as_str())
+        .await;
+    assert_eq!(r["outcome"], "aborted", "{r}");
+    let reason = r["reason"].as_str().unwrap();
+    assert!(reason.contains("silent"), "{reason}");
+    assert!(r["estimate"].is_null(), "{r}");
+    let idle = obs
+        .wait_for("fdi/status", LIMIT, |s| {
+            s["state"] == "idle" && s["reason"].as_str().is_some_and(|x| x.contains("silent"))
+        })
+        .await;
+    assert!(idle["test"].is_null(), "{idle}");
+    daemon.stop().await;
+    obs.close().await;
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn malformed_nan_and_out_of_order_samples_are_counted_and_the_next_test_completes() {
+    let ep = endpoint();
+    let mut cfg = daemon_config();
+    cfg.scheduler.enabled = false;
+    let daemon = Daemon::start(&cfg, loopback_peer(&[ep.clone()], &[]).unwrap())
+        .await
+        .unwrap();
+    let obs = Observer::new(&ep, "self", false).await;
+    let (stop, ship) = spawn_ship(&cfg, &Scenario::nominal(&cfg, 5), &ep);
+
+    let id1 = obs.trigger("hbt").await.test.unwrap();
+    // Hostile samples from a third session while the test runs: not JSON, NaN (not valid
+    // JSON either), a missing field, and samples older than the streams' last ones.
+    let injector = zenoh::open(loopback_peer(&[], &[ep.clone()]).unwrap())
+        .await
+        .unwrap();
+    let heading = injector
+        .declare_publisher("vessels/self/navigation/headingTrue")
+        .await
+        .unwrap();
+    let rudder = injector
+        .declare_publisher("vessels/self/steering/rudderAngle")
+        .await
+        .unwrap();
+    assert!(helmwatch::net::wait_matching(&heading, LIMIT).await);
+    assert!(helmwatch::net::wait_matching(&rudder, LIMIT).await);
+    let malformed: [&[u8]; 4] = [
+        b"not json",
+        br#"{"t": NaN, "value": 1.0}"#,
+        br#"{"t": 5.0, "value": NaN}"#,
+        br#"{"t": 5.0}"#,
+    ];
+    for _ in 0..5 {
+        for m in malformed {
+            heading.put(m.to_vec()).await.unwrap();
+        }
+        heading
+            .put(br#"{"t": 0.5, "value": 1.0}"#.to_vec())
+            .await
+            .unwrap();
+        rudder
+            .put(br#"{"t": 0.5, "value": 0.01}"#.to_vec())
+            .await
+            .unwrap();
+    }
+    let stats = obs
+        .wait_for("fdi/stats", LIMIT, |s| {
+            s["inputs"]["heading"]["malformed"] == 20
+                && s["inputs"]["heading"]["out_of_order"] == 5
+                && s["inputs"]["rudder"]["out_of_order"] == 5
+        })
+        .await;
+    assert_eq!(stats["dropped"]["flood"], 0, "{stats}");
+
+    let r1 = obs
+        .wait_for("fdi/report", LIMIT, |r| r["test"] == id1.as_str())
+        .await;
+    assert!(ran_to_analysis(&r1), "{r1}");
+    // The next test runs to its end as well.
+    let id2 = obs.trigger("hbt").await.test.unwrap();
+    let r2 = obs
+        .wait_for("fdi/report", LIMIT, |r| r["test"] == id2.as_str())
+        .await;
+    assert!(ran_to_analysis(&r2), "{r2}");
+
+    heading.undeclare().await.unwrap();
+    rudder.undeclare().await.unwrap();
+    injector.close().await.unwrap();
+    stop.cancel();
+    ship.await.unwrap().unwrap();
+    let summaries = daemon.stop().await;
+    assert_eq!(
+        summaries[0].stats["inputs"]["heading"]["malformed"], 20,
+        "{:?}",
+        summaries[0].stats
+    );
+    obs.close().await;
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn a_fleet_daemon_answers_each_vessel_on_its_own_keys() {
+    let ep = endpoint();
+    let mut cfg = daemon_config();
+    cfg.scheduler.enabled = false;
+    cfg.daemon.vessels = vec!["alpha".into(), "bravo".into()];
+    let daemon = Daemon::start(&cfg, loopback_peer(&[ep.clone()], &[]).unwrap())
+        .await
+        .unwrap();
+    let obs = Observer::new(&ep, "bravo", false).await;
+    let mut ship_cfg = cfg.clone();
+    ship_cfg.simulation.vessel = "bravo".into();
+    let (stop, ship) = spawn_ship(&ship_cfg, &Scenario::nominal(&cfg, 2), &ep);
+    let reply = obs.trigger("hbt").await;
+    assert!(reply.test.unwrap().starts_with("bravo-hbt-"));
+    // alpha has no ship: its monitor refuses.
+    let r = obs
+        .session
+        .get("vessels/alpha/fdi/trigger?method=hbt")
+        .await
+        .unwrap()
+        .recv_async()
+        .await
+        .unwrap()
+        .into_result()
+        .unwrap();
+    let alpha: helmwatch::wire::TriggerReply =
+        serde_json::from_slice(&r.payload().to_bytes()).unwrap();
+    assert!(!alpha.accepted, "{alpha:?}");
+    assert_eq!(r.key_expr().as_str(), "vessels/alpha/fdi/trigger");
+    stop.cancel();
+    ship.await.unwrap().unwrap();
+    daemon.stop().await;
+    obs.close().await;
+}

@@ -1,0 +1,50 @@
+//! The deployment files stay loadable: the example `/etc/helmwatch/helmwatch.toml` passes the
+//! configuration checks, the Zenoh router configurations parse, and the systemd unit names
+//! the paths and the readiness protocol the daemon implements. (`systemd-analyze verify` runs
+//! in `.ci/run`.)
+
+use std::path::Path;
+
+fn deploy(name: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("deploy")
+        .join(name)
+}
+
+#[test]
+fn example_etc_config_is_valid_and_stays_on_loopback() {
+    let cfg = helmwatch::config::Config::from_file(&deploy("helmwatch.toml")).unwrap();
+    assert!(!cfg.zenoh.multicast_scouting);
+    for e in cfg.zenoh.listen.iter().chain(&cfg.zenoh.connect) {
+        assert!(e.starts_with("tcp/127.0.0.1:"), "{e}");
+    }
+    helmwatch::net::zenoh_config(&cfg.zenoh, &[], &[]).unwrap();
+}
+
+#[test]
+fn zenoh_router_configs_parse() {
+    for name in ["zenoh-router.json5", "zenoh-shore.json5"] {
+        let path = deploy(name);
+        if let Err(e) = zenoh::Config::from_file(&path) {
+            panic!("{name}: {e}");
+        }
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(text.contains("enable_mtls: true"), "{name}: mutual TLS");
+        assert!(text.contains("multicast: { enabled: false }"), "{name}");
+    }
+}
+
+#[test]
+fn unit_is_notify_with_watchdog_and_config_dir() {
+    let unit = std::fs::read_to_string(deploy("helmwatch.service")).unwrap();
+    for line in [
+        "Type=notify",
+        "WatchdogSec=",
+        "User=helmwatch",
+        "ConfigurationDirectory=helmwatch",
+        "RestartPreventExitStatus=78",
+        "ExecStart=/usr/local/bin/helmwatch --config /etc/helmwatch/helmwatch.toml run",
+    ] {
+        assert!(unit.lines().any(|l| l.starts_with(line)), "missing {line}");
+    }
+}
