@@ -10,6 +10,7 @@
 //! benchmarks all use it); [`run_probe`] runs one test after a warm-up and returns its report.
 
 use crate::config::{Config, Method};
+use crate::dsp::multisine::Multisine;
 use crate::estimator::Estimator;
 use crate::monitor::{Monitor, Output};
 use crate::sim::{Scenario, Ship, SimError};
@@ -46,22 +47,21 @@ pub struct Lockstep {
 impl Lockstep {
     /// A ship for `scenario` and a monitor for vessel `cfg.simulation.vessel`.
     pub fn new(cfg: &Config, scenario: &Scenario) -> Result<Self, SimError> {
-        Self::with_estimator(cfg, scenario, None)
+        Self::with_parts(cfg, scenario, None, None)
     }
 
-    /// As [`Lockstep::new`], the monitor carrying `estimator` when given.
-    pub fn with_estimator(
+    /// As [`Lockstep::new`], the monitor built by [`Monitor::with_parts`] from a designed
+    /// multisine and an estimator when given.
+    pub fn with_parts(
         cfg: &Config,
         scenario: &Scenario,
+        multisine: Option<Multisine>,
         estimator: Option<Arc<Estimator>>,
     ) -> Result<Self, SimError> {
         let vessel = &cfg.simulation.vessel;
         Ok(Self {
             ship: Ship::new(cfg, scenario)?,
-            monitor: match estimator {
-                Some(e) => Monitor::with_estimator(cfg, vessel, e),
-                None => Monitor::new(cfg, vessel),
-            },
+            monitor: Monitor::with_parts(cfg, vessel, multisine, estimator),
             inputs: Vec::with_capacity(8),
             rejected: 0,
         })
@@ -118,6 +118,9 @@ pub struct ProbeOptions {
     pub max_test_s: f64,
     /// Networks for the report's `estimate` (none: features only).
     pub estimator: Option<Arc<Estimator>>,
+    /// The CLFRT multisine from [`Monitor::design_multisine`] for this configuration, to
+    /// skip its design (~0.1 s) when running many probes (none: designed per run).
+    pub multisine: Option<Multisine>,
 }
 
 impl ProbeOptions {
@@ -128,6 +131,7 @@ impl ProbeOptions {
             warmup_s: 600.0,
             max_test_s: cfg.safety.max_test_duration_s + 120.0,
             estimator: None,
+            multisine: None,
         }
     }
 }
@@ -152,7 +156,12 @@ pub fn run_probe(
 ) -> Result<ProbeResult, ProbeError> {
     let mut cfg = cfg.clone();
     cfg.scheduler.enabled = false;
-    let mut ls = Lockstep::with_estimator(&cfg, scenario, opts.estimator.clone())?;
+    let mut ls = Lockstep::with_parts(
+        &cfg,
+        scenario,
+        opts.multisine.clone(),
+        opts.estimator.clone(),
+    )?;
     let mut out = Vec::new();
     let t0 = ls.time_s();
     ls.run_until(t0 + opts.warmup_s, &mut out);

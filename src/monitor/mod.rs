@@ -51,6 +51,7 @@ pub mod record;
 
 use crate::angle::wrap_pi;
 use crate::config::{Config, Method};
+use crate::dsp::multisine::Multisine;
 use crate::estimator::features::SPEED_LOG_FIELD;
 use crate::estimator::{Estimator, EstimatorScratch};
 use crate::wire::{
@@ -198,6 +199,51 @@ pub struct Monitor {
 impl Monitor {
     /// A monitor for `vessel` with a checked configuration.
     pub fn new(cfg: &Config, vessel: &str) -> Self {
+        Self::with_parts(cfg, vessel, None, None)
+    }
+
+    /// The CLFRT multisine of `cfg` (a seeded phase optimisation, ~0.1 s of CPU).
+    pub fn design_multisine(cfg: &Config) -> Result<Multisine, String> {
+        Multisine::design(
+            cfg.clfrt.window_s,
+            &cfg.clfrt.harmonics,
+            cfg.clfrt.amplitude_rad(),
+            cfg.clfrt.phase_seed,
+        )
+        .map_err(|e| format!("multisine design failed: {e}"))
+    }
+
+    /// A monitor whose completed tests carry an `estimate` from `estimator` (validated for
+    /// `cfg`, e.g. by [`Estimator::load_dir`] or [`Estimator::embedded`]).
+    pub fn with_estimator(cfg: &Config, vessel: &str, estimator: Arc<Estimator>) -> Self {
+        Self::with_parts(cfg, vessel, None, Some(estimator))
+    }
+
+    /// A monitor built from parts prepared once for many monitors of one configuration (the
+    /// training database runs thousands): `multisine` from [`Monitor::design_multisine`]`(cfg)`
+    /// (designed here when `None`, or when its window, harmonics or amplitude differ from
+    /// `cfg`'s), and an optional estimator.
+    pub fn with_parts(
+        cfg: &Config,
+        vessel: &str,
+        multisine: Option<Multisine>,
+        estimator: Option<Arc<Estimator>>,
+    ) -> Self {
+        let c = &cfg.clfrt;
+        let multisine = match multisine {
+            Some(ms)
+                if ms.window_s() == c.window_s
+                    && ms.harmonics() == c.harmonics.as_slice()
+                    && ms.amplitude_rad() == c.amplitude_rad() =>
+            {
+                Ok(ms)
+            }
+            _ => Self::design_multisine(cfg),
+        };
+        let estimator = estimator.map(|e| {
+            let scratch = e.scratch();
+            (e, scratch)
+        });
         Self {
             limits: Limits {
                 max_rudder_rad: cfg.input.max_rudder_deg.to_radians(),
@@ -218,24 +264,9 @@ impl Monitor {
             outputs: VecDeque::new(),
             status: MonitorState::Idle,
             last_excitation: None,
-            multisine: crate::dsp::multisine::Multisine::design(
-                cfg.clfrt.window_s,
-                &cfg.clfrt.harmonics,
-                cfg.clfrt.amplitude_rad(),
-                cfg.clfrt.phase_seed,
-            )
-            .map_err(|e| format!("multisine design failed: {e}")),
-            estimator: None,
+            multisine,
+            estimator,
         }
-    }
-
-    /// A monitor whose completed tests carry an `estimate` from `estimator` (validated for
-    /// `cfg`, e.g. by [`Estimator::load_dir`] or [`Estimator::embedded`]).
-    pub fn with_estimator(cfg: &Config, vessel: &str, estimator: Arc<Estimator>) -> Self {
-        let mut m = Self::new(cfg, vessel);
-        let scratch = estimator.scratch();
-        m.estimator = Some((estimator, scratch));
-        m
     }
 
     /// The vessel this monitor watches.
