@@ -5,10 +5,15 @@
 //! 78 configuration error.
 
 use crate::config::{Config, ConfigError, Method, SeaState};
+use crate::estimator::cli::{
+    EvalOptions, TrainOptions, DEFAULT_EVAL_POINTS, DEFAULT_RESTARTS, DEFAULT_TRAIN_POINTS,
+};
+use crate::estimator::Estimator;
 use crate::probe::{run_probe, ProbeOptions};
 use crate::sim::{Fault, Scenario};
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
+use std::sync::Arc;
 
 /// Exit code: success.
 pub const EX_OK: i32 = 0;
@@ -61,6 +66,51 @@ enum Command {
     Replay(ReplayArgs),
     /// Print the daemon's benchmark figures (lockstep speed, vessels kept up with, memory).
     Bench(BenchArgs),
+    /// Regenerate the training database and every estimator model (bit for bit per seed).
+    Train(TrainArgs),
+    /// Evaluate the models on a held-out database: accuracy tables, durations, drift.
+    Eval(EvalArgs),
+}
+
+#[derive(Debug, Args)]
+struct TrainArgs {
+    /// Seed of the database (design, simulations, split) and of the training restarts.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Directory for the model files (Levenberg-Marquardt; Fletcher-Reeves in `traincgf/`).
+    #[arg(long, default_value = "models")]
+    out: PathBuf,
+    /// Latin-hypercube points per sea state.
+    #[arg(long, default_value_t = DEFAULT_TRAIN_POINTS)]
+    points: usize,
+    /// Seeded restarts per network and trainer.
+    #[arg(long, default_value_t = DEFAULT_RESTARTS)]
+    restarts: usize,
+    /// Worker threads (default: every core).
+    #[arg(long)]
+    threads: Option<usize>,
+}
+
+#[derive(Debug, Args)]
+struct EvalArgs {
+    /// Seed of the held-out database (drawn on other random streams than training's).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Directory of the model files (Levenberg-Marquardt; Fletcher-Reeves in `traincgf/`).
+    #[arg(long, default_value = "models")]
+    models: PathBuf,
+    /// Held-out points per sea state.
+    #[arg(long, default_value_t = DEFAULT_EVAL_POINTS)]
+    points: usize,
+    /// Also run every held-out test with a heading drift of 1 deg/min and compare.
+    #[arg(long)]
+    drift: bool,
+    /// Skip the accuracy-against-test-length table.
+    #[arg(long)]
+    no_lengths: bool,
+    /// Worker threads (default: every core).
+    #[arg(long)]
+    threads: Option<usize>,
 }
 
 #[derive(Debug, Args)]
@@ -179,6 +229,9 @@ struct SimulateArgs {
 struct ProbeArgs {
     #[command(flatten)]
     ship: ShipArgs,
+    /// Directory of the estimator's model files (default: the models embedded in the binary).
+    #[arg(long, value_name = "DIR")]
+    models: Option<PathBuf>,
     /// Test method.
     #[arg(long, default_value = "clfrt")]
     method: Method,
@@ -215,6 +268,8 @@ pub fn main() -> i32 {
         Command::Demo(a) => demo(&cfg, a),
         Command::Replay(a) => replay(&cfg, a),
         Command::Bench(a) => bench(&cfg, a),
+        Command::Train(a) => crate::estimator::cli::train(&cfg, &a.into()),
+        Command::Eval(a) => crate::estimator::cli::eval(&cfg, &a.into()),
     };
     match result {
         Ok(()) => EX_OK,
@@ -226,19 +281,24 @@ pub fn main() -> i32 {
 }
 
 /// An error at the binary's edge, with its exit code.
-struct Failure {
-    error: anyhow::Error,
-    code: i32,
+pub(crate) struct Failure {
+    pub(crate) error: anyhow::Error,
+    pub(crate) code: i32,
 }
 
-fn fail(code: i32) -> impl FnOnce(anyhow::Error) -> Failure {
+pub(crate) fn fail(code: i32) -> impl FnOnce(anyhow::Error) -> Failure {
     move |error| Failure { error, code }
 }
 
 fn init_logging() {
     // The demo prints to standard output; its default log level keeps standard error quiet.
-    let quiet = std::env::args().nth(1).is_some_and(|a| a == "demo");
-    let default = if quiet { "error" } else { "info,zenoh=warn" };
+    // `train` and `eval` run thousands of tests: the core's per-test lines would drown their
+    // tables.
+    let default = match std::env::args().nth(1).as_deref() {
+        Some("demo") => "error",
+        Some("train" | "eval") => "warn,helmwatch::monitor=error",
+        _ => "info,zenoh=warn",
+    };
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
     let _ = tracing_subscriber::fmt()
@@ -307,7 +367,18 @@ fn simulate(cfg: &Config, a: SimulateArgs) -> Result<(), Failure> {
 
 fn probe(cfg: &Config, a: ProbeArgs) -> Result<(), Failure> {
     let sc = scenario(cfg, &a.ship)?;
-    let opts = ProbeOptions::new(cfg, a.method);
+    let mut opts = ProbeOptions::new(cfg, a.method);
+    let loaded = match &a.models {
+        Some(dir) => Estimator::load_dir(dir, cfg),
+        None => Estimator::embedded(cfg),
+    };
+    match loaded {
+        Ok(e) => opts.estimator = Some(Arc::new(e)),
+        Err(e) => {
+            tracing::warn!("no estimate: {e}");
+            eprintln!("helmwatch: no estimate: {e}");
+        }
+    }
     let result = run_probe(cfg, &sc, &opts).map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
     let r = &result.report;
     if a.json {
@@ -325,9 +396,24 @@ fn probe(cfg: &Config, a: ProbeArgs) -> Result<(), Failure> {
             println!("  reason: {reason}");
         }
         print_features(&r.features);
+        print_estimate(r);
         println!("  decision: {:?}; {}", r.decision, r.message);
     }
     Ok(())
+}
+
+fn print_estimate(r: &crate::wire::Report) {
+    if let Some(e) = &r.estimate {
+        println!(
+            "  estimate: speed {:.2} m/s, displacement {:.0} t (speed log {:.2} m/s)",
+            e.speed_mps,
+            e.displacement_t,
+            r.features
+                .get(crate::estimator::features::SPEED_LOG_FIELD)
+                .and_then(|v| v.as_f64())
+                .unwrap_or(f64::NAN)
+        );
+    }
 }
 
 fn print_features(f: &serde_json::Value) {
@@ -407,7 +493,7 @@ fn run_daemon(cfg: &Config, a: RunArgs) -> Result<(), Failure> {
     rt.block_on(async {
         let daemon = Daemon::start(cfg, zcfg).await.map_err(|e| {
             let code = match e {
-                DaemonError::Config(_) => EX_CONFIG,
+                DaemonError::Config(_) | DaemonError::Estimator(_) => EX_CONFIG,
                 DaemonError::Open(_) => EX_UNAVAILABLE,
                 DaemonError::Declare { .. } => EX_SOFTWARE,
             };
@@ -659,4 +745,29 @@ fn cli_config_path() -> Option<PathBuf> {
         }
     }
     None
+}
+
+impl From<TrainArgs> for TrainOptions {
+    fn from(a: TrainArgs) -> Self {
+        Self {
+            seed: a.seed,
+            out: a.out,
+            points: a.points,
+            restarts: a.restarts,
+            threads: a.threads,
+        }
+    }
+}
+
+impl From<EvalArgs> for EvalOptions {
+    fn from(a: EvalArgs) -> Self {
+        Self {
+            seed: a.seed,
+            models: a.models,
+            points: a.points,
+            drift: a.drift,
+            lengths: !a.no_lengths,
+            threads: a.threads,
+        }
+    }
 }

@@ -27,6 +27,9 @@ pub enum ReplayError {
     /// Reading the recording failed.
     #[error("reading the recording: {0}")]
     Io(#[from] std::io::Error),
+    /// The estimator's model files are missing, invalid, or not for this configuration.
+    #[error(transparent)]
+    Estimator(#[from] crate::estimator::model::ModelError),
     /// More vessels than [`MAX_VESSELS`].
     #[error("more than {MAX_VESSELS} vessels in the recording")]
     TooManyVessels,
@@ -56,6 +59,7 @@ pub fn replay(
     reader: impl BufRead,
     mut on_output: impl FnMut(&str, &Output),
 ) -> Result<ReplaySummary, ReplayError> {
+    let estimator = crate::estimator::Estimator::from_config(cfg)?;
     let mut cores: HashMap<String, (Keys, Monitor)> = HashMap::new();
     let mut sum = ReplaySummary::default();
     for line in reader.lines() {
@@ -87,7 +91,10 @@ pub fn replay(
             }
             cores.insert(
                 vessel.to_string(),
-                (Keys::new(vessel), Monitor::new(cfg, vessel)),
+                (
+                    Keys::new(vessel),
+                    Monitor::with_parts(cfg, vessel, None, estimator.clone()),
+                ),
             );
         }
         let Some((keys, monitor)) = cores.get_mut(vessel) else {

@@ -48,6 +48,9 @@ pub enum DaemonError {
     /// The configuration breaks a limit.
     #[error(transparent)]
     Config(#[from] ConfigError),
+    /// The estimator's model files are missing, invalid, or not for this configuration.
+    #[error(transparent)]
+    Estimator(#[from] crate::estimator::model::ModelError),
     /// The Zenoh session could not be opened (bad endpoint, port in use...).
     #[error("cannot open the Zenoh session: {0}")]
     Open(String),
@@ -187,6 +190,7 @@ impl Daemon {
     /// Opens the session and declares everything; the daemon is ready when this returns.
     pub async fn start(cfg: &Config, zcfg: zenoh::Config) -> Result<Daemon, DaemonError> {
         cfg.check()?;
+        let estimator = crate::estimator::Estimator::from_config(cfg)?;
         let session = zenoh::open(zcfg)
             .await
             .map_err(|e| DaemonError::Open(e.to_string()))?;
@@ -207,7 +211,7 @@ impl Daemon {
             let trigger_key = KeyExpr::try_from(keys.trigger())
                 .map_err(DaemonError::declare("trigger key", name))?;
             let task = VesselTask {
-                monitor: Monitor::new(cfg, name),
+                monitor: Monitor::with_parts(cfg, name, None, estimator.clone()),
                 name: name.clone(),
                 rx,
                 pubs,

@@ -210,22 +210,28 @@ fn slot_seed(seed: u64, slot: usize) -> u64 {
     seed ^ (0xA5A5_0000_0000_0000u64.wrapping_add(slot as u64 * 0x1_0001))
 }
 
-/// Trains every slot with every trainer. Returns, per trainer (in order), the four models in
-/// [`SLOTS`] order.
+/// Trains every slot whose method the database holds, with every trainer. Returns, per
+/// trainer (in order), the models in [`SLOTS`] order (all four for a database of both
+/// methods).
 pub fn build_models(
     cfg: &Config,
     db: &Database,
     settings: &BuildSettings,
     trainers: &[Trainer],
 ) -> Result<Vec<Vec<Model>>, BuildError> {
-    let data: Vec<SlotData> = SLOTS
+    let slots: Vec<(Method, Target)> = SLOTS
+        .iter()
+        .copied()
+        .filter(|(m, _)| db.spec.methods.contains(m))
+        .collect();
+    let data: Vec<SlotData> = slots
         .iter()
         .map(|&(m, t)| slot_data(cfg, db, m, t, settings))
         .collect::<Result<_, _>>()?;
     let restarts = settings.restarts.max(1);
     // Jobs (trainer, slot, restart) in a fixed order; workers take the next free one.
     let jobs: Vec<(usize, usize, usize)> = (0..trainers.len())
-        .flat_map(|k| (0..SLOTS.len()).flat_map(move |s| (0..restarts).map(move |r| (k, s, r))))
+        .flat_map(|k| (0..slots.len()).flat_map(move |s| (0..restarts).map(move |r| (k, s, r))))
         .collect();
     let results = par_map(jobs.len(), settings.threads, |j| {
         let (k, s, r) = jobs[j];
@@ -234,15 +240,15 @@ pub fn build_models(
             &d.sets[0],
             &d.sets[1],
             &trainers[k],
-            slot_seed(settings.seed, s),
+            slot_seed(settings.seed, super::slot_index(slots[s].0, slots[s].1)),
             r,
         )
     });
     let mut results = results.into_iter();
     let mut out = Vec::with_capacity(trainers.len());
     for trainer in trainers {
-        let mut models = Vec::with_capacity(SLOTS.len());
-        for (s, &(method, target)) in SLOTS.iter().enumerate() {
+        let mut models = Vec::with_capacity(slots.len());
+        for (s, &(method, target)) in slots.iter().enumerate() {
             let runs = results
                 .by_ref()
                 .take(restarts)

@@ -27,6 +27,8 @@
 //! with its reason and left out of training.
 
 use crate::config::{Config, Method, SeaState};
+use crate::dsp::multisine::Multisine;
+use crate::monitor::Monitor;
 use crate::probe::{run_probe, ProbeOptions};
 use crate::sim::{Fault, Scenario};
 use crate::wire::Outcome;
@@ -169,8 +171,15 @@ pub fn default_threads() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
 }
 
-/// One test at one point, through the probe (no estimator: features only).
-pub fn run_point(cfg: &Config, point: &Point, method: Method, faults: &[Fault]) -> TestRun {
+/// One test at one point, through the probe (no estimator: features only). `multisine`:
+/// the configuration's designed multisine, to skip its design ([`Monitor::design_multisine`]).
+pub fn run_point(
+    cfg: &Config,
+    point: &Point,
+    method: Method,
+    faults: &[Fault],
+    multisine: Option<&Multisine>,
+) -> TestRun {
     let sc = Scenario {
         speed_mps: point.speed_mps,
         displacement_t: point.displacement_t,
@@ -178,7 +187,8 @@ pub fn run_point(cfg: &Config, point: &Point, method: Method, faults: &[Fault]) 
         faults: faults.to_vec(),
         seed: point.seed,
     };
-    let opts = ProbeOptions::new(cfg, method);
+    let mut opts = ProbeOptions::new(cfg, method);
+    opts.multisine = multisine.cloned();
     match run_probe(cfg, &sc, &opts) {
         Ok(res) => {
             let r = res.report;
@@ -212,6 +222,7 @@ pub fn simulate(
     let n_methods = spec.methods.len();
     let total = n_points * n_methods;
     let done = AtomicUsize::new(0);
+    let multisine = Monitor::design_multisine(cfg).ok();
     // Job j: point j / n_methods, method j % n_methods (both methods of a point together).
     let flat = par_map(total, threads, |j| {
         let run = run_point(
@@ -219,6 +230,7 @@ pub fn simulate(
             &points[j / n_methods],
             spec.methods[j % n_methods],
             &spec.faults,
+            multisine.as_ref(),
         );
         let d = done.fetch_add(1, Ordering::Relaxed) + 1;
         progress(d, total);

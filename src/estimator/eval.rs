@@ -18,7 +18,6 @@
 use super::database::Database;
 use super::model::{Model, Target};
 use super::nn::Scratch;
-use super::{slot_index, SLOTS};
 use crate::config::{Method, SeaState};
 use std::fmt::Write as _;
 
@@ -68,15 +67,13 @@ pub struct Cell {
     pub bias: f64,
 }
 
-/// Accuracy of four models (in [`SLOTS`] order) on every sea state of `db`, in the order
-/// (slot, sea state of the database).
+/// Accuracy of each model on every sea state of `db`, in the order (model, sea state of the
+/// database).
 pub fn accuracy(models: &[Model], db: &Database) -> Vec<Cell> {
     let mut cells = Vec::new();
     let mut x = Vec::new();
-    for &(method, target) in &SLOTS {
-        let Some(model) = models.get(slot_index(method, target)) else {
-            continue;
-        };
+    for model in models {
+        let (method, target) = (model.file.method, model.file.target);
         let mut s = Scratch::new(model.inputs.len());
         let (y_min, y_max) = (model.scaling.y_min, model.scaling.y_max);
         let h = 0.5 * (y_max - y_min);
@@ -263,7 +260,7 @@ mod tests {
                 }])
                 .collect()],
         };
-        let models = vec![model.clone(), model.clone(), model.clone(), model.clone()];
+        let models = vec![model.clone()];
         let cells = accuracy(&models, &db);
         let c = find(&cells, Method::Clfrt, SeaState::Calm, Target::Displacement).unwrap();
         let mut x = Vec::new();

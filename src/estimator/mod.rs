@@ -26,12 +26,14 @@
 //! | [`database`] | the training database: Latin hypercube over (u, D), sea states, probes on every core |
 //! | [`build`] | database to trained model files (split, scaling, restarts in parallel, records) |
 //! | [`eval`] | accuracy on a held-out database: per method, sea state and parameter |
+//! | [`cli`] | the `helmwatch train` and `helmwatch eval` subcommands |
 //!
 //! [`Estimator`] holds the four validated models for one configuration; the monitor core
 //! calls [`Estimator::estimate`] when a test completes. The default models are embedded in the
 //! binary ([`Estimator::embedded`]) so that it runs without the repository.
 
 pub mod build;
+pub mod cli;
 pub mod database;
 pub mod eval;
 pub mod features;
@@ -45,6 +47,27 @@ use features::{Feature, FeatureError};
 use model::{Model, ModelError, Target};
 use nn::Scratch;
 use std::path::Path;
+use std::sync::Arc;
+
+/// The shipped models, embedded at build time: `(file name, text)`.
+pub const EMBEDDED_MODELS: [(&str, &str); 4] = [
+    (
+        "clfrt_speed.json",
+        include_str!("../../models/clfrt_speed.json"),
+    ),
+    (
+        "clfrt_displacement.json",
+        include_str!("../../models/clfrt_displacement.json"),
+    ),
+    (
+        "hbt_speed.json",
+        include_str!("../../models/hbt_speed.json"),
+    ),
+    (
+        "hbt_displacement.json",
+        include_str!("../../models/hbt_displacement.json"),
+    ),
+];
 
 /// The slots in their fixed order.
 pub const SLOTS: [(Method, Target); 4] = [
@@ -123,6 +146,31 @@ impl Estimator {
         Self::from_models(models, cfg)
     }
 
+    /// The models embedded in the binary ([`EMBEDDED_MODELS`]), validated against `cfg`.
+    pub fn embedded(cfg: &Config) -> Result<Self, ModelError> {
+        let models = EMBEDDED_MODELS
+            .iter()
+            .map(|(name, text)| {
+                let name = format!("(embedded) models/{name}");
+                Model::from_json(text, &name).map(|m| (name, m))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Self::from_models(models, cfg)
+    }
+
+    /// The estimator `cfg` asks for: none when `estimator.enabled` is false, else the models
+    /// of `estimator.models-dir`, or the embedded ones when it is absent, validated for `cfg`.
+    pub fn from_config(cfg: &Config) -> Result<Option<Arc<Self>>, ModelError> {
+        if !cfg.estimator.enabled {
+            return Ok(None);
+        }
+        let e = match &cfg.estimator.models_dir {
+            Some(dir) => Self::load_dir(Path::new(dir), cfg)?,
+            None => Self::embedded(cfg)?,
+        };
+        Ok(Some(Arc::new(e)))
+    }
+
     /// The model of a slot.
     pub fn model(&self, method: Method, target: Target) -> &Model {
         &self.models[slot_index(method, target)]
@@ -176,6 +224,21 @@ mod tests {
     fn slots_are_consistent() {
         for (i, &(m, t)) in SLOTS.iter().enumerate() {
             assert_eq!(slot_index(m, t), i);
+            assert_eq!(EMBEDDED_MODELS[i].0, t.file_name(m));
         }
+    }
+
+    #[test]
+    fn embedded_models_load_for_the_default_configuration() {
+        let cfg = Config::default();
+        let est = Estimator::embedded(&cfg).unwrap();
+        for (m, t) in SLOTS {
+            assert_eq!(est.model(m, t).file.method, m);
+        }
+        // Another test design must be refused.
+        let mut other = cfg;
+        other.hbt.relay_height_deg += 1.0;
+        let e = Estimator::embedded(&other).unwrap_err().to_string();
+        assert!(e.contains("hbt") && e.contains("another design"), "{e}");
     }
 }
