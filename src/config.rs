@@ -127,6 +127,8 @@ pub struct Config {
     pub zenoh: ZenohConfig,
     /// The simulated ship as a Zenoh peer (`helmwatch ship`).
     pub ship_peer: ShipPeerConfig,
+    /// The neural estimator's models (speed and displacement from the features).
+    pub estimator: EstimatorConfig,
 }
 
 impl Config {
@@ -162,6 +164,45 @@ impl Config {
         self.daemon.check()?;
         self.zenoh.check("zenoh")?;
         self.ship_peer.check()?;
+        self.estimator.check()?;
+        Ok(())
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Estimator
+
+/// Where the estimator's model files come from (see `crate::estimator`).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
+pub struct EstimatorConfig {
+    /// Attach the estimator to the monitor cores: completed tests carry an `estimate`.
+    pub enabled: bool,
+    /// Directory of the model files (`clfrt_speed.json`, ...); absent: the models embedded in
+    /// the binary (those of the repository's `models/` at build time).
+    pub models_dir: Option<String>,
+}
+
+impl Default for EstimatorConfig {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            models_dir: None,
+        }
+    }
+}
+
+impl EstimatorConfig {
+    fn check(&self) -> Result<(), ConfigError> {
+        if let Some(d) = &self.models_dir {
+            if d.is_empty() {
+                return Err(fail(
+                    "estimator.models-dir",
+                    "\"\"",
+                    "a directory path (leave the key out for the embedded models)",
+                ));
+            }
+        }
         Ok(())
     }
 }
@@ -806,12 +847,12 @@ pub struct HbtConfig {
 impl Default for HbtConfig {
     fn default() -> Self {
         Self {
-            relay_height_deg: 5.0,
+            relay_height_deg: 8.0,
             hysteresis_deg: 1.0,
             trim_window_s: 60.0,
-            settle_periods: 2,
-            measure_periods: 3,
-            timeout_s: 2400.0,
+            settle_periods: 1,
+            measure_periods: 4,
+            timeout_s: 1740.0,
             bias_adaptation: 0.5,
             min_switch_interval_s: 10.0,
         }
@@ -868,9 +909,9 @@ pub struct ClfrtConfig {
 impl Default for ClfrtConfig {
     fn default() -> Self {
         Self {
-            window_s: 600.0,
+            window_s: 590.0,
             harmonics: vec![3, 7, 17],
-            amplitude_deg: 2.0,
+            amplitude_deg: 4.0,
             settle_windows: 1,
             measure_windows: 2,
             fade_s: 30.0,
@@ -956,7 +997,7 @@ impl Default for SafetyConfig {
             stream_timeout_s: 2.0,
             max_speed_change_mps: 0.5,
             hold_s: 1.0,
-            max_test_duration_s: 3000.0,
+            max_test_duration_s: 1800.0,
         }
     }
 }

@@ -250,7 +250,15 @@ async fn malformed_nan_and_out_of_order_samples_are_counted_and_the_next_test_co
         .wait_for("fdi/report", LIMIT, |r| r["test"] == id1.as_str())
         .await;
     assert!(ran_to_analysis(&r1), "{r1}");
-    // The next test runs to its end as well.
+    // The next test runs to its end as well. It starts once the autopilot has taken the ship
+    // back (300 s of ship time, as the scheduler's steady-course wait would): right after a
+    // relay test the autopilot's answer to the limit cycle swings the rudder towards its
+    // limit, and a test started then aborts on rudder saturation.
+    let t_back = r1["t_end"].as_f64().unwrap() + 300.0;
+    obs.wait_for("fdi/stats", LIMIT, |s| {
+        s["t"].as_f64().is_some_and(|t| t >= t_back)
+    })
+    .await;
     let id2 = obs.trigger("hbt").await.test.unwrap();
     let r2 = obs
         .wait_for("fdi/report", LIMIT, |r| r["test"] == id2.as_str())
