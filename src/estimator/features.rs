@@ -8,6 +8,7 @@
 //! | `phase_<k>_rad` | `arg G(j w_k)`, in (-2 pi, 0] (dsp convention: no wrap near -180 deg) | rad | CLFRT |
 //! | `ln_omega_u` | `ln w_u`, limit-cycle frequency | ln(rad/s) | HBT |
 //! | `ln_amplitude` | `ln a_u`, first-harmonic heading amplitude | ln(rad) | HBT |
+//! | `period_cv` | `period_std_s / period_s`, relative spread of the measured periods | 1 | HBT |
 //! | `speed_log_mps` | mean speed-log reading over the test (report field `speed_log_mps`) | m/s | both |
 //!
 //! Why these (DOMAIN.md, the ship `G(s) = b / (s (s + a))`, `a = a0 u / l`,
@@ -15,7 +16,11 @@
 //! where `w ~ a` (0.008 .. 0.021 rad/s); the gain `b / (w sqrt(w^2 + a^2))` tends to `b / w^2`
 //! at the upper tones, and `b` given the speed carries displacement. Logarithms turn the
 //! power laws into sums, which a small tanh network fits with less curvature. For HBT the
-//! period follows `a` (speed) and the amplitude `b / a^2` (displacement).
+//! period follows `a` (speed) and the amplitude `b / a^2` (displacement); but the sea moves
+//! the relay's switching instants, which shifts the period and the amplitude (a calm-sea
+//! test read by a network that cannot tell the sea state was 0.14 m/s slow on average), and
+//! spreads the periods: `period_cv` tells the network how rough the test was (calm-sea speed
+//! MSE 0.0045 -> 0.0025 with it).
 //!
 //! The speed network sees the test's features only; the displacement network sees them and
 //! the measured speed (`speed_log_mps`): speed from the features alone is poorly conditioned,
@@ -65,6 +70,8 @@ pub enum Feature {
     LnAmplitude,
     /// `speed_log_mps`: mean speed-log reading over the test [m/s].
     SpeedLog,
+    /// `period_cv`: relative spread of the limit-cycle periods, `period_std_s / period_s`.
+    PeriodCv,
 }
 
 impl fmt::Display for Feature {
@@ -75,6 +82,7 @@ impl fmt::Display for Feature {
             Feature::LnOmegaU => f.write_str("ln_omega_u"),
             Feature::LnAmplitude => f.write_str("ln_amplitude"),
             Feature::SpeedLog => f.write_str("speed_log_mps"),
+            Feature::PeriodCv => f.write_str("period_cv"),
         }
     }
 }
@@ -88,6 +96,7 @@ impl std::str::FromStr for Feature {
             "ln_omega_u" => Ok(Feature::LnOmegaU),
             "ln_amplitude" => Ok(Feature::LnAmplitude),
             "speed_log_mps" => Ok(Feature::SpeedLog),
+            "period_cv" => Ok(Feature::PeriodCv),
             _ => {
                 if let Some(k) = s.strip_prefix("ln_gain_") {
                     tone(k).map(Feature::LnGain).ok_or_else(unknown)
@@ -112,7 +121,7 @@ impl Feature {
     pub fn belongs_to(&self, method: Method) -> bool {
         match self {
             Feature::LnGain(_) | Feature::Phase(_) => method == Method::Clfrt,
-            Feature::LnOmegaU | Feature::LnAmplitude => method == Method::Hbt,
+            Feature::LnOmegaU | Feature::LnAmplitude | Feature::PeriodCv => method == Method::Hbt,
             Feature::SpeedLog => true,
         }
     }
@@ -134,6 +143,11 @@ impl Feature {
             Feature::LnOmegaU => (field(features, "omega_u_rad_s").ok_or_else(missing)?, true),
             Feature::LnAmplitude => (field(features, "amplitude_rad").ok_or_else(missing)?, true),
             Feature::SpeedLog => (field(features, SPEED_LOG_FIELD).ok_or_else(missing)?, false),
+            Feature::PeriodCv => {
+                let p = field(features, "period_s").ok_or_else(missing)?;
+                let sd = field(features, "period_std_s").ok_or_else(missing)?;
+                (sd / p, false)
+            }
         };
         let v = if log {
             if raw > 0.0 {
@@ -174,13 +188,13 @@ pub fn parse_names(method: Method, names: &[String]) -> Result<Vec<Feature>, Fea
 }
 
 /// The inputs of the speed network of `method`, for a CLFRT design with `n_tones` tones:
-/// CLFRT `ln_gain_k, phase_k_rad` for each tone; HBT `ln_omega_u, ln_amplitude`.
+/// CLFRT `ln_gain_k, phase_k_rad` for each tone; HBT `ln_omega_u, ln_amplitude, period_cv`.
 pub fn speed_inputs(method: Method, n_tones: usize) -> Vec<Feature> {
     match method {
         Method::Clfrt => (1..=n_tones)
             .flat_map(|k| [Feature::LnGain(k), Feature::Phase(k)])
             .collect(),
-        Method::Hbt => vec![Feature::LnOmegaU, Feature::LnAmplitude],
+        Method::Hbt => vec![Feature::LnOmegaU, Feature::LnAmplitude, Feature::PeriodCv],
     }
 }
 
@@ -229,6 +243,7 @@ mod tests {
             Feature::LnOmegaU,
             Feature::LnAmplitude,
             Feature::SpeedLog,
+            Feature::PeriodCv,
         ] {
             assert_eq!(f.to_string().parse::<Feature>().unwrap(), f);
         }
@@ -265,10 +280,16 @@ mod tests {
 
     #[test]
     fn hbt_values_are_read_by_name() {
-        let f = json!({"omega_u_rad_s": 0.035, "amplitude_rad": 0.05, "speed_log_mps": 7.0});
+        let f = json!({
+            "omega_u_rad_s": 0.035,
+            "amplitude_rad": 0.05,
+            "period_s": 180.0,
+            "period_std_s": 3.6,
+            "speed_log_mps": 7.0
+        });
         let mut out = Vec::new();
-        extract_into(&speed_inputs(Method::Hbt, 0), &f, &mut out).unwrap();
-        assert_eq!(out, vec![0.035f64.ln(), 0.05f64.ln()]);
+        extract_into(&displacement_inputs(Method::Hbt, 0), &f, &mut out).unwrap();
+        assert_eq!(out, vec![0.035f64.ln(), 0.05f64.ln(), 3.6 / 180.0, 7.0]);
     }
 
     #[test]
