@@ -16,6 +16,7 @@
 //! | [`sim`] | the simulated ship: Nomoto model, servo, autopilot, sea, sensors, faults | no |
 //! | [`dsp`] | spectra, detrending, multisine design, tone analysis, relay limit-cycle theory | no |
 //! | [`monitor`] | the monitor core: a pure state machine fed timestamped samples | no |
+//! | [`estimator`] | the neural estimator: features to speed and displacement; training, model files, evaluation | reads model files |
 //! | [`probe`] | virtual-time driver: simulated ship + monitor core in lockstep | no |
 //! | [`replay`] | the monitor core over a recording (JSON lines) | reads a file |
 //! | [`net`] | Zenoh session configuration shared by the drivers below | no |
