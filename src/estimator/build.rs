@@ -133,9 +133,10 @@ fn slot_data(
     let mut samples = Vec::new();
     let completed = db.completed(method);
     for &(i, f) in &completed {
-        if features::extract_into(&all, f, &mut x).is_ok() {
-            let mut row = Vec::new();
-            features::extract_into(&inputs, f, &mut row).ok();
+        let mut row = Vec::new();
+        if features::extract_into(&all, f, &mut x).is_ok()
+            && features::extract_into(&inputs, f, &mut row).is_ok()
+        {
             let p = &db.points[i];
             let y = match target {
                 Target::Speed => p.speed_mps,

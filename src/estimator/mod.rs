@@ -103,8 +103,8 @@ pub struct EstimatorScratch {
 
 impl Estimator {
     /// Validates four models (in any order) against `cfg`: each slot filled once, the same
-    /// ship, servo and test design as the configuration, the expected inputs. `names` names
-    /// them in errors.
+    /// ship, servo and test design as the configuration, the expected inputs. Each model comes
+    /// with the name (path) that errors cite.
     pub fn from_models(models: Vec<(String, Model)>, cfg: &Config) -> Result<Self, ModelError> {
         let mut slots: [Option<Model>; 4] = [None, None, None, None];
         for (name, m) in models {

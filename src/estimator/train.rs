@@ -499,44 +499,40 @@ pub fn line_search(
             f64::INFINITY
         }
     };
-    // Bracket a < b < c with f(b) < f(a), f(b) <= f(c).
-    let (mut a, mut fa) = (0.0, f0);
-    let (mut b, mut fb) = (alpha0, eval(alpha0, &mut evals));
-    let (mut c, mut fc);
-    if fb >= fa {
+    // Bracket 0 <= a < b < c with f(b) < f(a) and f(b) <= f(c).
+    let mut a = 0.0;
+    let mut b = alpha0;
+    let mut fb = eval(alpha0, &mut evals);
+    let mut c;
+    if fb >= f0 {
+        // The first trial climbs: shrink towards 0 until a point below f(0).
         c = b;
-        fc = fb;
         loop {
-            if evals >= max_evals {
+            if evals >= max_evals || c < 1e-20 * alpha0.max(f64::MIN_POSITIVE) {
                 return (0.0, f0);
             }
             b = 0.1 * c;
             fb = eval(b, &mut evals);
-            if fb < fa {
+            if fb < f0 {
                 break;
             }
             c = b;
-            fc = fb;
-            if c < 1e-20 * alpha0.max(f64::MIN_POSITIVE) {
-                return (0.0, f0);
-            }
         }
     } else {
+        // The first trial descends: expand by the golden ratio until the loss rises.
         c = b + GOLD * (b - a);
-        fc = eval(c, &mut evals);
+        let mut fc = eval(c, &mut evals);
         while fc < fb {
             if evals >= max_evals {
                 return (c, fc);
             }
             a = b;
-            fa = fb;
             b = c;
             fb = fc;
             c = b + GOLD * (b - a);
             fc = eval(c, &mut evals);
         }
     }
-    let _ = (fa, fc);
     // Brent's method on [a, c] from x = b.
     let (mut lo, mut hi) = (a.min(c), a.max(c));
     let (mut x, mut w, mut v) = (b, b, b);
@@ -652,14 +648,12 @@ pub fn conjugate_gradient_fr<P: LeastSquares, V: LeastSquares>(
         if gg.sqrt() <= opts.min_grad {
             break StopReason::MinGradient;
         }
-        let mut slope = g.dot(&d);
-        if slope >= 0.0 {
+        if g.dot(&d) >= 0.0 {
+            // Not a descent direction: restart on steepest descent.
             d = -&g;
-            slope = -gg;
             since_restart = 0;
         }
-        let _ = slope;
-        let (alpha, f_new) = line_search(
+        let (alpha, _) = line_search(
             |a| {
                 for i in 0..p {
                     trial[i] = theta[i] + a * d[i];
@@ -685,7 +679,6 @@ pub fn conjugate_gradient_fr<P: LeastSquares, V: LeastSquares>(
         for i in 0..p {
             theta[i] += alpha * d[i];
         }
-        let _ = f_new;
         loss = grad(problem, &theta, &mut g, &mut e);
         let gg_new = g.norm_squared();
         since_restart += 1;
