@@ -153,13 +153,7 @@ impl ShipNode {
         };
         let mut pubs = Vec::with_capacity(5);
         let mut stream_keys = Vec::with_capacity(5);
-        for s in [
-            Stream::Heading,
-            Stream::Rudder,
-            Stream::Speed,
-            Stream::AutopilotState,
-            Stream::TargetHeading,
-        ] {
+        for s in Stream::BY_INDEX {
             // Index order = Stream::index().
             let key = keys.stream(s);
             // A declared key expression travels as a numeric id: the daemon caches its route.

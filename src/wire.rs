@@ -54,6 +54,14 @@ impl Stream {
         Stream::TargetHeading,
         Stream::Heading,
     ];
+    /// Every input stream in [`Stream::index`] order.
+    pub const BY_INDEX: [Stream; 5] = [
+        Stream::Heading,
+        Stream::Rudder,
+        Stream::Speed,
+        Stream::AutopilotState,
+        Stream::TargetHeading,
+    ];
     /// Path below the vessel prefix.
     pub fn path(self) -> &'static str {
         match self {
@@ -424,6 +432,16 @@ mod tests {
             Some(Stream::Rudder)
         );
         assert_eq!(k.stream_of("vessels/other/steering/rudderAngle"), None);
+    }
+
+    #[test]
+    fn by_index_matches_index() {
+        for (i, s) in Stream::BY_INDEX.into_iter().enumerate() {
+            assert_eq!(s.index(), i);
+        }
+        let mut all = Stream::ALL;
+        all.sort();
+        assert_eq!(all, Stream::BY_INDEX);
     }
 
     #[test]

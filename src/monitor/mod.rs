@@ -452,13 +452,7 @@ impl Monitor {
     /// a heading error within the abort limit.
     fn preconditions(&self, t: f64) -> Result<(), String> {
         let timeout = self.cfg.safety.stream_timeout_s;
-        for s in [
-            Stream::Heading,
-            Stream::Rudder,
-            Stream::Speed,
-            Stream::AutopilotState,
-            Stream::TargetHeading,
-        ] {
+        for s in Stream::BY_INDEX {
             match self.latest.t(s) {
                 None => return Err(format!("no {} received yet", s.name())),
                 Some(ts) if t - ts > timeout => {
@@ -600,13 +594,7 @@ impl Monitor {
                 return Err("autopilot course changed".into());
             }
         }
-        for stream in [
-            Stream::Heading,
-            Stream::Rudder,
-            Stream::Speed,
-            Stream::AutopilotState,
-            Stream::TargetHeading,
-        ] {
+        for stream in Stream::BY_INDEX {
             let last = if stream == Stream::Heading {
                 prev_heading_t
             } else {
