@@ -163,10 +163,14 @@ fn clfrt_runs(sea: SeaState, seeds: u64) -> Vec<((f64, f64), Report)> {
 }
 
 /// Fraction of runs inside the CLFRT accuracy bounds, per tone.
+///
+/// The bounds were 5 % / 3 deg, 5 % / 3 deg, 10 % / 10 deg for 2 deg tones; the errors scale
+/// as 1 / amplitude (the disturbances do not change), so they are halved for the default
+/// 4 deg tones: the same 95.7 / 100 / 96.7 % of runs fall inside as before.
 #[test]
 fn clfrt_calm_gain_and_phase_match_the_transfer_function() {
     let runs = clfrt_runs(SeaState::Calm, 50);
-    let bounds = [(0.05, 3.0), (0.05, 3.0), (0.10, 10.0)];
+    let bounds = [(0.025, 1.5), (0.025, 1.5), (0.05, 5.0)];
     let mut inside = [0usize; 3];
     let mut worst = [(0.0f64, 0.0f64); 3];
     for ((u, d), r) in &runs {
@@ -184,7 +188,7 @@ fn clfrt_calm_gain_and_phase_match_the_transfer_function() {
     for i in 0..3 {
         let frac = inside[i] as f64 / n;
         println!(
-            "tone {i}: {:.1} % of {} runs within {:.0} % / {:.0} deg (worst {:.1} % / {:.2} deg)",
+            "tone {i}: {:.1} % of {} runs within {:.1} % / {:.1} deg (worst {:.1} % / {:.2} deg)",
             100.0 * frac,
             runs.len(),
             100.0 * bounds[i].0,
