@@ -839,6 +839,12 @@ pub struct HbtConfig {
     /// turns with the drift at the mean rudder; superposition). 0 keeps delta0 fixed; 1 is a
     /// full Newton step, at the edge of a period-2 oscillation of the centre; 0.5 is damped.
     pub bias_adaptation: f64,
+    /// Hand-back lead tau [s]: after the last measured period the relay keeps running until
+    /// the instant the cycle predicts for `e + tau de/dt = 0`, where the autopilot's PD term
+    /// `Kp (e + Td de/dt)` is zero when tau matches its derivative time Td, so taking back
+    /// control starts from the trim instead of a full-scale rudder. 0 hands back at once.
+    /// Capped by `safety.max-test-duration-s`.
+    pub handback_lead_s: f64,
     /// Abort when two relay switches come closer than this [s]: the relay chatters (waves
     /// above the hysteresis), which only wears the steering gear.
     pub min_switch_interval_s: f64,
@@ -854,6 +860,7 @@ impl Default for HbtConfig {
             measure_periods: 4,
             timeout_s: 1740.0,
             bias_adaptation: 0.5,
+            handback_lead_s: 30.0,
             min_switch_interval_s: 10.0,
         }
     }
@@ -868,6 +875,7 @@ impl HbtConfig {
         check_count("hbt.measure-periods", self.measure_periods, 1, 50)?;
         check_range_open_low("hbt.timeout-s", self.timeout_s, 0.0, 86400.0)?;
         check_range("hbt.bias-adaptation", self.bias_adaptation, 0.0, 1.0)?;
+        check_range("hbt.handback-lead-s", self.handback_lead_s, 0.0, 300.0)?;
         check_range(
             "hbt.min-switch-interval-s",
             self.min_switch_interval_s,

@@ -459,3 +459,57 @@ fn bad_samples_mixed_into_a_test_are_rejected_and_the_test_completes() {
         .all(|t| t.gain.is_finite() && t.phase.is_finite()));
     assert_eq!(ls.monitor.counters().rejected_total(), injected);
 }
+
+/// Largest |rudder| in the 300 s after an HBT test hands the rudder back to the autopilot.
+fn rudder_after_handback(lead_s: f64, u: f64, sea: SeaState) -> f64 {
+    use helmwatch::monitor::Output;
+    use helmwatch::probe::Lockstep;
+    let mut cfg = Config::default();
+    cfg.scheduler.enabled = false;
+    cfg.hbt.handback_lead_s = lead_s;
+    let sc = Scenario {
+        speed_mps: u,
+        displacement_t: 7000.0,
+        sea,
+        faults: vec![],
+        seed: 3,
+    };
+    let mut ls = Lockstep::new(&cfg, &sc).unwrap();
+    let mut out = Vec::new();
+    ls.run_until(600.0, &mut out);
+    assert!(ls.trigger(Method::Hbt).accepted);
+    out.clear();
+    while !out.iter().any(|o| matches!(o, Output::Report(_))) {
+        ls.tick(&mut out, false);
+    }
+    let mut max = 0f64;
+    for _ in 0..3000 {
+        ls.tick(&mut out, false);
+        max = max.max(ls.ship.truth().delta_rad.abs());
+    }
+    max.to_degrees()
+}
+
+/// Handing back mid-cycle lets the autopilot's PD term see the whole limit cycle (24 deg of
+/// rudder at 7 m/s, 15 deg at 10 m/s); handing back where e + Td de/dt = 0 keeps the swing
+/// near the relay's own 8 deg.
+#[test]
+fn hbt_hands_back_without_a_rudder_swing() {
+    for sea in [SeaState::Calm, SeaState::Moderate] {
+        for u in [7.0, 10.0] {
+            let abrupt = rudder_after_handback(0.0, u, sea);
+            let smooth = rudder_after_handback(30.0, u, sea);
+            println!(
+                "{sea:?} u {u}: after hand-back {abrupt:.1} deg at once, {smooth:.1} deg timed"
+            );
+            assert!(
+                abrupt > 1.5 * smooth,
+                "{sea:?} u {u}: abrupt {abrupt} deg vs timed {smooth} deg"
+            );
+            assert!(
+                smooth < 12.0,
+                "{sea:?} u {u}: {smooth} deg after a timed hand-back"
+            );
+        }
+    }
+}

@@ -20,7 +20,8 @@
 //! `idle -> settling -> exciting -> analysing -> idle`; any state -> `idle` on abort.
 //! - HBT: settling = trim measurement (autopilot steering, mean rudder = delta0) and the first
 //!   `hbt.settle-periods` relay periods; exciting = `hbt.measure-periods` periods measured
-//!   between switches to `+h`; analysing = features, report.
+//!   between switches to `+h`; analysing = features, then the relay runs on until the
+//!   hand-back instant (`hbt.handback-lead-s`), then the report.
 //! - CLFRT: settling = `clfrt.settle-windows` windows with a faded-in multisine; exciting =
 //!   `clfrt.measure-windows` windows recorded; analysing = features, then the excitation ramps
 //!   to zero at the safety rate limit, then the report.
