@@ -253,21 +253,27 @@ const HBT_TABLE: [(f64, f64, f64, f64); 6] = [
     (10.0, 10000.0, 145.0, 2.62),
 ];
 
+/// `(omega_u rad/s, heading amplitude rad)` of the relay loop by the describing function,
+/// for the ship (u, D) and the relay and servo of `cfg`.
+fn describing_function(cfg: &Config, u: f64, d: f64) -> (f64, f64) {
+    let (a, b) = cfg.ship.nomoto(u, d);
+    limit_cycle_describing_function(
+        a,
+        b,
+        cfg.hbt.relay_height_rad(),
+        cfg.hbt.hysteresis_rad(),
+        &cfg.servo,
+    )
+    .unwrap()
+}
+
 /// The describing function reproduces the reference table (so it can stand in where the
 /// table has no row).
 #[test]
 fn describing_function_agrees_with_the_reference_table() {
     let cfg = table_cfg();
     for (u, d, p, a_deg) in HBT_TABLE {
-        let (a, b) = cfg.ship.nomoto(u, d);
-        let (w, amp) = limit_cycle_describing_function(
-            a,
-            b,
-            cfg.hbt.relay_height_rad(),
-            cfg.hbt.hysteresis_rad(),
-            &cfg.servo,
-        )
-        .unwrap();
+        let (w, amp) = describing_function(&cfg, u, d);
         let pe = (2.0 * PI / w / p - 1.0).abs();
         let ae = (amp.to_degrees() / a_deg - 1.0).abs();
         println!(
@@ -309,15 +315,7 @@ fn hbt_calm_matches_the_independent_answer() {
         let (p_ref, a_ref) = match HBT_TABLE.iter().find(|x| x.0 == u && x.1 == d) {
             Some(&(_, _, p, a)) => (p, a.to_radians()),
             None => {
-                let (a, b) = cfg.ship.nomoto(u, d);
-                let (w, amp) = limit_cycle_describing_function(
-                    a,
-                    b,
-                    cfg.hbt.relay_height_rad(),
-                    cfg.hbt.hysteresis_rad(),
-                    &cfg.servo,
-                )
-                .unwrap();
+                let (w, amp) = describing_function(&cfg, u, d);
                 (2.0 * PI / w, amp)
             }
         };
