@@ -105,6 +105,25 @@ struct EvalArgs {
     /// Also run every held-out test with a heading drift of 1 deg/min and compare.
     #[arg(long)]
     drift: bool,
+    /// Run the fault-decision scenario suite instead (docs/fdi.md): false alarms, detection,
+    /// isolation, delay, per method and sea state, beside the equation-error baseline.
+    #[arg(long)]
+    fdi: bool,
+    /// With --fdi: runs per fault scenario.
+    #[arg(long, default_value_t = 60)]
+    runs: usize,
+    /// With --fdi: runs per nominal scenario (each of `--tests` tests).
+    #[arg(long, default_value_t = 60)]
+    nominal_runs: usize,
+    /// With --fdi: tests per run.
+    #[arg(long, default_value_t = 4)]
+    tests: usize,
+    /// With --fdi: only this method (default both).
+    #[arg(long)]
+    method: Option<Method>,
+    /// With --fdi: only this sea state (default calm and moderate).
+    #[arg(long)]
+    sea: Option<SeaState>,
     /// Skip the accuracy-against-test-length table.
     #[arg(long)]
     no_lengths: bool,
@@ -269,6 +288,7 @@ pub fn main() -> i32 {
         Command::Replay(a) => replay(&cfg, a),
         Command::Bench(a) => bench(&cfg, a),
         Command::Train(a) => crate::estimator::cli::train(&cfg, &a.into()),
+        Command::Eval(a) if a.fdi => eval_fdi(&cfg, &a),
         Command::Eval(a) => crate::estimator::cli::eval(&cfg, &a.into()),
     };
     match result {
@@ -757,6 +777,34 @@ impl From<TrainArgs> for TrainOptions {
             threads: a.threads,
         }
     }
+}
+
+fn eval_fdi(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
+    use crate::fdi::eval::{run_suite, FdiEvalOptions};
+    let t0 = std::time::Instant::now();
+    let est = crate::estimator::Estimator::load_dir(&a.models, cfg)
+        .map_err(|e| fail(EX_CONFIG)(e.into()))?;
+    let mut o = FdiEvalOptions {
+        seed: a.seed,
+        runs: a.runs,
+        nominal_runs: a.nominal_runs,
+        tests: a.tests.max(1),
+        threads: a
+            .threads
+            .unwrap_or_else(crate::estimator::database::default_threads)
+            .max(1),
+        ..FdiEvalOptions::default()
+    };
+    if let Some(m) = a.method {
+        o.methods = vec![m];
+    }
+    if let Some(s) = a.sea {
+        o.seas = vec![s];
+    }
+    run_suite(cfg, std::sync::Arc::new(est), &o);
+    println!();
+    println!("suite done in {:.1} s", t0.elapsed().as_secs_f64());
+    Ok(())
 }
 
 impl From<EvalArgs> for EvalOptions {

@@ -17,6 +17,7 @@
 //! | [`dsp`] | spectra, detrending, multisine design, tone analysis, relay limit-cycle theory | no |
 //! | [`monitor`] | the monitor core: a pure state machine fed timestamped samples | no |
 //! | [`estimator`] | the neural estimator: features to speed and displacement; training, model files, evaluation | reads model files |
+//! | [`fdi`] | parity-space residuals, decision rule, alarm state, isolation; the `eval --fdi` suite | no |
 //! | [`probe`] | virtual-time driver: simulated ship + monitor core in lockstep | no |
 //! | [`replay`] | the monitor core over a recording (JSON lines) | reads a file |
 //! | [`net`] | Zenoh session configuration shared by the drivers below | no |
@@ -43,6 +44,7 @@ pub mod daemon;
 pub mod demo;
 pub mod dsp;
 pub mod estimator;
+pub mod fdi;
 pub mod monitor;
 pub mod net;
 pub mod probe;

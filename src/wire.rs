@@ -43,19 +43,33 @@ pub enum Stream {
     AutopilotState,
     /// `steering/autopilot/target/headingTrue` [rad].
     TargetHeading,
+    /// `design/displacement` [kg, Signal K]: the parity test's nominal displacement when the
+    /// ship publishes it (optional; the configuration's value otherwise).
+    DesignDisplacement,
 }
 
 impl Stream {
     /// Every input stream, in the order a lockstep ship publishes them (heading last).
-    pub const ALL: [Stream; 5] = [
+    pub const ALL: [Stream; 6] = [
         Stream::Rudder,
         Stream::Speed,
         Stream::AutopilotState,
         Stream::TargetHeading,
+        Stream::DesignDisplacement,
         Stream::Heading,
     ];
     /// Every input stream in [`Stream::index`] order.
-    pub const BY_INDEX: [Stream; 5] = [
+    pub const BY_INDEX: [Stream; 6] = [
+        Stream::Heading,
+        Stream::Rudder,
+        Stream::Speed,
+        Stream::AutopilotState,
+        Stream::TargetHeading,
+        Stream::DesignDisplacement,
+    ];
+    /// The streams a test needs (fresh before it starts, watched for silence while it runs);
+    /// `design/displacement` is optional and rare.
+    pub const REQUIRED: [Stream; 5] = [
         Stream::Heading,
         Stream::Rudder,
         Stream::Speed,
@@ -70,6 +84,7 @@ impl Stream {
             Stream::Speed => "navigation/speedThroughWater",
             Stream::AutopilotState => "steering/autopilot/state",
             Stream::TargetHeading => "steering/autopilot/target/headingTrue",
+            Stream::DesignDisplacement => "design/displacement",
         }
     }
     /// Short name for logs and counters.
@@ -80,9 +95,10 @@ impl Stream {
             Stream::Speed => "speed",
             Stream::AutopilotState => "autopilot_state",
             Stream::TargetHeading => "target_heading",
+            Stream::DesignDisplacement => "design_displacement",
         }
     }
-    /// Index 0..5, for per-stream arrays.
+    /// Index 0..6, for per-stream arrays.
     pub fn index(self) -> usize {
         match self {
             Stream::Heading => 0,
@@ -90,6 +106,7 @@ impl Stream {
             Stream::Speed => 2,
             Stream::AutopilotState => 3,
             Stream::TargetHeading => 4,
+            Stream::DesignDisplacement => 5,
         }
     }
 }
@@ -345,6 +362,8 @@ pub enum Input {
     AutopilotState(StateValue),
     /// Autopilot target heading [rad].
     TargetHeading(Scalar),
+    /// Design displacement [kg] (Signal K `design.displacement`).
+    DesignDisplacement(Scalar),
 }
 
 impl Input {
@@ -356,21 +375,28 @@ impl Input {
             Input::Speed(_) => Stream::Speed,
             Input::AutopilotState(_) => Stream::AutopilotState,
             Input::TargetHeading(_) => Stream::TargetHeading,
+            Input::DesignDisplacement(_) => Stream::DesignDisplacement,
         }
     }
     /// Ship time of the sample [s].
     pub fn t(&self) -> f64 {
         match self {
-            Input::Heading(s) | Input::Rudder(s) | Input::Speed(s) | Input::TargetHeading(s) => s.t,
+            Input::Heading(s)
+            | Input::Rudder(s)
+            | Input::Speed(s)
+            | Input::TargetHeading(s)
+            | Input::DesignDisplacement(s) => s.t,
             Input::AutopilotState(s) => s.t,
         }
     }
     /// The JSON payload of this sample, as a ship publishes it.
     pub fn payload(&self) -> serde_json::Value {
         let r = match self {
-            Input::Heading(s) | Input::Rudder(s) | Input::Speed(s) | Input::TargetHeading(s) => {
-                serde_json::to_value(s)
-            }
+            Input::Heading(s)
+            | Input::Rudder(s)
+            | Input::Speed(s)
+            | Input::TargetHeading(s)
+            | Input::DesignDisplacement(s) => serde_json::to_value(s),
             Input::AutopilotState(s) => serde_json::to_value(s),
         };
         r.unwrap_or(serde_json::Value::Null)
@@ -395,6 +421,9 @@ pub fn decode(stream: Stream, bytes: &[u8]) -> Result<Input, DecodeError> {
         Stream::Speed => Input::Speed(serde_json::from_slice(bytes).map_err(m)?),
         Stream::AutopilotState => Input::AutopilotState(serde_json::from_slice(bytes).map_err(m)?),
         Stream::TargetHeading => Input::TargetHeading(serde_json::from_slice(bytes).map_err(m)?),
+        Stream::DesignDisplacement => {
+            Input::DesignDisplacement(serde_json::from_slice(bytes).map_err(m)?)
+        }
     })
 }
 
@@ -407,6 +436,9 @@ pub fn decode_value(stream: Stream, v: serde_json::Value) -> Result<Input, Decod
         Stream::Speed => Input::Speed(serde_json::from_value(v).map_err(m)?),
         Stream::AutopilotState => Input::AutopilotState(serde_json::from_value(v).map_err(m)?),
         Stream::TargetHeading => Input::TargetHeading(serde_json::from_value(v).map_err(m)?),
+        Stream::DesignDisplacement => {
+            Input::DesignDisplacement(serde_json::from_value(v).map_err(m)?)
+        }
     })
 }
 

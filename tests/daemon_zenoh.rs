@@ -103,7 +103,6 @@ async fn nominal_run_reports_arrive_with_features_and_no_alarm() {
 }
 
 #[tokio::test(flavor = "multi_thread")]
-#[ignore = "needs the estimator (issue 4) and FDI (issue 5)"]
 async fn displacement_fault_raises_the_alarm() {
     let ep = endpoint();
     let mut cfg = daemon_config();
@@ -145,10 +144,10 @@ async fn displacement_fault_raises_the_alarm() {
     );
     let n = obs
         .wait_for("notifications/steering/fdi", LIMIT, |n| {
-            n["state"] != "normal"
+            n["state"] == "alarm"
         })
         .await;
-    assert!(n["state"] == "alarm" || n["state"] == "warn", "{n}");
+    assert_eq!(n["method"], serde_json::json!(["visual", "sound"]), "{n}");
 
     stop.cancel();
     ship.await.unwrap().unwrap();

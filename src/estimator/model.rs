@@ -642,7 +642,11 @@ impl Model {
                 target.name()
             )));
         }
-        let want = Design::from_config(cfg, method);
+        let mut want = Design::from_config(cfg, method);
+        // The nominal speed and displacement are the parity test's reference, not part of
+        // the design: a model serves any nominal inside its ranges.
+        want.ship.nominal_speed_mps = self.file.design.ship.nominal_speed_mps;
+        want.ship.nominal_displacement_t = self.file.design.ship.nominal_displacement_t;
         if self.file.design != want {
             return Err(mismatch(format!(
                 "trained for another design: {}, configuration has {}",
@@ -841,6 +845,11 @@ pub(crate) mod tests {
         assert!(m
             .check_for(&other, Method::Clfrt, Target::Displacement, "m")
             .is_err());
+        // Another nominal displacement (the parity reference) is the same design.
+        let mut loaded = cfg.clone();
+        loaded.ship.nominal_displacement_t = 8500.0;
+        m.check_for(&loaded, Method::Clfrt, Target::Displacement, "m")
+            .unwrap();
         // A longer measurement is the same design.
         let mut longer = cfg;
         longer.clfrt.measure_windows += 1;

@@ -3,7 +3,7 @@
 //! Every sample is checked before it touches any state: `t` finite and not older than the
 //! stream's last accepted sample (equal `t` is a duplicate), the value finite and physically
 //! plausible (heading and target in [0, 2 pi), |rudder| below `input.max-rudder-deg`, speed in
-//! [-5, `input.max-speed-mps`]). A rejected sample is counted by stream and reason, logged once
+//! [-5, `input.max-speed-mps`], design displacement in (0, 1e9] kg). A rejected sample is counted by stream and reason, logged once
 //! per burst (the first, then at every power of two), and otherwise ignored: it never reaches
 //! a test record or the FFT.
 //!
@@ -12,6 +12,9 @@
 
 use crate::wire::{Input, Stream};
 use std::f64::consts::PI;
+
+/// Largest plausible design displacement [kg] (1e9 kg = 1 million t, above any ship afloat).
+pub const MAX_DESIGN_DISPLACEMENT_KG: f64 = 1e9;
 
 /// Why a sample was rejected.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -73,8 +76,8 @@ pub struct Rejection {
 /// Accepted and rejected sample counts, by stream and reason. Fixed size.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct Counters {
-    accepted: [u64; 5],
-    rejected: [[u64; 5]; 5],
+    accepted: [u64; 6],
+    rejected: [[u64; 5]; 6],
 }
 
 impl Counters {
@@ -127,6 +130,8 @@ pub struct Latest {
     pub auto: Option<(f64, bool)>,
     /// `(t, target heading rad)`.
     pub target: Option<(f64, f64)>,
+    /// `(t, design displacement kg)`.
+    pub design_displacement: Option<(f64, f64)>,
 }
 
 impl Latest {
@@ -138,6 +143,7 @@ impl Latest {
             Stream::Speed => self.speed.map(|x| x.0),
             Stream::AutopilotState => self.auto.map(|x| x.0),
             Stream::TargetHeading => self.target.map(|x| x.0),
+            Stream::DesignDisplacement => self.design_displacement.map(|x| x.0),
         }
     }
 }
@@ -167,9 +173,11 @@ pub fn validate(input: &Input, latest: &Latest, limits: &Limits) -> Result<(), R
         return reject(RejectReason::NotFinite, format!("t = {t}"));
     }
     let value = match input {
-        Input::Heading(s) | Input::Rudder(s) | Input::Speed(s) | Input::TargetHeading(s) => {
-            Some(s.value)
-        }
+        Input::Heading(s)
+        | Input::Rudder(s)
+        | Input::Speed(s)
+        | Input::TargetHeading(s)
+        | Input::DesignDisplacement(s) => Some(s.value),
         Input::AutopilotState(_) => None,
     };
     if let Some(v) = value {
@@ -181,6 +189,7 @@ pub fn validate(input: &Input, latest: &Latest, limits: &Limits) -> Result<(), R
             Stream::Rudder => v.abs() <= limits.max_rudder_rad,
             Stream::Speed => (-5.0..=limits.max_speed_mps).contains(&v),
             Stream::AutopilotState => true,
+            Stream::DesignDisplacement => v > 0.0 && v <= MAX_DESIGN_DISPLACEMENT_KG,
         };
         if !ok {
             return reject(RejectReason::OutOfRange, format!("value = {v}"));
@@ -216,6 +225,7 @@ pub fn store(input: &Input, latest: &mut Latest) {
         Input::Speed(s) => latest.speed = Some((s.t, s.value)),
         Input::AutopilotState(s) => latest.auto = Some((s.t, s.value == "auto")),
         Input::TargetHeading(s) => latest.target = Some((s.t, s.value)),
+        Input::DesignDisplacement(s) => latest.design_displacement = Some((s.t, s.value)),
     }
 }
 

@@ -33,7 +33,9 @@
 //! that the displacement network reads, defined once here for the daemon and the training
 //! database alike. When the monitor was built with an estimator
 //! ([`Monitor::with_estimator`]), the report's `estimate` holds the networks' speed and
-//! displacement ([`crate::estimator`]); the decision stays `inconclusive`.
+//! displacement ([`crate::estimator`]), and [`crate::fdi`] turns them into the report's
+//! `residuals`, `decision` and `isolation`, and queues a notification when the vessel's alarm
+//! state changes (after the report).
 //!
 //! ## Safety (checked at every heading sample of a test; an abort sends `mode: none` at once)
 //!
@@ -55,6 +57,7 @@ use crate::config::{Config, Method};
 use crate::dsp::multisine::Multisine;
 use crate::estimator::features::SPEED_LOG_FIELD;
 use crate::estimator::{Estimator, EstimatorScratch};
+use crate::fdi::Fdi;
 use crate::wire::{
     Decision, Excitation, ExcitationMode, Input, MonitorState, Notification, Outcome, Report,
     Status, Stream, TriggerReply,
@@ -195,6 +198,8 @@ pub struct Monitor {
     multisine: Result<crate::dsp::multisine::Multisine, String>,
     /// The networks that turn features into an estimate, with their buffers (optional).
     estimator: Option<(Arc<Estimator>, EstimatorScratch)>,
+    /// Residuals, decision, alarm state and isolation over the completed tests.
+    fdi: Fdi,
 }
 
 impl Monitor {
@@ -267,7 +272,21 @@ impl Monitor {
             last_excitation: None,
             multisine,
             estimator,
+            fdi: Fdi::new(cfg),
         }
+    }
+
+    /// The vessel's alarm state (the worst of the methods' decision tracks).
+    pub fn alarm_state(&self) -> crate::wire::AlarmState {
+        self.fdi.alarm_state()
+    }
+
+    /// The nominal displacement in force [t]: the ship's latest `design/displacement`, or
+    /// `ship.nominal-displacement-t`.
+    pub fn nominal_displacement_t(&self) -> f64 {
+        self.latest
+            .design_displacement
+            .map_or(self.cfg.ship.nominal_displacement_t, |(_, kg)| kg / 1000.0)
     }
 
     /// The vessel this monitor watches.
@@ -330,7 +349,7 @@ impl Monitor {
             Input::Heading(s) => self.on_heading(s.t, s.value, prev_heading_t),
             Input::Rudder(s) => self.on_rudder(s.t, s.value),
             Input::Speed(s) => self.on_speed(s.t, s.value),
-            Input::AutopilotState(_) | Input::TargetHeading(_) => {}
+            Input::AutopilotState(_) | Input::TargetHeading(_) | Input::DesignDisplacement(_) => {}
         }
         Ok(())
     }
@@ -453,7 +472,7 @@ impl Monitor {
     /// a heading error within the abort limit.
     fn preconditions(&self, t: f64) -> Result<(), String> {
         let timeout = self.cfg.safety.stream_timeout_s;
-        for s in Stream::BY_INDEX {
+        for s in Stream::REQUIRED {
             match self.latest.t(s) {
                 None => return Err(format!("no {} received yet", s.name())),
                 Some(ts) if t - ts > timeout => {
@@ -595,7 +614,7 @@ impl Monitor {
                 return Err("autopilot course changed".into());
             }
         }
-        for stream in Stream::BY_INDEX {
+        for stream in Stream::REQUIRED {
             let last = if stream == Stream::Heading {
                 prev_heading_t
             } else {
@@ -668,6 +687,7 @@ impl Monitor {
         let Some(run) = self.run.take() else { return };
         self.last_test_end = Some(t);
         let mut estimate = None;
+        let mut assessment = None;
         let (outcome, reason, features, message) = match result {
             Ok(f) => {
                 self.stats.tests_completed += 1;
@@ -679,21 +699,37 @@ impl Monitor {
                     }
                 }
                 let name = run.method.name().to_uppercase();
-                let msg = match &mut self.estimator {
-                    None => format!(
-                        "{name} test completed; features measured, no estimator loaded, no decision"
+                let d_nom_t = self.nominal_displacement_t();
+                let (est_text, a) = match &mut self.estimator {
+                    None => (
+                        "no estimator loaded".to_string(),
+                        self.fdi.assess(run.method, &features, None, d_nom_t),
                     ),
                     Some((est, scratch)) => match est.estimate(run.method, &features, scratch) {
                         Ok(e) => {
                             estimate = Some(e);
-                            format!(
-                                "{name} test completed; estimate {:.2} m/s, {:.0} t; no decision",
-                                e.speed_mps, e.displacement_t
+                            let a = self.fdi.assess(
+                                run.method,
+                                &features,
+                                Some((&e, est.as_ref(), scratch)),
+                                d_nom_t,
+                            );
+                            (
+                                format!(
+                                    "estimate {:.2} m/s, {:.0} t",
+                                    e.speed_mps, e.displacement_t
+                                ),
+                                a,
                             )
                         }
-                        Err(e) => format!("{name} test completed; no estimate: {e}; no decision"),
+                        Err(e) => (
+                            format!("no estimate: {e}"),
+                            self.fdi.assess(run.method, &features, None, d_nom_t),
+                        ),
                     },
                 };
+                let msg = format!("{name} test completed; {est_text}; {}", a.summary);
+                assessment = Some(a);
                 (Outcome::Completed, None, features, msg)
             }
             Err(reason) => {
@@ -724,12 +760,22 @@ impl Monitor {
             reason: reason.clone(),
             features,
             estimate,
-            residuals: serde_json::Value::Object(Default::default()),
-            decision: Decision::Inconclusive,
-            isolation: Vec::new(),
+            residuals: assessment
+                .as_ref()
+                .map_or_else(|| serde_json::json!({}), |a| a.residuals.clone()),
+            decision: assessment
+                .as_ref()
+                .map_or(Decision::Inconclusive, |a| a.decision),
+            isolation: assessment
+                .as_ref()
+                .map_or_else(Vec::new, |a| a.isolation.clone()),
             message,
         };
         self.outputs.push_back(Output::Report(Box::new(report)));
+        if let Some(n) = assessment.and_then(|a| a.notification) {
+            tracing::warn!(vessel = %self.vessel, state = ?n.state, "{}", n.message);
+            self.outputs.push_back(Output::Notification(n));
+        }
         let status_reason = match outcome {
             Outcome::Completed => Some("completed".to_string()),
             Outcome::Aborted => reason.map(|r| format!("aborted: {r}")),

@@ -34,7 +34,7 @@ pub fn record<W: Write>(
     }
     let mut ship = Ship::new(cfg, scenario)?;
     let keys = Keys::new(vessel);
-    let mut key_of = [const { String::new() }; 5];
+    let mut key_of = [const { String::new() }; 6];
     for s in Stream::ALL {
         key_of[s.index()] = keys.stream(s);
     }
