@@ -162,6 +162,8 @@ impl Config {
         self.hbt.check()?;
         self.clfrt.check(self.sensors.rate_hz)?;
         self.safety.check(&self.servo)?;
+        self.clfrt
+            .check_servo_check_safety(&self.safety, self.sensors.rate_hz)?;
         self.input.check()?;
         self.daemon.check()?;
         self.zenoh.check("zenoh")?;
@@ -1115,10 +1117,20 @@ pub struct ClfrtConfig {
     pub settle_windows: u32,
     /// Windows measured (averaged).
     pub measure_windows: u32,
-    /// Fade-in and fade-out time of the excitation [s] (within the settle window).
+    /// Fade-in time of the multisine [s] (within the settle window, after the servo check).
     pub fade_s: f64,
     /// Seed of the crest-factor phase optimisation (the design is deterministic).
     pub phase_seed: u64,
+    /// Servo check: frequency of the sinusoid played at the start of the settle window, before
+    /// the multisine fades in [rad/s]. Adjusted by < 0.1 % so that the measured periods span a
+    /// whole number of samples ([`ClfrtConfig::servo_check_omega_rad_s`]).
+    pub servo_check_frequency_rad_s: f64,
+    /// Servo check: amplitude of the sinusoid [deg] (0 disables the check).
+    pub servo_check_amplitude_deg: f64,
+    /// Servo check: periods at full amplitude, all measured, 3 .. 100 (0 disables the check).
+    pub servo_check_periods: u32,
+    /// Servo check: periods of raised-cosine fade-in, and again of fade-out, around them.
+    pub servo_check_fade_periods: u32,
 }
 
 impl Default for ClfrtConfig {
@@ -1131,6 +1143,10 @@ impl Default for ClfrtConfig {
             measure_windows: 2,
             fade_s: 30.0,
             phase_seed: 1,
+            servo_check_frequency_rad_s: 0.6,
+            servo_check_amplitude_deg: 5.0,
+            servo_check_periods: 10,
+            servo_check_fade_periods: 1,
         }
     }
 }
@@ -1164,8 +1180,139 @@ impl ClfrtConfig {
         check_count("clfrt.settle-windows", self.settle_windows, 0, 10)?;
         check_count("clfrt.measure-windows", self.measure_windows, 1, 20)?;
         check_range("clfrt.fade-s", self.fade_s, 0.0, self.window_s)?;
+        // At least 4 samples per period: the check's bin stays far below Nyquist.
+        let w_max = (std::f64::consts::PI * rate_hz / 4.0).min(5.0);
+        check_range_open_low(
+            "clfrt.servo-check-frequency-rad-s",
+            self.servo_check_frequency_rad_s,
+            0.0,
+            w_max,
+        )?;
+        check_range(
+            "clfrt.servo-check-amplitude-deg",
+            self.servo_check_amplitude_deg,
+            0.0,
+            10.0,
+        )?;
+        if self.servo_check_periods != 0 {
+            // The tone's bin needs neighbours on both sides (the autopilot's rudder fit).
+            check_count(
+                "clfrt.servo-check-periods",
+                self.servo_check_periods,
+                3,
+                100,
+            )?;
+        }
+        check_count(
+            "clfrt.servo-check-fade-periods",
+            self.servo_check_fade_periods,
+            0,
+            10,
+        )?;
+        if self.servo_check_enabled() {
+            let settle_s = self.settle_windows as f64 * self.window_s;
+            let burst_s = self.servo_check_duration_s(rate_hz);
+            if burst_s + self.fade_s > settle_s {
+                return Err(fail(
+                    "clfrt.servo-check-periods",
+                    self.servo_check_periods,
+                    &format!(
+                        "a servo check of (periods + 2 fade-periods) x 2 pi / frequency = \
+                         {burst_s:.1} s plus fade-s within the settle windows \
+                         ({settle_s:.1} s); or 0 to disable the check"
+                    ),
+                ));
+            }
+        }
         Ok(())
     }
+
+    /// Whether the servo check runs (non-zero amplitude and periods).
+    pub fn servo_check_enabled(&self) -> bool {
+        self.servo_check_amplitude_deg > 0.0 && self.servo_check_periods > 0
+    }
+
+    /// Servo check amplitude [rad].
+    pub fn servo_check_amplitude_rad(&self) -> f64 {
+        self.servo_check_amplitude_deg * DEG
+    }
+
+    /// Samples `N` of the measured (full-amplitude) part of the servo check at `rate_hz`: the
+    /// configured periods rounded to a whole number of samples (at least 1).
+    pub fn servo_check_samples(&self, rate_hz: f64) -> usize {
+        let period_s = 2.0 * std::f64::consts::PI / self.servo_check_frequency_rad_s;
+        ((self.servo_check_periods as f64 * period_s * rate_hz).round() as usize).max(1)
+    }
+
+    /// Frequency actually played by the servo check [rad/s]: `2 pi periods / (N dt)`, so that
+    /// the measured periods fall exactly on bin `periods` of their `N`-sample DFT (within
+    /// `pi / (periods N)` relative of the configured frequency, < 0.05 % by default).
+    pub fn servo_check_omega_rad_s(&self, rate_hz: f64) -> f64 {
+        if self.servo_check_periods == 0 {
+            return self.servo_check_frequency_rad_s;
+        }
+        let n = self.servo_check_samples(rate_hz) as f64;
+        2.0 * std::f64::consts::PI * self.servo_check_periods as f64 * rate_hz / n
+    }
+
+    /// Duration of the whole servo check, fades included [s] (0 when disabled).
+    pub fn servo_check_duration_s(&self, rate_hz: f64) -> f64 {
+        if !self.servo_check_enabled() {
+            return 0.0;
+        }
+        let periods = (self.servo_check_periods + 2 * self.servo_check_fade_periods) as f64;
+        periods * 2.0 * std::f64::consts::PI / self.servo_check_omega_rad_s(rate_hz)
+    }
+
+    /// Largest rate of the servo check's excitation [rad/s]: `A sqrt(w^2 + w_f^2)` with
+    /// `w_f = pi / (2 T_f)` the largest rate of its raised-cosine envelope (fade time `T_f`),
+    /// a bound of `|d/dt (env(t) A sin(w t))|`.
+    pub fn servo_check_max_rate_rad_s(&self, rate_hz: f64) -> f64 {
+        if !self.servo_check_enabled() {
+            return 0.0;
+        }
+        let w = self.servo_check_omega_rad_s(rate_hz);
+        let fade_s = self.servo_check_fade_periods as f64 * 2.0 * std::f64::consts::PI / w;
+        let wf = if fade_s > 0.0 {
+            std::f64::consts::PI / (2.0 * fade_s)
+        } else {
+            0.0
+        };
+        self.servo_check_amplitude_rad() * (w * w + wf * wf).sqrt()
+    }
+
+    /// The servo check against the safety gate: amplitude within `safety.max-excitation-deg`
+    /// and rate within `safety.max-excitation-rate-deg-s` (the gate would otherwise distort it).
+    fn check_servo_check_safety(
+        &self,
+        safety: &SafetyConfig,
+        rate_hz: f64,
+    ) -> Result<(), ConfigError> {
+        if !self.servo_check_enabled() {
+            return Ok(());
+        }
+        check_range(
+            "clfrt.servo-check-amplitude-deg",
+            self.servo_check_amplitude_deg,
+            0.0,
+            safety.max_excitation_deg,
+        )?;
+        let rate_per_deg_deg_s =
+            self.servo_check_max_rate_rad_s(rate_hz) / self.servo_check_amplitude_rad();
+        let max_amp_deg = safety.max_excitation_rate_deg_s / rate_per_deg_deg_s;
+        if self.servo_check_amplitude_deg > max_amp_deg {
+            return Err(fail(
+                "clfrt.servo-check-amplitude-deg",
+                self.servo_check_amplitude_deg,
+                &format!(
+                    "[0, {max_amp_deg:.3}]: its rate (amplitude x {rate_per_deg_deg_s:.3} /s) \
+                     within safety.max-excitation-rate-deg-s"
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     /// Tone amplitude [rad].
     pub fn amplitude_rad(&self) -> f64 {
         self.amplitude_deg * DEG
@@ -1186,7 +1333,9 @@ pub struct SafetyConfig {
     /// Largest excitation value ever published, add or replace-minus-trim [deg].
     pub max_excitation_deg: f64,
     /// Largest change of the excitation value between two samples, divided by their
-    /// spacing [deg/s]. The relay's switch is a step and is exempt up to 2 h.
+    /// spacing [deg/s]. The relay's switch is a step and is exempt up to 2 h. Default 3.5:
+    /// above the CLFRT servo check (5 deg at 0.6 rad/s, 3.0 deg/s, which must exceed a
+    /// degraded 2 deg/s servo to see it), below the servo's nominal 4 deg/s.
     pub max_excitation_rate_deg_s: f64,
     /// Abort when |heading - target| exceeds this during a test [deg].
     pub max_heading_error_deg: f64,
@@ -1206,7 +1355,7 @@ impl Default for SafetyConfig {
     fn default() -> Self {
         Self {
             max_excitation_deg: 10.0,
-            max_excitation_rate_deg_s: 2.0,
+            max_excitation_rate_deg_s: 3.5,
             max_heading_error_deg: 10.0,
             rudder_saturation_deg: 25.0,
             stream_timeout_s: 2.0,
@@ -1570,6 +1719,36 @@ mod tests {
         assert!(e.to_string().contains("ship-peer.faults[0]"), "{e}");
         let e = Config::from_toml_str("[daemon]\ntick-s = 0\n").unwrap_err();
         assert!(e.to_string().contains("daemon.tick-s"), "{e}");
+    }
+
+    #[test]
+    fn servo_check_keys_are_checked() {
+        let e = Config::from_toml_str("[clfrt]\nservo-check-periods = 2\n").unwrap_err();
+        assert!(e.to_string().contains("clfrt.servo-check-periods"), "{e}");
+        // 60 periods of 10.5 s do not fit in the 590 s settle window.
+        let e = Config::from_toml_str("[clfrt]\nservo-check-periods = 60\n").unwrap_err();
+        assert!(e.to_string().contains("clfrt.servo-check-periods"), "{e}");
+        let e = Config::from_toml_str("[clfrt]\nservo-check-frequency-rad-s = 0\n").unwrap_err();
+        assert!(e.to_string().contains("(0, 5]"), "{e}");
+        // 8 deg at 0.6 rad/s is 4.8 deg/s, over the gate's 3.5 deg/s.
+        let e = Config::from_toml_str("[clfrt]\nservo-check-amplitude-deg = 8\n").unwrap_err();
+        assert!(
+            e.to_string().contains("clfrt.servo-check-amplitude-deg")
+                && e.to_string().contains("safety.max-excitation-rate-deg-s"),
+            "{e}"
+        );
+        // Disabled: no settle window needed for it.
+        let cfg =
+            Config::from_toml_str("[clfrt]\nservo-check-amplitude-deg = 0\nsettle-windows = 0\n")
+                .unwrap();
+        assert_eq!(cfg.clfrt.servo_check_duration_s(cfg.sensors.rate_hz), 0.0);
+        // Defaults: 10 periods on 1047 samples, 12 periods in all.
+        let c = Config::default();
+        assert_eq!(c.clfrt.servo_check_samples(10.0), 1047);
+        let w = c.clfrt.servo_check_omega_rad_s(10.0);
+        assert!((w / 0.6 - 1.0).abs() < 5e-4, "{w}");
+        let d = c.clfrt.servo_check_duration_s(10.0);
+        assert!((d - 12.0 * 104.7 / 10.0).abs() < 1e-9, "{d}");
     }
 
     #[test]

@@ -22,7 +22,8 @@
 //!   `hbt.settle-periods` relay periods; exciting = `hbt.measure-periods` periods measured
 //!   between switches to `+h`; analysing = features, then the relay runs on until the
 //!   hand-back instant (`hbt.handback-lead-s`), then the report.
-//! - CLFRT: settling = `clfrt.settle-windows` windows with a faded-in multisine; exciting =
+//! - CLFRT: settling = `clfrt.settle-windows` windows: the servo check (a 0.6 rad/s sinusoid,
+//!   ~2 min) then the faded-in multisine; exciting =
 //!   `clfrt.measure-windows` windows recorded; analysing = features, then the excitation ramps
 //!   to zero at the safety rate limit, then the report.
 //!
