@@ -226,10 +226,9 @@ pub struct FdiConfig {
     pub sea_index_hbt: [f64; 2],
     /// Per-test decay of the remembered sea index (0: each test alone).
     pub sea_memory: f64,
-    /// Spread of the servo check's ln-gain error on a healthy servo.
-    pub actuator_ln_gain_sigma: [f64; 2],
-    /// Spread of the servo check's phase error on a healthy servo [deg].
-    pub actuator_phase_sigma_deg: [f64; 2],
+    /// Spread of the servo check's rudder-rate ratio (95th percentile over the healthy
+    /// servo's) on a healthy servo, for the one-sided shortfall.
+    pub actuator_rate_sigma: f64,
     /// Floor of the ln-gain spread of a tone in the model fit.
     pub model_fit_floor_ln_gain: f64,
     /// Floor of the phase spread of a tone in the model fit [deg].
@@ -262,8 +261,7 @@ impl Default for FdiConfig {
             sea_index_clfrt: [0.012, 0.031],
             sea_index_hbt: [0.012, 0.03],
             sea_memory: 0.8,
-            actuator_ln_gain_sigma: [0.02, 0.04],
-            actuator_phase_sigma_deg: [1.0, 2.0],
+            actuator_rate_sigma: 0.03,
             model_fit_floor_ln_gain: 0.01,
             model_fit_floor_phase_deg: 0.5,
             model_fit_threshold: 18.47,
@@ -326,15 +324,11 @@ impl FdiConfig {
             check_range_open_low(key, p[0], 0.0, hi)?;
             check_range_open_low(key, p[1], 0.0, hi)
         };
-        spread(
-            "fdi.actuator-ln-gain-sigma",
-            self.actuator_ln_gain_sigma,
-            10.0,
-        )?;
-        spread(
-            "fdi.actuator-phase-sigma-deg",
-            self.actuator_phase_sigma_deg,
-            90.0,
+        check_range_open_low(
+            "fdi.actuator-rate-sigma",
+            self.actuator_rate_sigma,
+            0.0,
+            1.0,
         )?;
         check_range_open_low(
             "fdi.model-fit-floor-ln-gain",

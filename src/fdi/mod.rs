@@ -19,9 +19,9 @@
 //! the moderate one).
 //!
 //! CLFRT adds two families of parity checks:
-//! - the *servo check* (actuator residual): the rudder's response to the servo-check burst
-//!   against the nominal servo, `z_gain = ln-gain error / s_g`, `z_phase = phase error / s_p`
-//!   (`fdi.actuator-*-sigma`): a rate-limited or slowed actuator lowers the gain and adds lag;
+//! - the *servo check* (actuator residual): during the servo-check burst the rudder's
+//!   95th-percentile rate against the healthy servo's, `rho`, gives the one-sided
+//!   `z_rate = max(0, 1 - rho) / fdi.actuator-rate-sigma`: a rate-limited servo cannot follow;
 //! - the *model fit*: the three measured G(jw_k) = psi/delta against the Nomoto model
 //!   b / (jw (jw + a)) fitted by weighted least squares (weights from the tones' own 90 %
 //!   intervals, floored by `fdi.model-fit-floor-*`): six numbers, two unknowns, a chi-square
@@ -30,8 +30,8 @@
 //!
 //! ## Decision (per method, tests of the same method in sequence)
 //!
-//! Chi-square rule: `q = z_speed^2 + z_disp^2` (m = 2) and, for CLFRT, `q_act = z_gain^2 +
-//! z_phase^2` (m = 2); a test *exceeds* when either is above `fdi.chi2-threshold` (13.82:
+//! Chi-square rule: `q = z_speed^2 + z_disp^2` (m = 2) and, for CLFRT, `q_act = z_rate^2`
+//! (compared with the same limit: conservative for one degree of freedom); a test *exceeds* when either is above `fdi.chi2-threshold` (13.82:
 //! 0.1 % for m = 2). CUSUM rule: a two-sided CUSUM per normalised residual,
 //! `S+ = max(0, S+ + z - k)`, `S- = max(0, S- - z - k)`; a test exceeds when any sum is above
 //! `h`. State machine: `normal -> alert` at the first exceeding test, `-> alarm` after
@@ -571,17 +571,19 @@ impl Fdi {
         r.z().iter().all(|z| z.is_finite()).then_some(r)
     }
 
-    /// The servo check's normalised residuals `(z_gain, z_phase)` (CLFRT).
-    fn actuator_z(&self, features: &Value, frac: f64) -> Option<[f64; 2]> {
+    /// The servo check's normalised residual (CLFRT): how far the rudder's 95th-percentile
+    /// rate during the burst falls short of the healthy servo's, `z = (1 - rho) /
+    /// fdi.actuator-rate-sigma`, one-sided (a rudder moving faster than the nominal servo's
+    /// linear response, as the autopilot adds its own motion in a rougher sea, is no fault).
+    fn actuator_z(&self, features: &Value) -> Option<[f64; 2]> {
         let sc = features.get("servo_check")?;
-        let g = sc.get("ln_gain_error")?.as_f64()?;
-        let p = sc.get("phase_error_rad")?.as_f64()?;
-        let sg =
-            lerp(self.cfg.actuator_ln_gain_sigma, frac).max(self.cfg.actuator_ln_gain_sigma[0]);
-        let sp = lerp(self.cfg.actuator_phase_sigma_deg, frac)
-            .max(self.cfg.actuator_phase_sigma_deg[0])
-            .to_radians();
-        Some([g / sg, p / sp])
+        let p95 = sc.get("rudder_rate_p95_rad_s")?.as_f64()?;
+        let nominal = sc.get("rudder_rate_nominal_rad_s")?.as_f64()?;
+        if !(nominal > 0.0) {
+            return None;
+        }
+        let rho = p95 / nominal;
+        Some([((1.0 - rho) / self.cfg.actuator_rate_sigma).max(0.0), 0.0])
     }
 
     /// Assesses a completed test. `estimate` is the networks' estimate (with the estimator
@@ -605,7 +607,7 @@ impl Fdi {
             Method::Hbt => None,
         };
         let mut act = match method {
-            Method::Clfrt => self.actuator_z(features, frac),
+            Method::Clfrt => self.actuator_z(features),
             Method::Hbt => None,
         };
         if self.cfg.model_fit_decides {
