@@ -579,7 +579,7 @@ impl Fdi {
         let sc = features.get("servo_check")?;
         let p95 = sc.get("rudder_rate_p95_rad_s")?.as_f64()?;
         let nominal = sc.get("rudder_rate_nominal_rad_s")?.as_f64()?;
-        if !(nominal > 0.0) {
+        if nominal.is_nan() || nominal <= 0.0 {
             return None;
         }
         let rho = p95 / nominal;
