@@ -535,7 +535,22 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
                         }
                     }
                 }
-                for (who, baseline) in [("ours", false), ("baseline", true)] {
+                // The baseline's rows only when its estimate exists (features.baseline).
+                let has_baseline = runs
+                    .iter()
+                    .flat_map(|r| r.tests.iter())
+                    .any(|t| t.baseline_decision != Decision::Inconclusive);
+                if !has_baseline && si == 0 {
+                    notes.push(
+                        "baseline: no equation-error estimate in the features, no rows".into(),
+                    );
+                }
+                let whos: &[(&str, bool)] = if has_baseline {
+                    &[("ours", false), ("baseline", true)]
+                } else {
+                    &[("ours", false)]
+                };
+                for &(who, baseline) in whos {
                     let c2 = score(&runs, sc.expected, 2, baseline);
                     let c4 = score(&runs, sc.expected, 4, baseline);
                     let nominal = sc.expected.is_none();
