@@ -87,22 +87,9 @@ fn probe_with(
     r
 }
 
-/// Runs `jobs` on two threads, keeping the order.
-fn par_map<T: Send, R: Send>(jobs: Vec<T>, f: impl Fn(T) -> R + Sync) -> Vec<R> {
-    let n = jobs.len();
-    let mut slots: Vec<Option<R>> = (0..n).map(|_| None).collect();
-    let mut items: Vec<(usize, T)> = jobs.into_iter().enumerate().collect();
-    let half = items.split_off(n / 2);
-    let f = &f;
-    let (a, b) = std::thread::scope(|s| {
-        let h = s.spawn(move || half.into_iter().map(|(i, t)| (i, f(t))).collect::<Vec<_>>());
-        let a: Vec<_> = items.into_iter().map(|(i, t)| (i, f(t))).collect();
-        (a, h.join().unwrap())
-    });
-    for (i, r) in a.into_iter().chain(b) {
-        slots[i] = Some(r);
-    }
-    slots.into_iter().map(|r| r.unwrap()).collect()
+/// Runs `jobs` on two threads, keeping the order (the library's worker pool).
+fn par_map<T: Clone + Sync, R: Send>(jobs: Vec<T>, f: impl Fn(T) -> R + Sync) -> Vec<R> {
+    helmwatch::estimator::database::par_map(jobs.len(), 2, |i| f(jobs[i].clone()))
 }
 
 fn f64_at(v: &serde_json::Value, k: &str) -> f64 {

@@ -30,13 +30,8 @@ pub struct ModelFit {
 impl ModelFit {
     /// JSON for the report's `residuals.model_fit`; with the (u, D) the fit implies.
     pub fn to_json(self, ship: &ShipConfig) -> Value {
-        let u = self.a_per_s * ship.length_m / ship.yaw_damping_a0;
-        let d = ship.water_density_t_m3
-            * 0.5
-            * (u / ship.length_m).powi(2)
-            * ship.rudder_area_m2
-            * ship.length_m
-            / self.b_per_s2;
+        let u = super::speed_from_a(self.a_per_s, ship);
+        let d = super::displacement_from_b(self.b_per_s2, u, ship);
         json!({
             "chi2": self.chi2,
             "dof": self.dof,

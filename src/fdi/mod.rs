@@ -552,14 +552,8 @@ impl Fdi {
         if !(a > 0.0 && b > 0.0 && u_log > 0.0) {
             return None;
         }
-        let s = &self.ship;
-        let u_est = a * s.length_m / s.yaw_damping_a0;
-        let d_est = s.water_density_t_m3
-            * 0.5
-            * (u_log / s.length_m).powi(2)
-            * s.rudder_area_m2
-            * s.length_m
-            / b;
+        let u_est = speed_from_a(a, &self.ship);
+        let d_est = displacement_from_b(b, u_log, &self.ship);
         let c = self.cfg.baseline_sigmas(method);
         let r = ParamResiduals {
             speed_mps: u_est - u_log,
@@ -687,6 +681,21 @@ impl Fdi {
             notification,
         }
     }
+}
+
+/// Speed from the Nomoto `a` (DOMAIN: `a = a0 u / l`) [m/s].
+pub fn speed_from_a(a_per_s: f64, ship: &ShipConfig) -> f64 {
+    a_per_s * ship.length_m / ship.yaw_damping_a0
+}
+
+/// Displacement from the Nomoto `b` at speed `u` (DOMAIN: `b = 0.5 (u/l)^2 A l rho / D`) [t].
+pub fn displacement_from_b(b_per_s2: f64, speed_mps: f64, ship: &ShipConfig) -> f64 {
+    ship.water_density_t_m3
+        * 0.5
+        * (speed_mps / ship.length_m).powi(2)
+        * ship.rudder_area_m2
+        * ship.length_m
+        / b_per_s2
 }
 
 /// Name of a decision on the wire.
