@@ -17,6 +17,7 @@
 //! | [`dsp`] | spectra, detrending, multisine design, tone analysis, relay limit-cycle theory | no |
 //! | [`monitor`] | the monitor core: a pure state machine fed timestamped samples | no |
 //! | [`estimator`] | the neural estimator: features to speed and displacement; training, model files, evaluation | reads model files |
+//! | [`baseline`] | time-domain baseline: equation-error least squares of the Nomoto a and b (state-variable filter) | no |
 //! | [`probe`] | virtual-time driver: simulated ship + monitor core in lockstep | no |
 //! | [`replay`] | the monitor core over a recording (JSON lines) | reads a file |
 //! | [`net`] | Zenoh session configuration shared by the drivers below | no |
@@ -36,6 +37,7 @@
 //! a clock or a global random generator: time comes with the samples, randomness from seeds.
 
 pub mod angle;
+pub mod baseline;
 pub mod bench;
 pub mod cli;
 pub mod config;
