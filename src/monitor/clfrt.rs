@@ -10,12 +10,14 @@
 //! - Analysing: heading and rudder are resampled onto the uniform grid of the measurement
 //!   (alignment by `t`), the reference is the multisine itself on that grid, and the gain and
 //!   phase of heading/rudder at each tone are estimated against the reference
-//!   ([`crate::dsp::tones`]). Meanwhile the excitation ramps to zero at the safety rate limit;
+//!   ([`crate::dsp::tones`]). The same grids feed the time-domain baseline
+//!   ([`crate::baseline`]), whose failure is reported, never an abort. Meanwhile the excitation ramps to zero at the safety rate limit;
 //!   the report follows when it reaches zero.
 
 use super::record::{Record, RecordError};
 use super::{Features, Step};
-use crate::config::Config;
+use crate::baseline::{self, BaselineError, BaselineEstimate};
+use crate::config::{BaselineConfig, Config, ShipConfig};
 use crate::dsp::multisine::Multisine;
 use crate::dsp::tones::{analyse_tones, ToneAnalyser, ToneEstimate};
 use crate::wire::{ExcitationMode, MonitorState};
@@ -33,6 +35,8 @@ pub struct ClfrtReport {
     pub amplitude_rad: f64,
     /// Crest factor of the multisine.
     pub crest_factor: f64,
+    /// The time-domain baseline on the measured windows, or why it failed.
+    pub baseline: Result<BaselineEstimate, BaselineError>,
 }
 
 impl ClfrtReport {
@@ -53,13 +57,17 @@ impl ClfrtReport {
                 })
             })
             .collect();
-        serde_json::json!({
+        let mut v = serde_json::json!({
             "tones": tones,
             "window_s": self.window_s,
             "windows": self.windows,
             "amplitude_rad": self.amplitude_rad,
             "crest_factor": self.crest_factor,
-        })
+        });
+        if let Some(obj) = v.as_object_mut() {
+            baseline::insert_json(obj, &self.baseline);
+        }
+        v
     }
 }
 
@@ -89,6 +97,8 @@ pub(crate) struct ClfrtRun {
     ramp: (f64, f64),
     analyser: ToneAnalyser,
     scratch: [Vec<f64>; 3],
+    /// The baseline's filter and the ship that turns its a and b into speed and displacement.
+    baseline: (BaselineConfig, ShipConfig),
 }
 
 impl ClfrtRun {
@@ -120,6 +130,7 @@ impl ClfrtRun {
             ramp: (0.0, t_start_s),
             analyser: ToneAnalyser::new(),
             scratch: [Vec::new(), Vec::new(), Vec::new()],
+            baseline: (cfg.baseline.clone(), cfg.ship.clone()),
         }
     }
 
@@ -231,12 +242,15 @@ impl ClfrtRun {
             &self.harmonics,
         )
         .map_err(|e| format!("analysis: {e}"))?;
+        let (bcfg, ship) = &self.baseline;
+        let baseline = baseline::estimate(h, d, self.dt_s, bcfg, ship);
         Ok(Features::Clfrt(ClfrtReport {
             tones,
             window_s: self.window_s,
             windows: self.windows,
             amplitude_rad: self.amplitude_rad,
             crest_factor: self.multisine.crest_factor(),
+            baseline,
         }))
     }
 }

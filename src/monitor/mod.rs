@@ -33,7 +33,9 @@
 //! that the displacement network reads, defined once here for the daemon and the training
 //! database alike. When the monitor was built with an estimator
 //! ([`Monitor::with_estimator`]), the report's `estimate` holds the networks' speed and
-//! displacement ([`crate::estimator`]); the decision stays `inconclusive`.
+//! displacement ([`crate::estimator`]); the decision stays `inconclusive`. Every completed
+//! test's `features` also carry `baseline`, the time-domain least-squares a and b on the
+//! same records ([`crate::baseline`]; `null` and `baseline_error` when that fit failed).
 //!
 //! ## Safety (checked at every heading sample of a test; an abort sends `mode: none` at once)
 //!
