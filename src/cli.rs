@@ -416,10 +416,24 @@ fn probe(cfg: &Config, a: ProbeArgs) -> Result<(), Failure> {
             println!("  reason: {reason}");
         }
         print_features(&r.features);
+        print_baseline(&r.features);
         print_estimate(r);
         println!("  decision: {:?}; {}", r.decision, r.message);
     }
     Ok(())
+}
+
+fn print_baseline(f: &serde_json::Value) {
+    let g = |k: &str| f["baseline"].get(k).and_then(|v| v.as_f64());
+    if let (Some(a), Some(b)) = (g("a_per_s"), g("b_per_s2")) {
+        println!(
+            "  baseline (time domain): a {a:.5} 1/s, b {b:.3e} 1/s^2, speed {:.2} m/s, displacement {:.0} t",
+            g("speed_mps").unwrap_or(f64::NAN),
+            g("displacement_t").unwrap_or(f64::NAN),
+        );
+    } else if let Some(e) = f.get("baseline_error").and_then(|v| v.as_str()) {
+        println!("  baseline (time domain): none: {e}");
+    }
 }
 
 fn print_estimate(r: &crate::wire::Report) {

@@ -131,6 +131,8 @@ pub struct Config {
     pub estimator: EstimatorConfig,
     /// Fault detection and isolation: residual spreads, decision rule, alarm state.
     pub fdi: FdiConfig,
+    /// The time-domain baseline (equation-error least squares of a and b).
+    pub baseline: BaselineConfig,
 }
 
 impl Config {
@@ -170,6 +172,7 @@ impl Config {
         self.ship_peer.check()?;
         self.estimator.check()?;
         self.fdi.check()?;
+        self.baseline.check()?;
         Ok(())
     }
 }
@@ -406,6 +409,46 @@ impl EstimatorConfig {
                 ));
             }
         }
+        Ok(())
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Baseline
+
+/// The time-domain baseline (see `crate::baseline`): a state-variable filter
+/// `F(s) = lambda^2 / (s + lambda)^2` on heading and rudder, then least squares of
+/// `s^2 F psi = -a s F psi + b F delta + c`.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
+pub struct BaselineConfig {
+    /// Filter bandwidth lambda [rad/s]: above the ship's band (0.01 .. 0.2 rad/s) so its
+    /// motion passes, below the wave band (0.8 rad/s), which leaks into the regressor
+    /// `s F psi` as an error in the variables and biases `a` towards zero.
+    pub filter_rad_s: f64,
+    /// Filtered samples left out at the start of each record: the filter's start-up
+    /// transient, which decays as `(lambda t) e^{-lambda t}` [s]; at least 5 / lambda.
+    pub transient_s: f64,
+}
+
+impl Default for BaselineConfig {
+    fn default() -> Self {
+        Self {
+            filter_rad_s: 0.15,
+            transient_s: 80.0,
+        }
+    }
+}
+
+impl BaselineConfig {
+    fn check(&self) -> Result<(), ConfigError> {
+        check_range("baseline.filter-rad-s", self.filter_rad_s, 0.01, 2.0)?;
+        check_range(
+            "baseline.transient-s",
+            self.transient_s,
+            5.0 / self.filter_rad_s,
+            600.0,
+        )?;
         Ok(())
     }
 }
@@ -1743,6 +1786,19 @@ mod tests {
         assert!((w / 0.6 - 1.0).abs() < 5e-4, "{w}");
         let d = c.clfrt.servo_check_duration_s(10.0);
         assert!((d - 12.0 * 104.7 / 10.0).abs() < 1e-9, "{d}");
+    }
+
+    #[test]
+    fn baseline_keys_are_checked() {
+        let e = Config::from_toml_str("[baseline]\nfilter-rad-s = 0\n").unwrap_err();
+        assert!(e.to_string().contains("baseline.filter-rad-s"), "{e}");
+        // 5 / lambda = 50 s at 0.1 rad/s.
+        let e = Config::from_toml_str("[baseline]\nfilter-rad-s = 0.1\ntransient-s = 40\n")
+            .unwrap_err();
+        assert!(e.to_string().contains("baseline.transient-s"), "{e}");
+        Config::from_toml_str("[baseline]\nfilter-rad-s = 0.1\ntransient-s = 60\n").unwrap();
+        let e = Config::from_toml_str("[baseline]\nlambda = 0.1\n").unwrap_err();
+        assert!(e.to_string().contains("lambda"), "{e}");
     }
 
     #[test]

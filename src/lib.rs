@@ -18,6 +18,7 @@
 //! | [`monitor`] | the monitor core: a pure state machine fed timestamped samples | no |
 //! | [`estimator`] | the neural estimator: features to speed and displacement; training, model files, evaluation | reads model files |
 //! | [`fdi`] | parity-space residuals, decision rule, alarm state, isolation; the `eval --fdi` suite | no |
+//! | [`baseline`] | time-domain baseline: equation-error least squares of the Nomoto a and b (state-variable filter) | no |
 //! | [`probe`] | virtual-time driver: simulated ship + monitor core in lockstep | no |
 //! | [`replay`] | the monitor core over a recording (JSON lines) | reads a file |
 //! | [`net`] | Zenoh session configuration shared by the drivers below | no |
@@ -37,6 +38,7 @@
 //! a clock or a global random generator: time comes with the samples, randomness from seeds.
 
 pub mod angle;
+pub mod baseline;
 pub mod bench;
 pub mod cli;
 pub mod config;

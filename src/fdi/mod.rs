@@ -63,6 +63,7 @@
 pub mod eval;
 mod fit;
 
+pub use crate::baseline::{displacement_from_b, speed_from_a};
 use crate::config::{Config, DecisionRule, FdiConfig, Method, ShipConfig};
 use crate::estimator::features::SPEED_LOG_FIELD;
 use crate::estimator::model::{Target, Uncertainty};
@@ -681,21 +682,6 @@ impl Fdi {
             notification,
         }
     }
-}
-
-/// Speed from the Nomoto `a` (DOMAIN: `a = a0 u / l`) [m/s].
-pub fn speed_from_a(a_per_s: f64, ship: &ShipConfig) -> f64 {
-    a_per_s * ship.length_m / ship.yaw_damping_a0
-}
-
-/// Displacement from the Nomoto `b` at speed `u` (DOMAIN: `b = 0.5 (u/l)^2 A l rho / D`) [t].
-pub fn displacement_from_b(b_per_s2: f64, speed_mps: f64, ship: &ShipConfig) -> f64 {
-    ship.water_density_t_m3
-        * 0.5
-        * (speed_mps / ship.length_m).powi(2)
-        * ship.rudder_area_m2
-        * ship.length_m
-        / b_per_s2
 }
 
 /// Name of a decision on the wire.

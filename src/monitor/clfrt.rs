@@ -16,7 +16,8 @@
 //! - Analysing: heading and rudder are resampled onto the uniform grid of the measurement
 //!   (alignment by `t`), the reference is the multisine itself on that grid, and the gain and
 //!   phase of heading/rudder at each tone are estimated against the reference
-//!   ([`crate::dsp::tones`]). Meanwhile the excitation ramps to zero at the safety rate limit;
+//!   ([`crate::dsp::tones`]). The same grids feed the time-domain baseline
+//!   ([`crate::baseline`]), whose failure is reported, never an abort. Meanwhile the excitation ramps to zero at the safety rate limit;
 //!   the report follows when it reaches zero.
 //!
 //! ## Servo check
@@ -56,7 +57,8 @@
 
 use super::record::{Record, RecordError};
 use super::{Features, Step};
-use crate::config::Config;
+use crate::baseline::{self, BaselineError, BaselineEstimate};
+use crate::config::{BaselineConfig, Config, ShipConfig};
 use crate::dsp::multisine::Multisine;
 use crate::dsp::spectrum::{detrend_linear_keep_bins, naive_dft};
 use crate::dsp::tones::{analyse_tones, ToneAnalyser, ToneEstimate};
@@ -79,6 +81,8 @@ pub struct ClfrtReport {
     pub crest_factor: f64,
     /// The servo check (none when disabled).
     pub servo_check: Option<ServoCheck>,
+    /// The time-domain baseline on the measured windows, or why it failed.
+    pub baseline: Result<BaselineEstimate, BaselineError>,
 }
 
 /// The servo check of a multisine test (the features' `servo_check`).
@@ -185,8 +189,11 @@ impl ClfrtReport {
             "amplitude_rad": self.amplitude_rad,
             "crest_factor": self.crest_factor,
         });
-        if let (Some(sc), Some(obj)) = (&self.servo_check, v.as_object_mut()) {
-            obj.insert("servo_check".into(), sc.to_json());
+        if let Some(obj) = v.as_object_mut() {
+            if let Some(sc) = &self.servo_check {
+                obj.insert("servo_check".into(), sc.to_json());
+            }
+            baseline::insert_json(obj, &self.baseline);
         }
         v
     }
@@ -419,6 +426,8 @@ pub(crate) struct ClfrtRun {
     scratch: [Vec<f64>; 3],
     /// The servo check (none when disabled).
     check: Option<ServoCheckRun>,
+    /// The baseline's filter and the ship that turns its a and b into speed and displacement.
+    baseline: (BaselineConfig, ShipConfig),
 }
 
 impl ClfrtRun {
@@ -456,6 +465,7 @@ impl ClfrtRun {
             analyser: ToneAnalyser::new(),
             scratch: [Vec::new(), Vec::new(), Vec::new()],
             check,
+            baseline: (cfg.baseline.clone(), cfg.ship.clone()),
         }
     }
 
@@ -609,6 +619,8 @@ impl ClfrtRun {
             &self.harmonics,
         )
         .map_err(|e| format!("analysis: {e}"))?;
+        let (bcfg, ship) = &self.baseline;
+        let baseline = baseline::estimate(h, d, self.dt_s, bcfg, ship);
         Ok(Features::Clfrt(ClfrtReport {
             tones,
             window_s: self.window_s,
@@ -624,6 +636,7 @@ impl ClfrtRun {
                     .clone()
                     .unwrap_or_else(|| Err("not measured before the analysis".into())),
             }),
+            baseline,
         }))
     }
 }

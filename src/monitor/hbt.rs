@@ -23,6 +23,11 @@
 //! asymmetric duty cycle that changes the period and amplitude; an adapted centre supplies it
 //! and the cycle, by superposition on the linear ship, is the drift-free one.
 //!
+//! Baseline: the rudder is recorded from the relay's start too, and the heading and rudder on
+//! the analysis grid (the measured periods) feed the time-domain baseline
+//! ([`crate::baseline`]) over the span both records cover; its failure is reported, never an
+//! abort.
+//!
 //! Chatter (two switches closer than `hbt.min-switch-interval-s`: heading noise above the
 //! hysteresis) aborts at once; a cycle not larger than the hysteresis is refused.
 //!
@@ -36,7 +41,8 @@
 
 use super::record::{Record, RecordError};
 use super::{Features, Step};
-use crate::config::Config;
+use crate::baseline::{self, BaselineError, BaselineEstimate};
+use crate::config::{BaselineConfig, Config, ShipConfig};
 use crate::dsp::relay::{analyse_limit_cycle, HbtFeatures};
 use crate::wire::{ExcitationMode, MonitorState};
 
@@ -59,12 +65,14 @@ pub struct HbtReport {
     pub min_switch_interval_s: f64,
     /// Relay switches in the whole test.
     pub switches: usize,
+    /// The time-domain baseline on the measured periods, or why it failed.
+    pub baseline: Result<BaselineEstimate, BaselineError>,
 }
 
 impl HbtReport {
     /// JSON of the report's `features`.
     pub fn to_json(&self) -> serde_json::Value {
-        serde_json::json!({
+        let mut v = serde_json::json!({
             "period_s": self.cycle.period_s,
             "omega_u_rad_s": self.cycle.omega_u_rad_s,
             "amplitude_rad": self.cycle.amplitude_rad,
@@ -77,7 +85,11 @@ impl HbtReport {
             "initial_trim_rad": self.initial_trim_rad,
             "min_switch_interval_s": self.min_switch_interval_s,
             "switches": self.switches,
-        })
+        });
+        if let Some(obj) = v.as_object_mut() {
+            baseline::insert_json(obj, &self.baseline);
+        }
+        v
     }
 }
 
@@ -131,7 +143,12 @@ pub(crate) struct HbtRun {
     switches: usize,
     /// Continuous heading from the relay start [rad].
     heading: Record,
-    scratch: Vec<f64>,
+    /// Rudder from the relay start [rad] (for the baseline).
+    rudder: Record,
+    /// Resampled heading and rudder.
+    scratch: [Vec<f64>; 2],
+    /// The baseline's filter and the ship that turns its a and b into speed and displacement.
+    baseline: (BaselineConfig, ShipConfig),
 }
 
 impl HbtRun {
@@ -167,7 +184,9 @@ impl HbtRun {
             shortest_switch_s: f64::INFINITY,
             switches: 0,
             heading: Record::with_capacity(capacity),
-            scratch: Vec::new(),
+            rudder: Record::with_capacity(capacity),
+            scratch: [Vec::new(), Vec::new()],
+            baseline: (cfg.baseline.clone(), cfg.ship.clone()),
         }
     }
 
@@ -176,11 +195,15 @@ impl HbtRun {
         self.trim_rad.unwrap_or(0.0)
     }
 
-    /// A rudder sample: accumulates the trim during the trim window.
+    /// A rudder sample: accumulates the trim during the trim window, then is recorded (with
+    /// two samples of margin before the relay starts) until the analysis.
     pub(crate) fn push_rudder(&mut self, t: f64, rudder_rad: f64) -> Result<(), RecordError> {
         if t < self.trim_end_s {
             self.trim_sum += rudder_rad;
             self.trim_n += 1;
+        }
+        if self.result.is_none() && t >= self.trim_end_s - 2.0 * self.dt_s {
+            self.rudder.push(t, rudder_rad)?;
         }
         Ok(())
     }
@@ -337,11 +360,24 @@ impl HbtRun {
         let first = measured.first().copied().unwrap_or(t_now);
         let t0 = (first - 2.0 * self.dt_s).max(self.relay_start_s.unwrap_or(first));
         let n = ((t_now - t0) / self.dt_s).floor() as usize + 1;
+        let [h, d] = &mut self.scratch;
         self.heading
-            .resample(t0, self.dt_s, n, self.max_gap_s, &mut self.scratch)
+            .resample(t0, self.dt_s, n, self.max_gap_s, h)
             .map_err(|e| format!("analysis: {e}"))?;
-        let cycle = analyse_limit_cycle(t0, self.dt_s, &self.scratch, measured)
+        let cycle = analyse_limit_cycle(t0, self.dt_s, h, measured)
             .map_err(|e| format!("analysis: {e}"))?;
+        // The baseline over the span both records cover (the rudder may lag the heading).
+        let n_rudder = match self.rudder.last_t() {
+            Some(tl) if tl >= t0 => ((tl - t0) / self.dt_s).floor() as usize + 1,
+            _ => 0,
+        };
+        let n_both = n.min(n_rudder);
+        let (bcfg, ship) = &self.baseline;
+        let baseline = self
+            .rudder
+            .resample(t0, self.dt_s, n_both, self.max_gap_s, d)
+            .map_err(|e| BaselineError::Record(e.to_string()))
+            .and_then(|()| baseline::estimate(&h[..n_both], d, self.dt_s, bcfg, ship));
         let a = cycle.amplitude_rad;
         if a <= self.eps_rad {
             // A limit cycle through the hysteresis band cannot be smaller than the band.
@@ -362,6 +398,7 @@ impl HbtRun {
             initial_trim_rad: self.initial_trim_rad,
             min_switch_interval_s: self.shortest_switch_s,
             switches: self.switches,
+            baseline,
         }))
     }
 }

@@ -36,7 +36,9 @@
 //! ([`Monitor::with_estimator`]), the report's `estimate` holds the networks' speed and
 //! displacement ([`crate::estimator`]), and [`crate::fdi`] turns them into the report's
 //! `residuals`, `decision` and `isolation`, and queues a notification when the vessel's alarm
-//! state changes (after the report).
+//! state changes (after the report). Every completed
+//! test's `features` also carry `baseline`, the time-domain least-squares a and b on the
+//! same records ([`crate::baseline`]; `null` and `baseline_error` when that fit failed).
 //!
 //! ## Safety (checked at every heading sample of a test; an abort sends `mode: none` at once)
 //!
