@@ -172,6 +172,14 @@ impl Config {
         self.ship_peer.check()?;
         self.estimator.check()?;
         self.fdi.check()?;
+        let nyquist = std::f64::consts::PI * self.sensors.rate_hz;
+        if self.fdi.wave_band_rad_s[1] > nyquist {
+            return Err(fail(
+                "fdi.wave-band-rad-s",
+                format!("{:?}", self.fdi.wave_band_rad_s),
+                &format!("[lo, hi] with hi <= pi sensors.rate-hz = {nyquist:.3}"),
+            ));
+        }
         self.baseline.check()?;
         Ok(())
     }
@@ -222,11 +230,16 @@ pub struct FdiConfig {
     pub cusum_h: f64,
     /// Name the second parameter cause too when its GLR cost is within this margin [chi2].
     pub isolation_margin: f64,
-    /// CLFRT sea index (mean relative 90 % interval of the tone gains) in a calm and a
-    /// moderate sea: anchors of the spread interpolation.
-    pub sea_index_clfrt: [f64; 2],
-    /// HBT sea index (coefficient of variation of the relay periods), calm and moderate.
-    pub sea_index_hbt: [f64; 2],
+    /// Band of the wave yaw on the heading (`features.wave_yaw_rad`) [rad/s].
+    pub wave_band_rad_s: [f64; 2],
+    /// The measured wave yaw in a calm and a moderate sea [deg]: anchors of the spread
+    /// interpolation (the sea index).
+    pub sea_wave_yaw_deg: [f64; 2],
+    /// Speed residual spread proportional to the speed log (model files' `relative_std`)
+    /// rather than absolute.
+    pub relative_spread_speed: bool,
+    /// Displacement residual spread proportional to the nominal displacement.
+    pub relative_spread_displacement: bool,
     /// Per-test decay of the remembered sea index (0: each test alone).
     pub sea_memory: f64,
     /// Spread of the servo check's rudder-rate ratio (95th percentile over the healthy
@@ -261,31 +274,25 @@ impl Default for FdiConfig {
             cusum_k: 0.5,
             cusum_h: 5.0,
             isolation_margin: 0.0,
-            sea_index_clfrt: [0.012, 0.031],
-            sea_index_hbt: [0.012, 0.03],
-            sea_memory: 0.8,
+            wave_band_rad_s: [0.4, 2.0],
+            sea_wave_yaw_deg: [0.05, 0.18],
+            relative_spread_speed: false,
+            relative_spread_displacement: true,
+            sea_memory: 0.0,
             actuator_rate_sigma: 0.03,
             model_fit_floor_ln_gain: 0.01,
             model_fit_floor_phase_deg: 0.5,
             model_fit_threshold: 18.47,
             model_fit_decides: false,
-            baseline_clfrt_speed_sigma_mps: [0.1, 0.3],
-            baseline_clfrt_displacement_sigma_t: [100.0, 300.0],
-            baseline_hbt_speed_sigma_mps: [0.1, 0.3],
-            baseline_hbt_displacement_sigma_t: [100.0, 300.0],
+            baseline_clfrt_speed_sigma_mps: [0.07, 0.33],
+            baseline_clfrt_displacement_sigma_t: [20.0, 100.0],
+            baseline_hbt_speed_sigma_mps: [0.04, 0.16],
+            baseline_hbt_displacement_sigma_t: [12.0, 65.0],
         }
     }
 }
 
 impl FdiConfig {
-    /// The sea-index anchors of `method`.
-    pub fn sea_index_anchors(&self, method: Method) -> [f64; 2] {
-        match method {
-            Method::Clfrt => self.sea_index_clfrt,
-            Method::Hbt => self.sea_index_hbt,
-        }
-    }
-
     /// The baseline's `(speed, displacement)` spread pairs for `method`'s record.
     pub fn baseline_sigmas(&self, method: Method) -> ([f64; 2], [f64; 2]) {
         match method {
@@ -320,8 +327,8 @@ impl FdiConfig {
                 ))
             }
         };
-        increasing("fdi.sea-index-clfrt", self.sea_index_clfrt, 10.0)?;
-        increasing("fdi.sea-index-hbt", self.sea_index_hbt, 10.0)?;
+        increasing("fdi.sea-wave-yaw-deg", self.sea_wave_yaw_deg, 10.0)?;
+        increasing("fdi.wave-band-rad-s", self.wave_band_rad_s, 10.0)?;
         check_range("fdi.sea-memory", self.sea_memory, 0.0, 0.99)?;
         let spread = |key: &str, p: [f64; 2], hi: f64| -> Result<(), ConfigError> {
             check_range_open_low(key, p[0], 0.0, hi)?;
@@ -1786,6 +1793,19 @@ mod tests {
         assert!((w / 0.6 - 1.0).abs() < 5e-4, "{w}");
         let d = c.clfrt.servo_check_duration_s(10.0);
         assert!((d - 12.0 * 104.7 / 10.0).abs() < 1e-9, "{d}");
+    }
+
+    #[test]
+    fn sea_keys_are_checked() {
+        let e = Config::from_toml_str("[fdi]\nsea-wave-yaw-deg = [0.2, 0.05]\n").unwrap_err();
+        assert!(e.to_string().contains("fdi.sea-wave-yaw-deg"), "{e}");
+        let e = Config::from_toml_str("[fdi]\nwave-band-rad-s = [2.0, 0.4]\n").unwrap_err();
+        assert!(e.to_string().contains("fdi.wave-band-rad-s"), "{e}");
+        // 8 rad/s is above the Nyquist frequency of 2 Hz sensors (6.28 rad/s).
+        let e =
+            Config::from_toml_str("[sensors]\nrate-hz = 2\n[fdi]\nwave-band-rad-s = [0.4, 8.0]\n")
+                .unwrap_err();
+        assert!(e.to_string().contains("fdi.wave-band-rad-s"), "{e}");
     }
 
     #[test]

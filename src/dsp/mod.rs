@@ -24,7 +24,7 @@ pub mod tones;
 
 pub use multisine::Multisine;
 pub use relay::{analyse_limit_cycle, limit_cycle_describing_function, HbtFeatures};
-pub use spectrum::{detrend_linear, detrend_linear_keep_bins, naive_dft, Spectrum};
+pub use spectrum::{band_rms, detrend_linear, detrend_linear_keep_bins, naive_dft, Spectrum};
 pub use tones::{analyse_tones, ToneAnalyser, ToneEstimate};
 
 /// Why a signal-processing function refused its input or could not produce a result.

@@ -263,19 +263,22 @@ pub fn build_models(
                 .seas
                 .iter()
                 .filter_map(|&sea| {
-                    let r: Vec<f64> = d.parts[1]
+                    let (r, rel): (Vec<f64>, Vec<f64>) = d.parts[1]
                         .iter()
                         .zip(&val)
                         .filter(|(p, _)| p.2 == sea)
-                        .map(|(_, v)| *v)
-                        .collect();
+                        .map(|(p, v)| (*v, *v / p.1))
+                        .unzip();
                     (r.len() >= 2).then(|| {
                         let (m, sd) = mean_std(&r);
+                        let (rm, rsd) = mean_std(&rel);
                         SeaSpread {
                             sea,
                             n: r.len(),
                             residual_mean: m,
                             residual_std: sd,
+                            relative_mean: Some(rm),
+                            relative_std: Some(rsd),
                         }
                     })
                 })

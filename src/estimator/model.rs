@@ -251,6 +251,12 @@ pub struct SeaSpread {
     pub residual_mean: f64,
     /// Standard deviation of (estimate - truth) [unit].
     pub residual_std: f64,
+    /// Mean of (estimate - truth) / truth (absent in older files).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub relative_mean: Option<f64>,
+    /// Standard deviation of (estimate - truth) / truth (absent in older files).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub relative_std: Option<f64>,
 }
 
 /// `uncertainty`: the spread of the estimator's residuals on the validation set.
@@ -603,13 +609,17 @@ impl Model {
         let u = &file.uncertainty;
         let spread_ok = |m: f64, s: f64| m.is_finite() && s.is_finite() && s > 0.0;
         if !spread_ok(u.residual_mean, u.residual_std)
-            || !u
-                .by_sea
-                .iter()
-                .all(|x| spread_ok(x.residual_mean, x.residual_std))
+            || !u.by_sea.iter().all(|x| {
+                spread_ok(x.residual_mean, x.residual_std)
+                    && match (x.relative_mean, x.relative_std) {
+                        (None, None) => true,
+                        (Some(m), Some(s)) => spread_ok(m, s),
+                        _ => false,
+                    }
+            })
         {
             return Err(invalid(
-                "uncertainty: residual means must be finite and spreads finite and > 0".into(),
+                "uncertainty: residual means must be finite and spreads finite and > 0 (relative ones given both or neither)".into(),
             ));
         }
         Ok(Self {
@@ -707,6 +717,8 @@ pub(crate) mod tests {
                         n: 10,
                         residual_mean: 0.5,
                         residual_std: 60.0,
+                        relative_mean: Some(1e-4),
+                        relative_std: Some(0.008),
                     }],
                 },
                 training: TrainingRecord {

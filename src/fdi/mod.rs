@@ -429,26 +429,18 @@ fn method_index(m: Method) -> usize {
     }
 }
 
-/// The sea index of a test's features (see the module doc), if it has one.
-pub fn sea_index(method: Method, features: &Value) -> Option<f64> {
-    match method {
-        Method::Hbt => {
-            let f = |k: &str| features.get(k).and_then(Value::as_f64);
-            f("period_s")
-                .zip(f("period_std_s"))
-                .and_then(|(p, sd)| (p > 0.0).then(|| sd / p))
-        }
-        Method::Clfrt => {
-            let tones = features.get("tones")?.as_array()?;
-            let v: Vec<f64> = tones
-                .iter()
-                .filter_map(|t| t.get("gain_ci90_rel").and_then(Value::as_f64))
-                .collect();
-            (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
-        }
-    }
-    .filter(|x| x.is_finite() && *x >= 0.0)
+/// The sea index of a test's features (see the module doc): its wave yaw [deg], if it has
+/// one.
+pub fn sea_index(features: &Value) -> Option<f64> {
+    features
+        .get(WAVE_YAW_FIELD)
+        .and_then(Value::as_f64)
+        .map(f64::to_degrees)
+        .filter(|x| x.is_finite() && *x >= 0.0)
 }
+
+/// The features' wave yaw: rms of the heading in `fdi.wave-band-rad-s` [rad].
+pub const WAVE_YAW_FIELD: &str = "wave_yaw_rad";
 
 /// Where `index` sits between the calm (0) and moderate (1) anchors, clamped to [0, 3].
 fn sea_fraction(anchors: [f64; 2], index: Option<f64>) -> f64 {
@@ -464,15 +456,28 @@ fn lerp(pair: [f64; 2], frac: f64) -> f64 {
     pair[0] + frac * (pair[1] - pair[0])
 }
 
-/// `(bias, spread)` of a model's residuals at sea fraction `frac`.
-fn spread(u: &Uncertainty, frac: f64) -> (f64, f64) {
+/// `(bias, spread)` of a model's residuals at sea fraction `frac`; relative to `reference`
+/// (the value under no fault) when given and the model file records relative spreads.
+fn spread(u: &Uncertainty, frac: f64, reference: Option<f64>) -> (f64, f64) {
     use crate::config::SeaState;
     let of = |s: SeaState| u.by_sea.iter().find(|b| b.sea == s);
+    let pick =
+        |mean: [f64; 2], sd: [f64; 2]| (lerp(mean, frac.min(1.0)), lerp(sd, frac).max(sd[0]));
     match (of(SeaState::Calm), of(SeaState::Moderate)) {
-        (Some(c), Some(m)) => (
-            lerp([c.residual_mean, m.residual_mean], frac.min(1.0)),
-            lerp([c.residual_std, m.residual_std], frac).max(c.residual_std),
-        ),
+        (Some(c), Some(m)) => match (reference, c.relative_std, m.relative_std) {
+            (Some(y), Some(rc), Some(rm)) => {
+                let means = [
+                    c.relative_mean.unwrap_or(0.0),
+                    m.relative_mean.unwrap_or(0.0),
+                ];
+                let (bm, bs) = pick(means, [rc, rm]);
+                (bm * y, bs * y)
+            }
+            _ => pick(
+                [c.residual_mean, m.residual_mean],
+                [c.residual_std, m.residual_std],
+            ),
+        },
         _ => (u.residual_mean, u.residual_std),
     }
 }
@@ -516,10 +521,16 @@ impl Fdi {
         frac: f64,
     ) -> Option<ParamResiduals> {
         let u_log = features.get(SPEED_LOG_FIELD)?.as_f64()?;
-        let (mu, su) = spread(&est.model(method, Target::Speed).file.uncertainty, frac);
+        let rel = |on: bool, y: f64| on.then_some(y);
+        let (mu, su) = spread(
+            &est.model(method, Target::Speed).file.uncertainty,
+            frac,
+            rel(self.cfg.relative_spread_speed, u_log),
+        );
         let (md, sd) = spread(
             &est.model(method, Target::Displacement).file.uncertainty,
             frac,
+            rel(self.cfg.relative_spread_displacement, d_nom_t),
         );
         // dD/du_log by a central difference through the displacement network.
         let mut f = features.clone();
@@ -591,9 +602,9 @@ impl Fdi {
         d_nom_t: f64,
     ) -> Assessment {
         let i = method_index(method);
-        let measured = sea_index(method, features);
+        let measured = sea_index(features);
         let index = self.tracks[i].sea_index(measured, self.cfg.sea_memory);
-        let frac = sea_fraction(self.cfg.sea_index_anchors(method), index);
+        let frac = sea_fraction(self.cfg.sea_wave_yaw_deg, index);
         let param = estimate.and_then(|(e, est, scratch)| {
             self.nn_residuals(method, features, e, d_nom_t, est, scratch, frac)
         });

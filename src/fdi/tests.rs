@@ -173,6 +173,62 @@ fn sea_fraction_interpolates_and_clamps() {
     assert_eq!(sea_fraction([0.02, 0.06], None), 1.0);
 }
 
+#[test]
+fn sea_index_reads_the_wave_yaw_in_degrees() {
+    let f = serde_json::json!({ "wave_yaw_rad": 0.2f64.to_radians() });
+    assert!((sea_index(&f).unwrap() - 0.2).abs() < 1e-12);
+    assert_eq!(
+        sea_index(&serde_json::json!({ "wave_yaw_rad": null })),
+        None
+    );
+    assert_eq!(
+        sea_index(&serde_json::json!({ "wave_yaw_rad": -1.0 })),
+        None
+    );
+}
+
+/// Relative spreads scale with the reference; absolute ones (or files without relative
+/// figures) do not; between the anchors both interpolate, above moderate the spread grows.
+#[test]
+fn spreads_relative_and_absolute() {
+    use crate::config::SeaState;
+    use crate::estimator::model::SeaSpread;
+    let sea = |sea, m, sd, rel: Option<(f64, f64)>| SeaSpread {
+        sea,
+        n: 100,
+        residual_mean: m,
+        residual_std: sd,
+        relative_mean: rel.map(|r| r.0),
+        relative_std: rel.map(|r| r.1),
+    };
+    let u = |rel: bool| Uncertainty {
+        residual_mean: 0.0,
+        residual_std: 100.0,
+        by_sea: vec![
+            sea(SeaState::Calm, 2.0, 30.0, rel.then_some((0.001, 0.005))),
+            sea(
+                SeaState::Moderate,
+                10.0,
+                130.0,
+                rel.then_some((0.002, 0.02)),
+            ),
+        ],
+    };
+    let close = |a: (f64, f64), b: (f64, f64)| {
+        assert!(
+            (a.0 - b.0).abs() < 1e-9 && (a.1 - b.1).abs() < 1e-9,
+            "{a:?} vs {b:?}"
+        )
+    };
+    close(spread(&u(true), 0.0, Some(4000.0)), (4.0, 20.0));
+    close(spread(&u(true), 1.0, Some(10000.0)), (20.0, 200.0));
+    close(spread(&u(true), 0.5, Some(8000.0)), (12.0, 0.0125 * 8000.0));
+    // Twice the moderate fraction: the spread extrapolates, the bias stays at moderate's.
+    close(spread(&u(true), 2.0, Some(1000.0)), (2.0, 35.0));
+    close(spread(&u(true), 0.0, None), (2.0, 30.0));
+    close(spread(&u(false), 1.0, Some(4000.0)), (10.0, 130.0));
+}
+
 /// Exact Nomoto tones for (a, b), with given CIs.
 fn tones_json(a: f64, b: f64, ws: &[f64]) -> serde_json::Value {
     let tones: Vec<_> = ws

@@ -60,7 +60,7 @@ use super::{Features, Step};
 use crate::baseline::{self, BaselineError, BaselineEstimate};
 use crate::config::{BaselineConfig, Config, ShipConfig};
 use crate::dsp::multisine::Multisine;
-use crate::dsp::spectrum::{detrend_linear_keep_bins, naive_dft};
+use crate::dsp::spectrum::{band_rms, detrend_linear_keep_bins, naive_dft, Spectrum};
 use crate::dsp::tones::{analyse_tones, ToneAnalyser, ToneEstimate};
 use crate::wire::{ExcitationMode, MonitorState};
 use rustfft::num_complex::Complex64;
@@ -83,6 +83,9 @@ pub struct ClfrtReport {
     pub servo_check: Option<ServoCheck>,
     /// The time-domain baseline on the measured windows, or why it failed.
     pub baseline: Result<BaselineEstimate, BaselineError>,
+    /// Wave yaw: rms of the heading in `fdi.wave-band-rad-s` over the measured windows [rad]
+    /// ([`crate::dsp::band_rms`]; none when it could not be computed).
+    pub wave_yaw_rad: Option<f64>,
 }
 
 /// The servo check of a multisine test (the features' `servo_check`).
@@ -193,6 +196,7 @@ impl ClfrtReport {
             if let Some(sc) = &self.servo_check {
                 obj.insert("servo_check".into(), sc.to_json());
             }
+            obj.insert("wave_yaw_rad".into(), self.wave_yaw_rad.into());
             baseline::insert_json(obj, &self.baseline);
         }
         v
@@ -424,6 +428,8 @@ pub(crate) struct ClfrtRun {
     ramp: (f64, f64),
     analyser: ToneAnalyser,
     scratch: [Vec<f64>; 3],
+    /// Wave-yaw band [rad/s], its transform and scratch.
+    wave: ((f64, f64), Spectrum, Vec<f64>),
     /// The servo check (none when disabled).
     check: Option<ServoCheckRun>,
     /// The baseline's filter and the ship that turns its a and b into speed and displacement.
@@ -464,6 +470,11 @@ impl ClfrtRun {
             ramp: (0.0, t_start_s),
             analyser: ToneAnalyser::new(),
             scratch: [Vec::new(), Vec::new(), Vec::new()],
+            wave: (
+                (cfg.fdi.wave_band_rad_s[0], cfg.fdi.wave_band_rad_s[1]),
+                Spectrum::new(),
+                Vec::new(),
+            ),
             check,
             baseline: (cfg.baseline.clone(), cfg.ship.clone()),
         }
@@ -609,6 +620,8 @@ impl ClfrtRun {
             .map_err(|e| format!("analysis: rudder: {e}"))?;
         r.clear();
         r.extend((0..n).map(|i| self.multisine.value(t0 + i as f64 * self.dt_s - self.t0_s)));
+        let (band, spectrum, wscratch) = &mut self.wave;
+        let wave_yaw_rad = band_rms(h, self.dt_s, *band, spectrum, wscratch).ok();
         let tones = analyse_tones(
             &mut self.analyser,
             h,
@@ -637,6 +650,7 @@ impl ClfrtRun {
                     .unwrap_or_else(|| Err("not measured before the analysis".into())),
             }),
             baseline,
+            wave_yaw_rad,
         }))
     }
 }

@@ -44,6 +44,7 @@ use super::{Features, Step};
 use crate::baseline::{self, BaselineError, BaselineEstimate};
 use crate::config::{BaselineConfig, Config, ShipConfig};
 use crate::dsp::relay::{analyse_limit_cycle, HbtFeatures};
+use crate::dsp::spectrum::{band_rms, Spectrum};
 use crate::wire::{ExcitationMode, MonitorState};
 
 /// Features of a completed relay test (the report's `features`).
@@ -67,6 +68,9 @@ pub struct HbtReport {
     pub switches: usize,
     /// The time-domain baseline on the measured periods, or why it failed.
     pub baseline: Result<BaselineEstimate, BaselineError>,
+    /// Wave yaw: rms of the heading in `fdi.wave-band-rad-s` over the measured periods [rad]
+    /// ([`crate::dsp::band_rms`]; none when it could not be computed).
+    pub wave_yaw_rad: Option<f64>,
 }
 
 impl HbtReport {
@@ -87,6 +91,7 @@ impl HbtReport {
             "switches": self.switches,
         });
         if let Some(obj) = v.as_object_mut() {
+            obj.insert("wave_yaw_rad".into(), self.wave_yaw_rad.into());
             baseline::insert_json(obj, &self.baseline);
         }
         v
@@ -147,6 +152,8 @@ pub(crate) struct HbtRun {
     rudder: Record,
     /// Resampled heading and rudder.
     scratch: [Vec<f64>; 2],
+    /// Wave-yaw band [rad/s], its transform and scratch.
+    wave: ((f64, f64), Spectrum, Vec<f64>),
     /// The baseline's filter and the ship that turns its a and b into speed and displacement.
     baseline: (BaselineConfig, ShipConfig),
 }
@@ -186,6 +193,11 @@ impl HbtRun {
             heading: Record::with_capacity(capacity),
             rudder: Record::with_capacity(capacity),
             scratch: [Vec::new(), Vec::new()],
+            wave: (
+                (cfg.fdi.wave_band_rad_s[0], cfg.fdi.wave_band_rad_s[1]),
+                Spectrum::new(),
+                Vec::new(),
+            ),
             baseline: (cfg.baseline.clone(), cfg.ship.clone()),
         }
     }
@@ -366,6 +378,8 @@ impl HbtRun {
             .map_err(|e| format!("analysis: {e}"))?;
         let cycle = analyse_limit_cycle(t0, self.dt_s, h, measured)
             .map_err(|e| format!("analysis: {e}"))?;
+        let (band, spectrum, wscratch) = &mut self.wave;
+        let wave_yaw_rad = band_rms(h, self.dt_s, *band, spectrum, wscratch).ok();
         // The baseline over the span both records cover (the rudder may lag the heading).
         let n_rudder = match self.rudder.last_t() {
             Some(tl) if tl >= t0 => ((tl - t0) / self.dt_s).floor() as usize + 1,
@@ -399,6 +413,7 @@ impl HbtRun {
             min_switch_interval_s: self.shortest_switch_s,
             switches: self.switches,
             baseline,
+            wave_yaw_rad,
         }))
     }
 }
