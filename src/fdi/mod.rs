@@ -10,13 +10,14 @@
 //! `f` are the test's features, `u_log` the mean speed-log reading over the test, `D_nom` the
 //! nominal displacement (`ship.nominal-displacement-t`, or the latest `design/displacement` the
 //! ship published). `m` and `s` are the estimator's own bias and spread on its validation set
-//! (recorded per sea state in the model files), chosen by how disturbed the sea is: a
-//! *sea index* measured by each test (CLFRT: the mean relative 90 % interval of the tone
-//! gains; HBT: the coefficient of variation of the relay periods), remembered as a decaying
-//! maximum over the method's tests (`fdi.sea-memory`: one test can look calm in a moderate
-//! sea), interpolates linearly between the calm and the moderate spread, anchored at
-//! `fdi.sea-index-<method>` (above the moderate anchor the spread keeps growing, up to 3 times
-//! the moderate one).
+//! (recorded per sea state in the model files; for the displacement, by default, relative to
+//! the truth and scaled by `D_nom`: `fdi.relative-spread-*`), chosen by how disturbed the sea
+//! is: the *sea index* is the test's wave yaw (`features.wave_yaw_rad`, the heading's rms in
+//! `fdi.wave-band-rad-s`, in deg), optionally remembered as a decaying maximum over the
+//! method's tests (`fdi.sea-memory`, default 0), and it interpolates linearly between the calm
+//! and the moderate spread, anchored at `fdi.sea-wave-yaw-deg` (above the moderate anchor the
+//! spread keeps growing, up to 3 times the moderate one; a test without a wave yaw gets the
+//! moderate spread).
 //!
 //! CLFRT adds two families of parity checks:
 //! - the *servo check* (actuator residual): during the servo-check burst the rudder's
