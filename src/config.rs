@@ -242,8 +242,9 @@ pub struct FdiConfig {
     pub relative_spread_displacement: bool,
     /// Per-test decay of the remembered sea index (0: each test alone).
     pub sea_memory: f64,
-    /// Spread of the servo check's rudder-rate ratio (95th percentile over the healthy
-    /// servo's) on a healthy servo, for the one-sided shortfall.
+    /// Spread of the servo check's rudder-rate ratio (CLFRT: the burst's 95th percentile, HBT:
+    /// the relay slews' peak, over the healthy servo's) on a healthy servo, for the one-sided
+    /// shortfall.
     pub actuator_rate_sigma: f64,
     /// Floor of the ln-gain spread of a tone in the model fit.
     pub model_fit_floor_ln_gain: f64,

@@ -323,6 +323,26 @@ fn hbt_calm_matches_the_independent_answer() {
         );
         let w = f64_at(&r.features, "omega_u_rad_s");
         assert!((w * p / (2.0 * PI) - 1.0).abs() < 1e-9);
+        // Heading over the measured rudder at omega_u: the ship's own b / (jw (jw + a)),
+        // whatever the relay and the servo did.
+        let (a, b) = cfg.ship.nomoto(u, d);
+        let g_ref = b / (w * (w * w + a * a).sqrt());
+        let ph_ref = -PI / 2.0 - (w / a).atan();
+        let g = f64_at(&r.features, "response_gain");
+        let ph = f64_at(&r.features, "response_phase_rad");
+        println!(
+            "u {u} D {d}: response gain {g:.3} vs {g_ref:.3}, phase {:.2} deg vs {:.2}",
+            ph.to_degrees(),
+            ph_ref.to_degrees()
+        );
+        assert!(
+            (g / g_ref - 1.0).abs() < 0.02,
+            "u {u} D {d}: response gain {g} vs {g_ref}"
+        );
+        assert!(
+            (ph - ph_ref).abs().to_degrees() < 1.0,
+            "u {u} D {d}: response phase {ph} vs {ph_ref}"
+        );
     }
 }
 
@@ -371,10 +391,13 @@ fn heading_drift_does_not_disturb_the_features() {
                 }
                 let a = probe(Method::Hbt, u, d, sea, seed, vec![]);
                 let b = probe(Method::Hbt, u, d, sea, seed, vec![drift.clone()]);
-                for k in ["period_s", "amplitude_rad"] {
+                for k in ["period_s", "amplitude_rad", "response_gain"] {
                     let e = (f64_at(&b.features, k) / f64_at(&a.features, k) - 1.0).abs();
                     assert!(e < 0.01, "HBT {sea:?} u {u} D {d} {k}: {e}");
                 }
+                let k = "response_phase_rad";
+                let pe = dphase(f64_at(&b.features, k), f64_at(&a.features, k)).abs();
+                assert!(pe.to_degrees() < 1.0, "HBT {sea:?} u {u} D {d} {k}: {pe}");
             }
         }
     }

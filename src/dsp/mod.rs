@@ -27,6 +27,31 @@ pub use relay::{analyse_limit_cycle, limit_cycle_describing_function, HbtFeature
 pub use spectrum::{band_rms, detrend_linear, detrend_linear_keep_bins, naive_dft, Spectrum};
 pub use tones::{analyse_tones, ToneAnalyser, ToneEstimate};
 
+/// Half-width of the line fitted for a rate [samples] ([`abs_slopes`]): 2.1 s at 10 Hz.
+pub const RATE_HALF_WIDTH: usize = 10;
+
+/// `|slope|` of the least-squares line over `2 RATE_HALF_WIDTH + 1` samples of `x` (step
+/// `dt`), centred on each sample where the window fits: `out[j]` is centred on sample
+/// `j + RATE_HALF_WIDTH` (cleared first; empty for a record shorter than the window). A ramp
+/// of slope `r` gives `r` exactly; white noise of sd `s` gives a slope of sd
+/// `s / (dt sqrt(sum_i 2 i^2))`, 0.04 deg/s for 0.1 deg at 10 Hz.
+pub fn abs_slopes(x: &[f64], dt: f64, out: &mut Vec<f64>) {
+    let h = RATE_HALF_WIDTH;
+    out.clear();
+    if x.len() < 2 * h + 1 {
+        return;
+    }
+    let sii = (1..=h).map(|i| 2.0 * (i * i) as f64).sum::<f64>() * dt;
+    out.extend(x.windows(2 * h + 1).map(|w| {
+        let num: f64 = w
+            .iter()
+            .enumerate()
+            .map(|(i, v)| (i as f64 - h as f64) * v)
+            .sum();
+        (num / sii).abs()
+    }));
+}
+
 /// Why a signal-processing function refused its input or could not produce a result.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum DspError {

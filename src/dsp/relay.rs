@@ -26,6 +26,15 @@
 //!   The integrals use the trapezoid rule on the samples, with the fractional samples at
 //!   both ends linearly interpolated (error O((omega dt)^2), 1e-6 at 10 Hz).
 //!
+//! [`first_harmonic`] is that integral for any signal: over the same interval and `omega`,
+//! the heading's and the measured rudder's coefficients share one time reference, so their
+//! ratio `X1 / D1` is the ship's own response `G(i omega_u) = b / (i w (i w + a))`, whatever
+//! the relay's switching instants and the servo did (the relay is nonlinear; the ship between
+//! rudder and heading is not). The describing function predicts `(omega_u, a_u)` from the
+//! relay and servo; the response reads the ship directly, which the waves disturb far less:
+//! they jitter the switching instants (and so the period and amplitude) but hardly touch the
+//! first harmonics at `omega_u`, far below the wave band.
+//!
 //! # Describing function
 //!
 //! [`limit_cycle_describing_function`] predicts `(omega_u, a_u)` for the loop relay with
@@ -134,6 +143,52 @@ pub fn analyse_limit_cycle(
         0.0
     };
     let omega = 2.0 * PI / period;
+    let x1 = first_harmonic(t0_s, dt_s, heading, s0, sn, omega)?;
+    Ok(HbtFeatures {
+        period_s: period,
+        omega_u_rad_s: omega,
+        amplitude_rad: x1.norm(),
+        periods,
+        period_std_s: period_std,
+    })
+}
+
+/// First-harmonic Fourier coefficient `X1 = (2/T) int_{s0}^{sn} x~(t) e^{-i omega (t - s0)} dt`
+/// of a record over `[s0, sn]`, `T = sn - s0` a whole number of periods of `omega`, with the
+/// straight line fitted jointly with the harmonics removed (module documentation). `x_rec`
+/// is sampled at `t0_s + i dt_s`; `s0`, `sn` must lie within it. The phase is that of
+/// `cos(omega (t - s0) + arg X1)`: the same reference for every signal of one test, so the
+/// ratio of two signals' coefficients is their frequency response at `omega`.
+///
+/// Errors: as [`analyse_limit_cycle`], and a trend that the harmonics cannot be separated
+/// from (less than about one period).
+pub fn first_harmonic(
+    t0_s: f64,
+    dt_s: f64,
+    x_rec: &[f64],
+    s0: f64,
+    sn: f64,
+    omega: f64,
+) -> Result<Complex64, DspError> {
+    check_positive("dt_s", dt_s)?;
+    check_positive("omega", omega)?;
+    if x_rec.len() < 2 {
+        return Err(DspError::TooShort {
+            what: "signal",
+            got: x_rec.len(),
+            need: 2,
+        });
+    }
+    check_finite("signal", x_rec)?;
+    let t_end = t0_s + (x_rec.len() - 1) as f64 * dt_s;
+    if !(t0_s <= s0 && s0 < sn && sn <= t_end) {
+        return Err(DspError::InvalidParameter {
+            name: "interval",
+            value: if s0 < t0_s { s0 } else { sn },
+            reason: "the interval must lie within the record",
+        });
+    }
+    let total = sn - s0;
     // Harmonics for the joint trend fit: below the sampling Nyquist frequency.
     let nyquist = PI / dt_s;
     let harmonics = (1..=MAX_TREND_HARMONICS)
@@ -154,9 +209,9 @@ pub fn analyse_limit_cycle(
     };
     let interp = |t: f64| -> f64 {
         let pos = (t - t0_s) / dt_s;
-        let i = (pos.floor().max(0.0) as usize).min(heading.len() - 2);
+        let i = (pos.floor().max(0.0) as usize).min(x_rec.len() - 2);
         let f = pos - i as f64;
-        heading[i] + f * (heading[i + 1] - heading[i])
+        x_rec[i] + f * (x_rec[i + 1] - x_rec[i])
     };
     // Nodes: s0, every sample strictly inside (s0, sn), sn.
     let first_inside = ((s0 - t0_s) / dt_s).floor() as usize + 1;
@@ -166,7 +221,7 @@ pub fn analyse_limit_cycle(
     let mut cur = [0.0f64; MAX_TREND_HARMONICS + 2];
     let mut i = first_inside;
     loop {
-        let (t, x) = match heading.get(i) {
+        let (t, x) = match x_rec.get(i) {
             Some(&x) if t0_s + i as f64 * dt_s < sn => (t0_s + i as f64 * dt_s, x),
             _ => (sn, interp(sn)),
         };
@@ -196,15 +251,7 @@ pub fn analyse_limit_cycle(
         ));
     }
     let slope = num / den;
-    let x1 =
-        Complex64::new(acc[1], -acc[2]) * (2.0 / total) - Complex64::new(0.0, 2.0 * slope / omega);
-    Ok(HbtFeatures {
-        period_s: period,
-        omega_u_rad_s: omega,
-        amplitude_rad: x1.norm(),
-        periods,
-        period_std_s: period_std,
-    })
+    Ok(Complex64::new(acc[1], -acc[2]) * (2.0 / total) - Complex64::new(0.0, 2.0 * slope / omega))
 }
 
 /// First Fourier coefficient `(2/P) int_0^P delta e^{-i w t} dt` of the servo's periodic
@@ -426,6 +473,48 @@ mod tests {
         }
         let plain = (acc * 2.0 / (sn - s0)).norm();
         assert!((plain / amp - 1.0).abs() > 0.01, "{}", plain / amp);
+    }
+
+    /// Heading over rudder at the fundamental is the response `G(i w)`: a rudder square wave
+    /// (odd harmonics, a trim offset), the heading its exact steady state through
+    /// `G(s) = b / (s (s + a))` harmonic by harmonic, plus a 1 deg/min ramp and noise.
+    #[test]
+    fn response_ratio_is_the_transfer_function() {
+        let (a, b) = (0.0146, 5.98e-4);
+        let g = |w: f64| Complex64::new(b, 0.0) / (Complex64::new(0.0, w) * Complex64::new(a, w));
+        let (t0, dt, period) = (3.3, 0.1, 180.0);
+        let w = 2.0 * PI / period;
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let (mut rudder, mut heading) = (Vec::new(), Vec::new());
+        for i in 0..10_000 {
+            let t = t0 + i as f64 * dt;
+            let (mut d, mut x) = (0.01, DEG / 60.0 * t);
+            for m in (1..40).step_by(2) {
+                // Square wave of height h: (4h / pi) sum sin(m w t) / m.
+                let c = 4.0 * 8.0 * DEG / (PI * m as f64);
+                let gm = g(m as f64 * w);
+                d += c * (m as f64 * w * t).sin();
+                x += c * gm.norm() * (m as f64 * w * t + gm.arg()).sin();
+            }
+            let z: f64 = StandardNormal.sample(&mut rng);
+            rudder.push(d);
+            heading.push(x + 0.02 * DEG * z);
+        }
+        let (s0, sn) = (t0 + 17.77, t0 + 17.77 + 4.0 * period);
+        let x1 = first_harmonic(t0, dt, &heading, s0, sn, w).unwrap();
+        let d1 = first_harmonic(t0, dt, &rudder, s0, sn, w).unwrap();
+        let (got, want) = (x1 / d1, g(w));
+        assert_relative_eq!(got.norm(), want.norm(), max_relative = 2e-3);
+        assert!(
+            (got.arg() - want.arg()).abs() < 0.1 * DEG,
+            "{got} vs {want}"
+        );
+        assert_relative_eq!(d1.norm(), 4.0 * 8.0 * DEG / PI, max_relative = 1e-3);
+        // Bad input.
+        assert!(first_harmonic(t0, dt, &rudder, s0, t0 + 1e6, w).is_err());
+        assert!(first_harmonic(t0, dt, &rudder, sn, s0, w).is_err());
+        assert!(first_harmonic(t0, dt, &rudder, s0, sn, 0.0).is_err());
+        assert!(first_harmonic(t0, dt, &rudder[..1], s0, sn, w).is_err());
     }
 
     #[test]

@@ -9,6 +9,8 @@
 //! | `ln_omega_u` | `ln w_u`, limit-cycle frequency | ln(rad/s) | HBT |
 //! | `ln_amplitude` | `ln a_u`, first-harmonic heading amplitude | ln(rad) | HBT |
 //! | `period_cv` | `period_std_s / period_s`, relative spread of the measured periods | 1 | HBT |
+//! | `ln_response_gain` | `ln |G(j w_u)|`, heading over measured rudder, first harmonics | ln(rad/rad) | HBT |
+//! | `response_phase_rad` | `arg G(j w_u)`, in (-2 pi, 0] | rad | HBT |
 //! | `speed_log_mps` | mean speed-log reading over the test (report field `speed_log_mps`) | m/s | both |
 //!
 //! Why these (DOMAIN.md, the ship `G(s) = b / (s (s + a))`, `a = a0 u / l`,
@@ -20,7 +22,10 @@
 //! the relay's switching instants, which shifts the period and the amplitude (a calm-sea
 //! test read by a network that cannot tell the sea state was 0.14 m/s slow on average), and
 //! spreads the periods: `period_cv` tells the network how rough the test was (calm-sea speed
-//! MSE 0.0045 -> 0.0025 with it).
+//! MSE 0.0045 -> 0.0025 with it). The response `G(j w_u)`, heading over the measured rudder
+//! at the limit-cycle frequency, reads the ship itself, whatever the switching did: its
+//! phase `-pi/2 - atan(w_u/a)` carries `a` and its gain `b`. With it the HBT speed error in a
+//! moderate sea halves (docs/estimator.md).
 //!
 //! The speed network sees the test's features only; the displacement network sees them and
 //! the measured speed (`speed_log_mps`): speed from the features alone is poorly conditioned,
@@ -72,6 +77,10 @@ pub enum Feature {
     SpeedLog,
     /// `period_cv`: relative spread of the limit-cycle periods, `period_std_s / period_s`.
     PeriodCv,
+    /// `ln_response_gain`: log gain of heading over the measured rudder at `w_u`.
+    LnResponseGain,
+    /// `response_phase_rad`: phase of heading over the measured rudder at `w_u` [rad].
+    ResponsePhase,
 }
 
 impl fmt::Display for Feature {
@@ -83,6 +92,8 @@ impl fmt::Display for Feature {
             Feature::LnAmplitude => f.write_str("ln_amplitude"),
             Feature::SpeedLog => f.write_str("speed_log_mps"),
             Feature::PeriodCv => f.write_str("period_cv"),
+            Feature::LnResponseGain => f.write_str("ln_response_gain"),
+            Feature::ResponsePhase => f.write_str("response_phase_rad"),
         }
     }
 }
@@ -97,6 +108,8 @@ impl std::str::FromStr for Feature {
             "ln_amplitude" => Ok(Feature::LnAmplitude),
             "speed_log_mps" => Ok(Feature::SpeedLog),
             "period_cv" => Ok(Feature::PeriodCv),
+            "ln_response_gain" => Ok(Feature::LnResponseGain),
+            "response_phase_rad" => Ok(Feature::ResponsePhase),
             _ => {
                 if let Some(k) = s.strip_prefix("ln_gain_") {
                     tone(k).map(Feature::LnGain).ok_or_else(unknown)
@@ -121,7 +134,11 @@ impl Feature {
     pub fn belongs_to(&self, method: Method) -> bool {
         match self {
             Feature::LnGain(_) | Feature::Phase(_) => method == Method::Clfrt,
-            Feature::LnOmegaU | Feature::LnAmplitude | Feature::PeriodCv => method == Method::Hbt,
+            Feature::LnOmegaU
+            | Feature::LnAmplitude
+            | Feature::PeriodCv
+            | Feature::LnResponseGain
+            | Feature::ResponsePhase => method == Method::Hbt,
             Feature::SpeedLog => true,
         }
     }
@@ -143,6 +160,13 @@ impl Feature {
             Feature::LnOmegaU => (field(features, "omega_u_rad_s").ok_or_else(missing)?, true),
             Feature::LnAmplitude => (field(features, "amplitude_rad").ok_or_else(missing)?, true),
             Feature::SpeedLog => (field(features, SPEED_LOG_FIELD).ok_or_else(missing)?, false),
+            Feature::LnResponseGain => {
+                (field(features, "response_gain").ok_or_else(missing)?, true)
+            }
+            Feature::ResponsePhase => (
+                field(features, "response_phase_rad").ok_or_else(missing)?,
+                false,
+            ),
             Feature::PeriodCv => {
                 let p = field(features, "period_s").ok_or_else(missing)?;
                 let sd = field(features, "period_std_s").ok_or_else(missing)?;
@@ -188,13 +212,20 @@ pub fn parse_names(method: Method, names: &[String]) -> Result<Vec<Feature>, Fea
 }
 
 /// The inputs of the speed network of `method`, for a CLFRT design with `n_tones` tones:
-/// CLFRT `ln_gain_k, phase_k_rad` for each tone; HBT `ln_omega_u, ln_amplitude, period_cv`.
+/// CLFRT `ln_gain_k, phase_k_rad` for each tone; HBT `ln_omega_u, ln_amplitude, period_cv,
+/// ln_response_gain, response_phase_rad`.
 pub fn speed_inputs(method: Method, n_tones: usize) -> Vec<Feature> {
     match method {
         Method::Clfrt => (1..=n_tones)
             .flat_map(|k| [Feature::LnGain(k), Feature::Phase(k)])
             .collect(),
-        Method::Hbt => vec![Feature::LnOmegaU, Feature::LnAmplitude, Feature::PeriodCv],
+        Method::Hbt => vec![
+            Feature::LnOmegaU,
+            Feature::LnAmplitude,
+            Feature::PeriodCv,
+            Feature::LnResponseGain,
+            Feature::ResponsePhase,
+        ],
     }
 }
 
@@ -244,6 +275,8 @@ mod tests {
             Feature::LnAmplitude,
             Feature::SpeedLog,
             Feature::PeriodCv,
+            Feature::LnResponseGain,
+            Feature::ResponsePhase,
         ] {
             assert_eq!(f.to_string().parse::<Feature>().unwrap(), f);
         }
@@ -285,11 +318,23 @@ mod tests {
             "amplitude_rad": 0.05,
             "period_s": 180.0,
             "period_std_s": 3.6,
+            "response_gain": 0.9,
+            "response_phase_rad": -2.8,
             "speed_log_mps": 7.0
         });
         let mut out = Vec::new();
         extract_into(&displacement_inputs(Method::Hbt, 0), &f, &mut out).unwrap();
-        assert_eq!(out, vec![0.035f64.ln(), 0.05f64.ln(), 3.6 / 180.0, 7.0]);
+        assert_eq!(
+            out,
+            vec![
+                0.035f64.ln(),
+                0.05f64.ln(),
+                3.6 / 180.0,
+                0.9f64.ln(),
+                -2.8,
+                7.0
+            ]
+        );
     }
 
     #[test]

@@ -509,13 +509,16 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
                             let mi = m(i);
                             (zs.iter().map(|z| (z[i] - mi).powi(2)).sum::<f64>() / n).sqrt()
                         };
+                        let (m0, m1) = (m(0), m(1));
+                        let cov = zs.iter().map(|z| (z[0] - m0) * (z[1] - m1)).sum::<f64>() / n;
                         notes.push(format!(
-                            "{}: z_speed mean {:+.2} sd {:.2}, z_displacement mean {:+.2} sd {:.2}",
+                            "{}: z_speed mean {:+.2} sd {:.2}, z_displacement mean {:+.2} sd {:.2}, correlation {:+.2}",
                             sc.name,
-                            m(0),
+                            m0,
                             sd(0),
-                            m(1),
-                            sd(1)
+                            m1,
+                            sd(1),
+                            cov / (sd(0) * sd(1))
                         ));
                     }
                 }

@@ -19,10 +19,14 @@
 //! spread keeps growing, up to 3 times the moderate one; a test without a wave yaw gets the
 //! moderate spread).
 //!
-//! CLFRT adds two families of parity checks:
-//! - the *servo check* (actuator residual): during the servo-check burst the rudder's
-//!   95th-percentile rate against the healthy servo's, `rho`, gives the one-sided
-//!   `z_rate = max(0, 1 - rho) / fdi.actuator-rate-sigma`: a rate-limited servo cannot follow;
+//! Both methods carry a *servo check* (actuator residual): the rudder's measured rate against
+//! the healthy servo's, `rho`, gives the one-sided `z_rate = max(0, 1 - rho) /
+//! fdi.actuator-rate-sigma`: a rate-limited servo cannot follow. CLFRT reads the rudder's
+//! 95th-percentile rate during its servo-check burst; HBT the median over the measured periods
+//! of each period's peak rate, which the relay's steps drive to the rate limit
+//! (`features.servo_rate`; 1.01 healthy, 0.52 with a 2 deg/s servo, in either sea).
+//!
+//! CLFRT adds a second parity check:
 //! - the *model fit*: the three measured G(jw_k) = psi/delta against the Nomoto model
 //!   b / (jw (jw + a)) fitted by weighted least squares (weights from the tones' own 90 %
 //!   intervals, floored by `fdi.model-fit-floor-*`): six numbers, two unknowns, a chi-square
@@ -31,7 +35,7 @@
 //!
 //! ## Decision (per method, tests of the same method in sequence)
 //!
-//! Chi-square rule: `q = z_speed^2 + z_disp^2` (m = 2) and, for CLFRT, `q_act = z_rate^2`
+//! Chi-square rule: `q = z_speed^2 + z_disp^2` (m = 2) and `q_act = z_rate^2`
 //! (compared with the same limit: conservative for one degree of freedom); a test *exceeds* when either is above `fdi.chi2-threshold` (13.82:
 //! 0.1 % for m = 2). CUSUM rule: a two-sided CUSUM per normalised residual,
 //! `S+ = max(0, S+ + z - k)`, `S- = max(0, S- - z - k)`; a test exceeds when any sum is above
@@ -578,13 +582,21 @@ impl Fdi {
         r.z().iter().all(|z| z.is_finite()).then_some(r)
     }
 
-    /// The servo check's normalised residual (CLFRT): how far the rudder's 95th-percentile
+    /// The servo check's normalised residual: how far the rudder's 95th-percentile
     /// rate during the burst falls short of the healthy servo's, `z = (1 - rho) /
     /// fdi.actuator-rate-sigma`, one-sided (a rudder moving faster than the nominal servo's
     /// linear response, as the autopilot adds its own motion in a rougher sea, is no fault).
-    fn actuator_z(&self, features: &Value) -> Option<[f64; 2]> {
-        let sc = features.get("servo_check")?;
-        let p95 = sc.get("rudder_rate_p95_rad_s")?.as_f64()?;
+    ///
+    /// HBT: the relay's steps slew the servo at its rate limit twice a period;
+    /// `features.servo_rate` holds the median of the periods' peak rudder rates, read the
+    /// same way against the rate limit.
+    fn actuator_z(&self, method: Method, features: &Value) -> Option<[f64; 2]> {
+        let (group, key) = match method {
+            Method::Clfrt => ("servo_check", "rudder_rate_p95_rad_s"),
+            Method::Hbt => ("servo_rate", "rudder_rate_peak_rad_s"),
+        };
+        let sc = features.get(group)?;
+        let p95 = sc.get(key)?.as_f64()?;
         let nominal = sc.get("rudder_rate_nominal_rad_s")?.as_f64()?;
         if nominal.is_nan() || nominal <= 0.0 {
             return None;
@@ -613,10 +625,7 @@ impl Fdi {
             Method::Clfrt => fit::model_fit(features, &self.ship, &self.cfg),
             Method::Hbt => None,
         };
-        let mut act = match method {
-            Method::Clfrt => self.actuator_z(features),
-            Method::Hbt => None,
-        };
+        let mut act = self.actuator_z(method, features);
         if self.cfg.model_fit_decides {
             // The fit's chi-square (4 dof) joins the actuator group, scaled to its threshold.
             if let Some(f) = &fit {

@@ -284,3 +284,22 @@ fn notifications_follow_the_vessel_alarm_state() {
     fdi.tracks[1].update(&c, Some(&p(0.0, 9.0, 0.0)), None);
     assert_eq!(fdi.alarm_state(), AlarmState::Alarm);
 }
+
+/// The servo check reads each method's own field: CLFRT the burst's p95 rate, HBT the relay
+/// slews' peak rate; one-sided, and `(1 - rho) / sigma` by hand.
+#[test]
+fn actuator_z_reads_each_methods_servo_field() {
+    let fdi = Fdi::new(&Config::default());
+    let sigma = FdiConfig::default().actuator_rate_sigma;
+    let hbt = |peak: f64| json!({"servo_rate": {"rudder_rate_peak_rad_s": peak, "rudder_rate_nominal_rad_s": 0.07}});
+    let clfrt = |p95: f64| json!({"servo_check": {"rudder_rate_p95_rad_s": p95, "rudder_rate_nominal_rad_s": 0.07}});
+    let z = fdi.actuator_z(Method::Hbt, &hbt(0.035)).unwrap();
+    approx::assert_relative_eq!(z[0], 0.5 / sigma, max_relative = 1e-12);
+    assert_eq!(fdi.actuator_z(Method::Hbt, &hbt(0.0707)).unwrap()[0], 0.0);
+    let z = fdi.actuator_z(Method::Clfrt, &clfrt(0.063)).unwrap();
+    approx::assert_relative_eq!(z[0], 0.1 / sigma, max_relative = 1e-9);
+    // Each method reads only its own field.
+    assert!(fdi.actuator_z(Method::Clfrt, &hbt(0.035)).is_none());
+    assert!(fdi.actuator_z(Method::Hbt, &clfrt(0.035)).is_none());
+    assert!(fdi.actuator_z(Method::Hbt, &json!({})).is_none());
+}

@@ -356,26 +356,16 @@ impl ServoCheckRun {
 /// Half-width of the line fitted for the rudder rate [samples]: 2.1 s at 10 Hz, the slope's
 /// noise from the 0.1 deg angle indicator ~0.04 deg/s, and a sinusoid's rate at 0.6 rad/s
 /// read ~4 % low.
-const RATE_HALF_WIDTH: usize = 10;
+const RATE_HALF_WIDTH: usize = crate::dsp::RATE_HALF_WIDTH;
 
 /// The `q` quantile of `|slope|` of the least-squares line over `2 RATE_HALF_WIDTH + 1`
 /// samples of `x` (step `dt`) centred on each sample where the window fits (`scratch` holds the
 /// slopes). 0 for a record shorter than the window.
 fn rate_quantile(x: &[f64], dt: f64, q: f64, scratch: &mut Vec<f64>) -> f64 {
-    let h = RATE_HALF_WIDTH;
-    scratch.clear();
-    if x.len() < 2 * h + 1 {
+    crate::dsp::abs_slopes(x, dt, scratch);
+    if scratch.is_empty() {
         return 0.0;
     }
-    let sii = (1..=h).map(|i| 2.0 * (i * i) as f64).sum::<f64>() * dt;
-    scratch.extend(x.windows(2 * h + 1).map(|w| {
-        let num: f64 = w
-            .iter()
-            .enumerate()
-            .map(|(i, v)| (i as f64 - h as f64) * v)
-            .sum();
-        (num / sii).abs()
-    }));
     scratch.sort_by(f64::total_cmp);
     let idx = ((scratch.len() - 1) as f64 * q).round() as usize;
     scratch[idx.min(scratch.len() - 1)]

@@ -23,6 +23,14 @@
 //! asymmetric duty cycle that changes the period and amplitude; an adapted centre supplies it
 //! and the cycle, by superposition on the linear ship, is the drift-free one.
 //!
+//! Response: over the same measured periods, the first harmonics at `omega_u` of the heading
+//! and of the measured rudder ([`crate::dsp::relay::first_harmonic`]) give the ship's
+//! `G(i omega_u)` (`response_gain`, `response_phase_rad`), servo and relay excluded. The
+//! rudder stream may end a sample before the last switch: its last value is held for at most
+//! `safety.stream-timeout-s` (the gap the records interpolate across); without a rudder
+//! record over the periods the response is left out (and the estimator, which reads it,
+//! gives no estimate).
+//!
 //! Baseline: the rudder is recorded from the relay's start too, and the heading and rudder on
 //! the analysis grid (the measured periods) feed the time-domain baseline
 //! ([`crate::baseline`]) over the span both records cover; its failure is reported, never an
@@ -43,9 +51,10 @@ use super::record::{Record, RecordError};
 use super::{Features, Step};
 use crate::baseline::{self, BaselineError, BaselineEstimate};
 use crate::config::{BaselineConfig, Config, ShipConfig};
-use crate::dsp::relay::{analyse_limit_cycle, HbtFeatures};
+use crate::dsp::relay::{analyse_limit_cycle, first_harmonic, HbtFeatures};
 use crate::dsp::spectrum::{band_rms, Spectrum};
 use crate::wire::{ExcitationMode, MonitorState};
+use rustfft::num_complex::Complex64;
 
 /// Features of a completed relay test (the report's `features`).
 #[derive(Debug, Clone, PartialEq)]
@@ -71,6 +80,13 @@ pub struct HbtReport {
     /// Wave yaw: rms of the heading in `fdi.wave-band-rad-s` over the measured periods [rad]
     /// ([`crate::dsp::band_rms`]; none when it could not be computed).
     pub wave_yaw_rad: Option<f64>,
+    /// First harmonics at `omega_u` over the measured periods of the heading and of the
+    /// measured rudder [rad] (none when the rudder record does not cover them): their ratio
+    /// is the ship's own response `G(i omega_u)`, servo and relay excluded.
+    pub response: Option<(Complex64, Complex64)>,
+    /// The servo's slew rate: the median over the measured periods of each period's largest
+    /// rudder rate, and the healthy servo's rate limit [rad/s] (none when not measurable).
+    pub servo_rate: Option<(f64, f64)>,
 }
 
 impl HbtReport {
@@ -92,6 +108,26 @@ impl HbtReport {
         });
         if let Some(obj) = v.as_object_mut() {
             obj.insert("wave_yaw_rad".into(), self.wave_yaw_rad.into());
+            if let Some((x1, d1)) = self.response {
+                let g = x1 / d1;
+                // Phase in (-2 pi, 0] (the dsp convention: no wrap near -180 deg).
+                let mut phase = g.arg();
+                if phase > 0.0 {
+                    phase -= 2.0 * std::f64::consts::PI;
+                }
+                obj.insert("rudder_amplitude_rad".into(), d1.norm().into());
+                obj.insert("response_gain".into(), g.norm().into());
+                obj.insert("response_phase_rad".into(), phase.into());
+            }
+            if let Some((peak, nominal)) = self.servo_rate {
+                obj.insert(
+                    "servo_rate".into(),
+                    serde_json::json!({
+                        "rudder_rate_peak_rad_s": peak,
+                        "rudder_rate_nominal_rad_s": nominal,
+                    }),
+                );
+            }
             baseline::insert_json(obj, &self.baseline);
         }
         v
@@ -156,6 +192,9 @@ pub(crate) struct HbtRun {
     wave: ((f64, f64), Spectrum, Vec<f64>),
     /// The baseline's filter and the ship that turns its a and b into speed and displacement.
     baseline: (BaselineConfig, ShipConfig),
+    /// The healthy servo's slew rate [rad/s], when the relay's step saturates it for longer
+    /// than the rate fit's window; and the slopes' scratch.
+    servo_rate: (Option<f64>, Vec<f64>),
 }
 
 impl HbtRun {
@@ -199,6 +238,7 @@ impl HbtRun {
                 Vec::new(),
             ),
             baseline: (cfg.baseline.clone(), cfg.ship.clone()),
+            servo_rate: (nominal_slew_rad_s(cfg), Vec::new()),
         }
     }
 
@@ -387,11 +427,33 @@ impl HbtRun {
         };
         let n_both = n.min(n_rudder);
         let (bcfg, ship) = &self.baseline;
-        let baseline = self
+        let resampled = self
             .rudder
-            .resample(t0, self.dt_s, n_both, self.max_gap_s, d)
+            .resample(t0, self.dt_s, n_both, self.max_gap_s, d);
+        let baseline = resampled
+            .clone()
             .map_err(|e| BaselineError::Record(e.to_string()))
             .and_then(|()| baseline::estimate(&h[..n_both], d, self.dt_s, bcfg, ship));
+        // The ship's response at omega_u: heading over rudder, first harmonics over the same
+        // whole periods. The rudder stream may end a sample or two before the last switch
+        // (the streams arrive apart): its last value is held up to `max_gap_s`.
+        let (s0, sn) = (first, measured.last().copied().unwrap_or(first));
+        let response = resampled.ok().and_then(|()| {
+            let last = *d.last()?;
+            if (n - n_both) as f64 * self.dt_s > self.max_gap_s {
+                return None;
+            }
+            d.resize(n, last);
+            let x1 = first_harmonic(t0, self.dt_s, h, s0, sn, cycle.omega_u_rad_s).ok()?;
+            let d1 = first_harmonic(t0, self.dt_s, d, s0, sn, cycle.omega_u_rad_s).ok()?;
+            (d1.norm() > 0.0).then_some((x1, d1))
+        });
+        let servo_rate = match (&mut self.servo_rate, response.is_some()) {
+            ((Some(nominal), slopes), true) => {
+                slew_peak(d, t0, self.dt_s, measured, slopes).map(|p| (p, *nominal))
+            }
+            _ => None,
+        };
         let a = cycle.amplitude_rad;
         if a <= self.eps_rad {
             // A limit cycle through the hysteresis band cannot be smaller than the band.
@@ -414,8 +476,52 @@ impl HbtRun {
             switches: self.switches,
             baseline,
             wave_yaw_rad,
+            response,
+            servo_rate,
         }))
     }
+}
+
+/// The healthy servo's slew rate as the rate fit reads it: the relay's step `2 h` drives the
+/// servo at its rate limit `R` while `|cmd - delta| > R T_r`, a ramp of `(2 h - R T_r) / R`
+/// seconds; when that ramp outlasts the fit's window the fit reads `R` exactly. `None`
+/// otherwise (a relay too small to saturate the servo: no slew to measure).
+fn nominal_slew_rad_s(cfg: &Config) -> Option<f64> {
+    let r = cfg.servo.max_rate_rad_s();
+    let ramp_s = (2.0 * cfg.hbt.relay_height_rad() - r * cfg.servo.time_constant_s) / r;
+    let window_s = 2.0 * crate::dsp::RATE_HALF_WIDTH as f64 / cfg.sensors.rate_hz;
+    (ramp_s >= 1.5 * window_s).then_some(r)
+}
+
+/// The median over the measured periods (`switches[k] .. switches[k + 1]`) of each period's
+/// largest rudder rate ([`crate::dsp::abs_slopes`] on `d`, sampled from `t0` every `dt`): each
+/// period holds two full slews of the servo, so a healthy one reads its rate limit, a slower
+/// one less. `None` without a whole period inside the record.
+fn slew_peak(d: &[f64], t0: f64, dt: f64, switches: &[f64], slopes: &mut Vec<f64>) -> Option<f64> {
+    crate::dsp::abs_slopes(d, dt, slopes);
+    let hw = crate::dsp::RATE_HALF_WIDTH as f64;
+    let mut peaks: Vec<f64> = switches
+        .windows(2)
+        .filter_map(|w| {
+            // Slopes centred in [w0, w1): slope j is centred on sample j + hw.
+            let lo = ((w[0] - t0) / dt - hw).ceil().max(0.0) as usize;
+            let hi = (((w[1] - t0) / dt - hw).ceil().max(0.0) as usize).min(slopes.len());
+            slopes
+                .get(lo..hi)
+                .filter(|s| !s.is_empty())
+                .map(|s| s.iter().copied().fold(0.0, f64::max))
+        })
+        .collect();
+    if peaks.is_empty() {
+        return None;
+    }
+    peaks.sort_by(f64::total_cmp);
+    let m = peaks.len();
+    Some(if m % 2 == 1 {
+        peaks[m / 2]
+    } else {
+        0.5 * (peaks[m / 2 - 1] + peaks[m / 2])
+    })
 }
 
 /// The instant after a switch to `+h` at `t_up_s` where the heading error of the cycle
@@ -431,10 +537,53 @@ fn handback_instant(t_up_s: f64, period_s: f64, amp_rad: f64, eps_rad: f64, tau_
 
 #[cfg(test)]
 mod tests {
-    use super::handback_instant;
+    use super::{handback_instant, nominal_slew_rad_s, slew_peak};
+    use crate::config::Config;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+    use rand_distr::{Distribution, StandardNormal};
 
     /// On a sinusoid through +eps rising at t = 0, the instant found makes e + tau de/dt
     /// vanish, and e is falling there (an independent check by direct evaluation).
+    #[test]
+    fn slew_peak_reads_the_rate_limit_per_period() {
+        // A servo slewing at 4 deg/s between +-8 deg twice a period of 100 s, 0.1 deg of
+        // noise; one period slewing at 6 deg/s (a glitch) does not move the median.
+        let (dt, rate, h, period) = (0.1, 4.0f64.to_radians(), 8.0f64.to_radians(), 100.0);
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let d: Vec<f64> = (0..6000)
+            .map(|i| {
+                let t = i as f64 * dt;
+                let r = if t > 340.0 && t < 400.0 {
+                    1.5 * rate
+                } else {
+                    rate
+                };
+                let ph = t % period;
+                let up = (-h + r * ph).min(h);
+                let down = (h - r * (ph - 50.0)).max(-h);
+                let z: f64 = StandardNormal.sample(&mut rng);
+                (if ph < 50.0 { up } else { down }) + 0.1f64.to_radians() * z
+            })
+            .collect();
+        let switches = [10.0, 110.0, 210.0, 310.0, 410.0];
+        let mut scratch = Vec::new();
+        let p = slew_peak(&d, 0.0, dt, &switches, &mut scratch).unwrap();
+        // The largest of ~40 fitted slopes is biased up by ~2 sd of the slope noise (0.04 deg/s).
+        let got = p.to_degrees();
+        assert!(got > 4.0 && got < 4.15, "{got}");
+        assert!(slew_peak(&d, 0.0, dt, &[10.0], &mut scratch).is_none());
+        assert!(slew_peak(&d[..10], 0.0, dt, &switches, &mut scratch).is_none());
+    }
+
+    #[test]
+    fn nominal_slew_needs_a_saturating_relay() {
+        let mut cfg = Config::default();
+        assert_eq!(nominal_slew_rad_s(&cfg), Some(cfg.servo.max_rate_rad_s()));
+        cfg.hbt.relay_height_deg = 3.0;
+        assert_eq!(nominal_slew_rad_s(&cfg), None);
+    }
+
     #[test]
     fn handback_instant_zeroes_the_pd_term() {
         let (p, a, eps, tau) = (180.0, 0.05, 0.0175, 30.0);
