@@ -52,8 +52,8 @@
 //! (the displacement network's own sensitivity, by a central difference at this test), so
 //! `v_log = (-1/s_u, g/s_D)`; a displacement change, or a rudder effectiveness loss (both lower
 //! `b`; nothing in the features tells them apart), gives `v_D = (0, 1)`; an actuator that adds
-//! lag to the loop moves the speed estimate alone, `v_act = (1, 0)` (what HBT shows with a slow
-//! servo). The cost of a cause over the tests of the episode (since it left `normal`) is the
+//! lag to the loop moves the speed estimate alone, `v_act = (1, 0)` (what the HBT period
+//! showed with a slow servo; the servo checks now carry it in both methods). The cost of a cause over the tests of the episode (since it left `normal`) is the
 //! sum of each test's squared distance to the cause's line, `J = sum_k (|z_k|^2 - (v_k.z_k)^2 /
 //! |v_k|^2)` (each test its own magnitude: a fault's size and the estimator's error vary from
 //! test to test); the cause with the lowest cost is named, and others within
