@@ -70,6 +70,9 @@ pub struct HbtFeatures {
     pub omega_u_rad_s: f64,
     /// First-harmonic amplitude of the detrended heading over the whole periods [rad].
     pub amplitude_rad: f64,
+    /// The heading's first-harmonic coefficient itself ([`first_harmonic`] over the measured
+    /// periods, phase referred to the first switch) [rad]: `amplitude_rad` is its modulus.
+    pub harmonic_rad: Complex64,
     /// Number of whole periods measured (switch instants minus one).
     pub periods: usize,
     /// Sample standard deviation of the intervals [s] (0 with a single period).
@@ -148,6 +151,7 @@ pub fn analyse_limit_cycle(
         period_s: period,
         omega_u_rad_s: omega,
         amplitude_rad: x1.norm(),
+        harmonic_rad: x1,
         periods,
         period_std_s: period_std,
     })

@@ -431,11 +431,11 @@ impl HbtRun {
             .rudder
             .resample(t0, self.dt_s, n_both, self.max_gap_s, d);
         let baseline = resampled
-            .clone()
+            .as_ref()
             .map_err(|e| BaselineError::Record(e.to_string()))
             .and_then(|()| baseline::estimate(&h[..n_both], d, self.dt_s, bcfg, ship));
         // The ship's response at omega_u: heading over rudder, first harmonics over the same
-        // whole periods. The rudder stream may end a sample or two before the last switch
+        // whole periods (the heading's from the cycle analysis). The rudder stream may end a sample or two before the last switch
         // (the streams arrive apart): its last value is held up to `max_gap_s`.
         let (s0, sn) = (first, measured.last().copied().unwrap_or(first));
         let response = resampled.ok().and_then(|()| {
@@ -444,9 +444,8 @@ impl HbtRun {
                 return None;
             }
             d.resize(n, last);
-            let x1 = first_harmonic(t0, self.dt_s, h, s0, sn, cycle.omega_u_rad_s).ok()?;
             let d1 = first_harmonic(t0, self.dt_s, d, s0, sn, cycle.omega_u_rad_s).ok()?;
-            (d1.norm() > 0.0).then_some((x1, d1))
+            (d1.norm() > 0.0).then_some((cycle.harmonic_rad, d1))
         });
         let servo_rate = match (&mut self.servo_rate, response.is_some()) {
             ((Some(nominal), slopes), true) => {
