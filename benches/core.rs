@@ -8,11 +8,12 @@
 #![allow(missing_docs)]
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
-use helmwatch::config::{Config, Method};
-use helmwatch::dsp::relay::analyse_limit_cycle;
-use helmwatch::dsp::tones::{analyse_tones, ToneAnalyser};
-use helmwatch::monitor::Monitor;
-use helmwatch::wire::{Input, Scalar, StateValue};
+use helmwatch::config::Config;
+use helmwatch::core::dsp::relay::analyse_limit_cycle;
+use helmwatch::core::dsp::tones::{analyse_tones, ToneAnalyser};
+use helmwatch::core::monitor::Monitor;
+use helmwatch::core::wire::Method;
+use helmwatch::core::wire::{Input, Scalar, StateValue};
 use std::hint::black_box;
 
 fn tick(m: &mut Monitor, t: f64) {
@@ -42,7 +43,7 @@ fn per_sample(c: &mut Criterion) {
     cfg.scheduler.enabled = false;
     let mut g = c.benchmark_group("core_tick");
     g.throughput(Throughput::Elements(5));
-    let mut m = Monitor::new(&cfg, "self");
+    let mut m = Monitor::new(&cfg.core(), "self");
     let mut t = 0.0;
     g.bench_function("idle", |b| {
         b.iter(|| {
@@ -51,7 +52,7 @@ fn per_sample(c: &mut Criterion) {
         })
     });
     // A CLFRT test in its measurement (records growing); restarted when it ends.
-    let mut m = Monitor::new(&cfg, "self");
+    let mut m = Monitor::new(&cfg.core(), "self");
     let mut t = 0.0;
     for _ in 0..100 {
         t += 0.1;
@@ -61,7 +62,7 @@ fn per_sample(c: &mut Criterion) {
         b.iter(|| {
             t += 0.1;
             tick(&mut m, t);
-            if m.state() == helmwatch::wire::MonitorState::Idle {
+            if m.state() == helmwatch::core::wire::MonitorState::Idle {
                 let _ = m.trigger(Method::Clfrt);
             }
         })

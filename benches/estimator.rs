@@ -9,19 +9,21 @@
 #![allow(missing_docs)]
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use helmwatch::config::{Config, Method};
-use helmwatch::estimator::model::Target;
-use helmwatch::estimator::nn::Scratch;
-use helmwatch::estimator::Estimator;
-use helmwatch::probe::{run_probe, ProbeOptions};
+use helmwatch::config::Config;
+use helmwatch::core::estimator::model::Target;
+use helmwatch::core::estimator::nn::Scratch;
+use helmwatch::core::estimator::Estimator;
+use helmwatch::core::wire::Method;
+use helmwatch::drivers::probe::{run_probe, ProbeOptions};
 use helmwatch::sim::Scenario;
 use std::hint::black_box;
 
 fn features(cfg: &Config, method: Method) -> Option<serde_json::Value> {
     let r = run_probe(
-        cfg,
-        &Scenario::nominal(cfg, 1),
-        &ProbeOptions::new(cfg, method),
+        &cfg.core(),
+        &cfg.sim(),
+        &Scenario::nominal(&cfg.sim(), 1),
+        &ProbeOptions::new(&cfg.core(), method),
     )
     .ok()?;
     Some(r.report.features)
@@ -29,7 +31,7 @@ fn features(cfg: &Config, method: Method) -> Option<serde_json::Value> {
 
 fn bench(c: &mut Criterion) {
     let cfg = Config::default();
-    let est = match Estimator::embedded(&cfg) {
+    let est = match Estimator::embedded(&cfg.core()) {
         Ok(e) => e,
         Err(e) => {
             eprintln!("estimator: {e}");

@@ -13,7 +13,7 @@ use helmwatch::sim::{Scenario, Ship};
 use std::hint::black_box;
 
 fn one_hour(cfg: &Config, publish: bool) -> f64 {
-    let mut ship = match Ship::new(cfg, &Scenario::nominal(cfg, 1)) {
+    let mut ship = match Ship::new(&cfg.sim(), &Scenario::nominal(&cfg.sim(), 1)) {
         Ok(s) => s,
         Err(e) => {
             eprintln!("{e}");

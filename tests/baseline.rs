@@ -7,12 +7,14 @@
 //! `cargo test --profile ci --test baseline -- --ignored --nocapture`.
 #![allow(clippy::unwrap_used, clippy::panic)]
 
-use helmwatch::baseline::{displacement_from_b, speed_from_a};
-use helmwatch::config::{Config, Method, SeaState};
-use helmwatch::estimator::Estimator;
-use helmwatch::probe::{run_probe, ProbeOptions};
+use helmwatch::config::Config;
+use helmwatch::core::estimator::Estimator;
+use helmwatch::core::model::SeaState;
+use helmwatch::core::model::{displacement_from_b, speed_from_a};
+use helmwatch::core::wire::Method;
+use helmwatch::core::wire::{Outcome, Report};
+use helmwatch::drivers::probe::{run_probe, ProbeOptions};
 use helmwatch::sim::{Fault, Scenario};
-use helmwatch::wire::{Outcome, Report};
 use rand::{Rng, SeedableRng};
 use std::sync::Arc;
 
@@ -53,10 +55,12 @@ fn probe(
         faults,
         seed,
     };
-    let mut opts = ProbeOptions::new(cfg, method);
+    let mut opts = ProbeOptions::new(&cfg.core(), method);
     opts.warmup_s = warmup_s;
     opts.estimator = estimator;
-    run_probe(cfg, &sc, &opts).unwrap().report
+    run_probe(&cfg.core(), &cfg.sim(), &sc, &opts)
+        .unwrap()
+        .report
 }
 
 fn baseline_ab(r: &Report) -> Option<(f64, f64)> {
@@ -151,7 +155,7 @@ fn calibration_table() {
     let runs: usize = std::env::var("HELMWATCH_BASELINE_RUNS")
         .map(|v| v.parse().unwrap())
         .unwrap_or(64);
-    let est = Arc::new(Estimator::embedded(&cfg).unwrap());
+    let est = Arc::new(Estimator::embedded(&cfg.core()).unwrap());
     // The same ships and seeds in every cell: the drift conditions are paired with "no drift".
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(20_250_101);
     let ships: Vec<(f64, f64)> = (0..runs)

@@ -1,7 +1,8 @@
 //! The annotated example configuration stays true to the code, and bad configuration is
 //! refused with the key, the range and exit code 78.
 
-use helmwatch::config::{Config, ConfigError};
+use helmwatch::config::Config;
+use helmwatch::core::config::ConfigError;
 use std::path::Path;
 
 #[test]

@@ -6,8 +6,8 @@ mod common;
 
 use common::{endpoint, Observer};
 use helmwatch::config::Config;
-use helmwatch::net::loopback_peer;
-use helmwatch::shipnode::{ShipNode, ShipNodeOptions};
+use helmwatch::shells::net::loopback_peer;
+use helmwatch::shells::shipnode::{ShipNode, ShipNodeOptions};
 use helmwatch::sim::{CommandSource, Scenario};
 use serde_json::Value;
 use std::path::PathBuf;
@@ -79,13 +79,13 @@ async fn daemon_killed_mid_test_the_autopilot_reverts_within_hold() {
 
     // The ship in this process, so every tick's command source can be observed.
     let cfg = Config::default();
-    let mut opts = ShipNodeOptions::from_config(&cfg);
+    let mut opts = ShipNodeOptions::from_config(&cfg.ship_peer, &cfg.simulation.vessel);
     opts.lockstep = true;
     opts.excitation_timeout = Duration::from_millis(200);
     opts.speed_up = 20.0;
     let ticks: Arc<Mutex<Vec<(f64, CommandSource)>>> = Arc::default();
     let t2 = ticks.clone();
-    let node = ShipNode::new(&cfg, &Scenario::nominal(&cfg, 9), opts)
+    let node = ShipNode::new(&cfg.sim(), &Scenario::nominal(&cfg.sim(), 9), opts)
         .unwrap()
         .observe(move |t, truth| t2.lock().unwrap().push((t, truth.command_source)));
     let stop = CancellationToken::new();

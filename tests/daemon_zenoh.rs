@@ -6,9 +6,9 @@ mod common;
 
 use common::{daemon_config, endpoint, ran_to_analysis, Observer};
 use helmwatch::config::Config;
-use helmwatch::daemon::Daemon;
-use helmwatch::net::loopback_peer;
-use helmwatch::shipnode::{ShipNode, ShipNodeOptions, ShipSummary};
+use helmwatch::shells::daemon::Daemon;
+use helmwatch::shells::net::loopback_peer;
+use helmwatch::shells::shipnode::{ShipNode, ShipNodeOptions, ShipSummary};
 use helmwatch::sim::Scenario;
 use std::time::Duration;
 use tokio::task::JoinHandle;
@@ -23,11 +23,11 @@ fn spawn_ship(
     ep: &str,
 ) -> (
     CancellationToken,
-    JoinHandle<Result<ShipSummary, helmwatch::shipnode::ShipNodeError>>,
+    JoinHandle<Result<ShipSummary, helmwatch::shells::shipnode::ShipNodeError>>,
 ) {
-    let mut opts = ShipNodeOptions::from_config(cfg);
+    let mut opts = ShipNodeOptions::from_config(&cfg.ship_peer, &cfg.simulation.vessel);
     opts.lockstep = true;
-    let node = ShipNode::new(cfg, scenario, opts).unwrap();
+    let node = ShipNode::new(&cfg.sim(), scenario, opts).unwrap();
     let stop = CancellationToken::new();
     let s = stop.clone();
     let zcfg = loopback_peer(&[], &[ep.to_string()]).unwrap();
@@ -39,11 +39,15 @@ fn spawn_ship(
 async fn nominal_run_reports_arrive_with_features_and_no_alarm() {
     let ep = endpoint();
     let cfg = daemon_config();
-    let daemon = Daemon::start(&cfg, loopback_peer(&[ep.clone()], &[]).unwrap())
-        .await
-        .unwrap();
+    let daemon = Daemon::start(
+        &cfg.core(),
+        &cfg.daemon,
+        loopback_peer(&[ep.clone()], &[]).unwrap(),
+    )
+    .await
+    .unwrap();
     let obs = Observer::new(&ep, "self", false).await;
-    let (stop, ship) = spawn_ship(&cfg, &Scenario::nominal(&cfg, 7), &ep);
+    let (stop, ship) = spawn_ship(&cfg, &Scenario::nominal(&cfg.sim(), 7), &ep);
 
     // The scheduler starts the first test (CLFRT) on the steady ship by itself.
     let r1 = obs.wait_for("fdi/report", LIMIT, |_| true).await;
@@ -107,11 +111,15 @@ async fn displacement_fault_raises_the_alarm() {
     let ep = endpoint();
     let mut cfg = daemon_config();
     cfg.scheduler.enabled = false;
-    let daemon = Daemon::start(&cfg, loopback_peer(&[ep.clone()], &[]).unwrap())
-        .await
-        .unwrap();
+    let daemon = Daemon::start(
+        &cfg.core(),
+        &cfg.daemon,
+        loopback_peer(&[ep.clone()], &[]).unwrap(),
+    )
+    .await
+    .unwrap();
     let obs = Observer::new(&ep, "self", false).await;
-    let mut scenario = Scenario::nominal(&cfg, 11);
+    let mut scenario = Scenario::nominal(&cfg.sim(), 11);
     scenario.faults = vec!["displacement_pct:+30@0".parse().unwrap()];
     let (stop, ship) = spawn_ship(&cfg, &scenario, &ep);
 
@@ -160,11 +168,15 @@ async fn ship_disconnecting_mid_test_aborts_the_test_with_a_report() {
     let ep = endpoint();
     let mut cfg = daemon_config();
     cfg.scheduler.enabled = false;
-    let daemon = Daemon::start(&cfg, loopback_peer(&[ep.clone()], &[]).unwrap())
-        .await
-        .unwrap();
+    let daemon = Daemon::start(
+        &cfg.core(),
+        &cfg.daemon,
+        loopback_peer(&[ep.clone()], &[]).unwrap(),
+    )
+    .await
+    .unwrap();
     let obs = Observer::new(&ep, "self", false).await;
-    let (stop, ship) = spawn_ship(&cfg, &Scenario::nominal(&cfg, 3), &ep);
+    let (stop, ship) = spawn_ship(&cfg, &Scenario::nominal(&cfg.sim(), 3), &ep);
 
     let id = obs.trigger("clfrt").await.test.unwrap();
     obs.wait_for("fdi/status", LIMIT, |s| s["test"] == id.as_str())
@@ -195,11 +207,15 @@ async fn malformed_nan_and_out_of_order_samples_are_counted_and_the_next_test_co
     let ep = endpoint();
     let mut cfg = daemon_config();
     cfg.scheduler.enabled = false;
-    let daemon = Daemon::start(&cfg, loopback_peer(&[ep.clone()], &[]).unwrap())
-        .await
-        .unwrap();
+    let daemon = Daemon::start(
+        &cfg.core(),
+        &cfg.daemon,
+        loopback_peer(&[ep.clone()], &[]).unwrap(),
+    )
+    .await
+    .unwrap();
     let obs = Observer::new(&ep, "self", false).await;
-    let (stop, ship) = spawn_ship(&cfg, &Scenario::nominal(&cfg, 5), &ep);
+    let (stop, ship) = spawn_ship(&cfg, &Scenario::nominal(&cfg.sim(), 5), &ep);
 
     let id1 = obs.trigger("hbt").await.test.unwrap();
     // Hostile samples from a third session while the test runs: not JSON, NaN (not valid
@@ -215,8 +231,8 @@ async fn malformed_nan_and_out_of_order_samples_are_counted_and_the_next_test_co
         .declare_publisher("vessels/self/steering/rudderAngle")
         .await
         .unwrap();
-    assert!(helmwatch::net::wait_matching(&heading, LIMIT).await);
-    assert!(helmwatch::net::wait_matching(&rudder, LIMIT).await);
+    assert!(helmwatch::shells::net::wait_matching(&heading, LIMIT).await);
+    assert!(helmwatch::shells::net::wait_matching(&rudder, LIMIT).await);
     let malformed: [&[u8]; 4] = [
         b"not json",
         br#"{"t": NaN, "value": 1.0}"#,
@@ -284,13 +300,17 @@ async fn a_fleet_daemon_answers_each_vessel_on_its_own_keys() {
     let mut cfg = daemon_config();
     cfg.scheduler.enabled = false;
     cfg.daemon.vessels = vec!["alpha".into(), "bravo".into()];
-    let daemon = Daemon::start(&cfg, loopback_peer(&[ep.clone()], &[]).unwrap())
-        .await
-        .unwrap();
+    let daemon = Daemon::start(
+        &cfg.core(),
+        &cfg.daemon,
+        loopback_peer(&[ep.clone()], &[]).unwrap(),
+    )
+    .await
+    .unwrap();
     let obs = Observer::new(&ep, "bravo", false).await;
     let mut ship_cfg = cfg.clone();
     ship_cfg.simulation.vessel = "bravo".into();
-    let (stop, ship) = spawn_ship(&ship_cfg, &Scenario::nominal(&cfg, 2), &ep);
+    let (stop, ship) = spawn_ship(&ship_cfg, &Scenario::nominal(&cfg.sim(), 2), &ep);
     let reply = obs.trigger("hbt").await;
     assert!(reply.test.unwrap().starts_with("bravo-hbt-"));
     // alpha has no ship: its monitor refuses.
@@ -304,7 +324,7 @@ async fn a_fleet_daemon_answers_each_vessel_on_its_own_keys() {
         .unwrap()
         .into_result()
         .unwrap();
-    let alpha: helmwatch::wire::TriggerReply =
+    let alpha: helmwatch::core::wire::TriggerReply =
         serde_json::from_slice(&r.payload().to_bytes()).unwrap();
     assert!(!alpha.accepted, "{alpha:?}");
     assert_eq!(r.key_expr().as_str(), "vessels/alpha/fdi/trigger");

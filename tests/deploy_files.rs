@@ -18,7 +18,7 @@ fn example_etc_config_is_valid_and_stays_on_loopback() {
     for e in cfg.zenoh.listen.iter().chain(&cfg.zenoh.connect) {
         assert!(e.starts_with("tcp/127.0.0.1:"), "{e}");
     }
-    helmwatch::net::zenoh_config(&cfg.zenoh, &[], &[]).unwrap();
+    helmwatch::shells::net::zenoh_config(&cfg.zenoh, &[], &[]).unwrap();
 }
 
 #[test]

@@ -4,16 +4,18 @@
 //! Independent answers: the true speed and displacement of each simulated ship, and the
 //! shipped files' own recorded test MSE (measured by `helmwatch train` on other tests).
 
-use helmwatch::config::{Config, Method, SeaState};
-use helmwatch::estimator::build::{build_models, BuildSettings};
-use helmwatch::estimator::cli::{cgf_trainer, lm_trainer};
-use helmwatch::estimator::database::{simulate, DatabaseSpec, Purpose};
-use helmwatch::estimator::eval::accuracy;
-use helmwatch::estimator::model::{Model, Target};
-use helmwatch::estimator::{Estimator, SLOTS};
-use helmwatch::probe::{run_probe, ProbeOptions};
+use helmwatch::cli::estimator::{cgf_trainer, lm_trainer};
+use helmwatch::config::Config;
+use helmwatch::core::estimator::model::{Model, Target};
+use helmwatch::core::estimator::{Estimator, SLOTS};
+use helmwatch::core::model::SeaState;
+use helmwatch::core::wire::Method;
+use helmwatch::core::wire::Outcome;
+use helmwatch::drivers::probe::{run_probe, ProbeOptions};
 use helmwatch::sim::{Fault, Scenario};
-use helmwatch::wire::Outcome;
+use helmwatch::tools::eval::estimator::accuracy;
+use helmwatch::tools::training::build::{build_models, BuildSettings};
+use helmwatch::tools::training::database::{simulate, DatabaseSpec, Purpose};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -26,8 +28,8 @@ fn models_dir() -> std::path::PathBuf {
 #[test]
 fn shipped_models_load_and_are_the_embedded_ones() {
     let cfg = Config::default();
-    let from_dir = Estimator::load_dir(&models_dir(), &cfg).unwrap();
-    let embedded = Estimator::embedded(&cfg).unwrap();
+    let from_dir = Estimator::load_dir(&models_dir(), &cfg.core()).unwrap();
+    let embedded = Estimator::embedded(&cfg.core()).unwrap();
     assert_eq!(from_dir, embedded);
     for (m, t) in SLOTS {
         let model = from_dir.model(m, t);
@@ -35,7 +37,7 @@ fn shipped_models_load_and_are_the_embedded_ones() {
         assert!(model.file.uncertainty.residual_std > 0.0);
     }
     // The Fletcher-Reeves models for the comparison load too.
-    Estimator::load_dir(&models_dir().join("traincgf"), &cfg).unwrap();
+    Estimator::load_dir(&models_dir().join("traincgf"), &cfg.core()).unwrap();
 }
 
 /// Each shipped model, on a fresh sample of probes drawn on other random streams than its
@@ -45,7 +47,7 @@ fn shipped_models_load_and_are_the_embedded_ones() {
 #[test]
 fn shipped_models_reproduce_their_recorded_test_mse_on_fresh_probes() {
     let cfg = Config::default();
-    let est = Estimator::load_dir(&models_dir(), &cfg).unwrap();
+    let est = Estimator::load_dir(&models_dir(), &cfg.core()).unwrap();
     let models: Vec<Model> = SLOTS
         .iter()
         .map(|&(m, t)| est.model(m, t).clone())
@@ -95,7 +97,7 @@ fn shipped_models_reproduce_their_recorded_test_mse_on_fresh_probes() {
 #[test]
 fn probe_reports_carry_the_estimate_and_the_speed_log() {
     let cfg = Config::default();
-    let est = Arc::new(Estimator::embedded(&cfg).unwrap());
+    let est = Arc::new(Estimator::embedded(&cfg.core()).unwrap());
     for method in [Method::Clfrt, Method::Hbt] {
         for (u, d) in [(5.0, 9000.0), (8.5, 5000.0)] {
             let sc = Scenario {
@@ -105,9 +107,11 @@ fn probe_reports_carry_the_estimate_and_the_speed_log() {
                 faults: vec![],
                 seed: 77,
             };
-            let mut opts = ProbeOptions::new(&cfg, method);
+            let mut opts = ProbeOptions::new(&cfg.core(), method);
             opts.estimator = Some(est.clone());
-            let r = run_probe(&cfg, &sc, &opts).unwrap().report;
+            let r = run_probe(&cfg.core(), &cfg.sim(), &sc, &opts)
+                .unwrap()
+                .report;
             assert_eq!(r.outcome, Outcome::Completed, "{:?}", r.reason);
             let e = r.estimate.expect("an estimate");
             let log = r.features["speed_log_mps"].as_f64().unwrap();
@@ -131,9 +135,14 @@ fn probe_reports_carry_the_estimate_and_the_speed_log() {
             assert_eq!(again, e);
             assert!(r.message.contains("estimate"), "{}", r.message);
             // Without the estimator: the same features, no estimate.
-            let bare = run_probe(&cfg, &sc, &ProbeOptions::new(&cfg, method))
-                .unwrap()
-                .report;
+            let bare = run_probe(
+                &cfg.core(),
+                &cfg.sim(),
+                &sc,
+                &ProbeOptions::new(&cfg.core(), method),
+            )
+            .unwrap()
+            .report;
             assert_eq!(bare.features, r.features);
             assert!(bare.estimate.is_none());
         }
@@ -145,7 +154,7 @@ fn probe_reports_carry_the_estimate_and_the_speed_log() {
 #[test]
 fn a_speed_log_bias_reaches_only_the_displacement_network() {
     let cfg = Config::default();
-    let est = Arc::new(Estimator::embedded(&cfg).unwrap());
+    let est = Arc::new(Estimator::embedded(&cfg.core()).unwrap());
     let run = |faults: Vec<Fault>| {
         let sc = Scenario {
             speed_mps: 7.0,
@@ -154,13 +163,15 @@ fn a_speed_log_bias_reaches_only_the_displacement_network() {
             faults,
             seed: 3,
         };
-        let mut opts = ProbeOptions::new(&cfg, Method::Clfrt);
+        let mut opts = ProbeOptions::new(&cfg.core(), Method::Clfrt);
         opts.estimator = Some(est.clone());
-        run_probe(&cfg, &sc, &opts).unwrap().report
+        run_probe(&cfg.core(), &cfg.sim(), &sc, &opts)
+            .unwrap()
+            .report
     };
     let a = run(vec![]);
     let b = run(vec!["speed_log_bias_mps:0.5@0".parse().unwrap()]);
-    let log = |r: &helmwatch::wire::Report| r.features["speed_log_mps"].as_f64().unwrap();
+    let log = |r: &helmwatch::core::wire::Report| r.features["speed_log_mps"].as_f64().unwrap();
     assert!(
         (log(&b) - log(&a) - 0.5).abs() < 1e-3,
         "{} {}",
@@ -219,14 +230,14 @@ fn training_is_reproducible_bit_for_bit() {
 fn models_for_another_design_or_a_missing_file_are_refused() {
     let mut cfg = Config::default();
     cfg.clfrt.amplitude_deg = 2.0;
-    let e = Estimator::load_dir(&models_dir(), &cfg)
+    let e = Estimator::load_dir(&models_dir(), &cfg.core())
         .unwrap_err()
         .to_string();
     assert!(
         e.contains("clfrt_speed.json") && e.contains("helmwatch train"),
         "{e}"
     );
-    let e = Estimator::load_dir(Path::new("/nonexistent-models"), &Config::default())
+    let e = Estimator::load_dir(Path::new("/nonexistent-models"), &Config::default().core())
         .unwrap_err()
         .to_string();
     assert!(e.contains("/nonexistent-models/clfrt_speed.json"), "{e}");

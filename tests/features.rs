@@ -5,11 +5,13 @@
 //! Runs are spread over both cores with scoped threads; each run is a few tens of
 //! milliseconds of CPU in the `ci` profile.
 
-use helmwatch::config::{Config, Method, SeaState};
-use helmwatch::dsp::relay::limit_cycle_describing_function;
-use helmwatch::probe::{run_probe, ProbeOptions};
+use helmwatch::config::Config;
+use helmwatch::core::dsp::relay::limit_cycle_describing_function;
+use helmwatch::core::model::SeaState;
+use helmwatch::core::wire::Method;
+use helmwatch::core::wire::{Outcome, Report};
+use helmwatch::drivers::probe::{run_probe, ProbeOptions};
 use helmwatch::sim::{Fault, Scenario};
-use helmwatch::wire::{Outcome, Report};
 use std::f64::consts::PI;
 
 const GRID: [(f64, f64); 6] = [
@@ -75,9 +77,11 @@ fn probe_with(
         faults,
         seed,
     };
-    let mut opts = ProbeOptions::new(&cfg, method);
+    let mut opts = ProbeOptions::new(&cfg.core(), method);
     opts.warmup_s = warmup_s;
-    let r = run_probe(&cfg, &sc, &opts).unwrap().report;
+    let r = run_probe(&cfg.core(), &cfg.sim(), &sc, &opts)
+        .unwrap()
+        .report;
     assert_eq!(
         r.outcome,
         Outcome::Completed,
@@ -89,7 +93,7 @@ fn probe_with(
 
 /// Runs `jobs` on two threads, keeping the order (the library's worker pool).
 fn par_map<T: Clone + Sync, R: Send>(jobs: Vec<T>, f: impl Fn(T) -> R + Sync) -> Vec<R> {
-    helmwatch::estimator::database::par_map(jobs.len(), 2, |i| f(jobs[i].clone()))
+    helmwatch::tools::training::database::par_map(jobs.len(), 2, |i| f(jobs[i].clone()))
 }
 
 fn f64_at(v: &serde_json::Value, k: &str) -> f64 {
@@ -419,12 +423,12 @@ fn same_seed_same_report_other_seed_other_report() {
 /// counted, and the test still completes with finite features.
 #[test]
 fn bad_samples_mixed_into_a_test_are_rejected_and_the_test_completes() {
-    use helmwatch::monitor::Output;
-    use helmwatch::probe::Lockstep;
-    use helmwatch::wire::{Input, Scalar};
+    use helmwatch::core::monitor::Output;
+    use helmwatch::core::wire::{Input, Scalar};
+    use helmwatch::drivers::probe::Lockstep;
     let mut cfg = Config::default();
     cfg.scheduler.enabled = false;
-    let mut ls = Lockstep::new(&cfg, &Scenario::nominal(&cfg, 3)).unwrap();
+    let mut ls = Lockstep::new(&cfg.core(), &cfg.sim(), &Scenario::nominal(&cfg.sim(), 3)).unwrap();
     let mut out = Vec::new();
     ls.run_until(600.0, &mut out);
     assert!(ls.trigger(Method::Clfrt).accepted);
@@ -470,8 +474,8 @@ fn bad_samples_mixed_into_a_test_are_rejected_and_the_test_completes() {
 
 /// Largest |rudder| in the 300 s after an HBT test hands the rudder back to the autopilot.
 fn rudder_after_handback(lead_s: f64, u: f64, sea: SeaState) -> f64 {
-    use helmwatch::monitor::Output;
-    use helmwatch::probe::Lockstep;
+    use helmwatch::core::monitor::Output;
+    use helmwatch::drivers::probe::Lockstep;
     let mut cfg = Config::default();
     cfg.scheduler.enabled = false;
     cfg.hbt.handback_lead_s = lead_s;
@@ -482,7 +486,7 @@ fn rudder_after_handback(lead_s: f64, u: f64, sea: SeaState) -> f64 {
         faults: vec![],
         seed: 3,
     };
-    let mut ls = Lockstep::new(&cfg, &sc).unwrap();
+    let mut ls = Lockstep::new(&cfg.core(), &cfg.sim(), &sc).unwrap();
     let mut out = Vec::new();
     ls.run_until(600.0, &mut out);
     assert!(ls.trigger(Method::Hbt).accepted);

@@ -2,14 +2,15 @@
 //! abort paths, exactly one excitation per accepted heading sample, bounded excitation under
 //! any input, counted rejections.
 
-use helmwatch::config::{Config, Method};
-use helmwatch::monitor::input::RejectReason;
-use helmwatch::monitor::{Monitor, Output};
-use helmwatch::probe::Lockstep;
-use helmwatch::sim::Scenario;
-use helmwatch::wire::{
+use helmwatch::config::Config;
+use helmwatch::core::monitor::input::RejectReason;
+use helmwatch::core::monitor::{Monitor, Output};
+use helmwatch::core::wire::Method;
+use helmwatch::core::wire::{
     Excitation, ExcitationMode, Input, MonitorState, Outcome, Report, Scalar, StateValue, Stream,
 };
+use helmwatch::drivers::probe::Lockstep;
+use helmwatch::sim::Scenario;
 use proptest::prelude::*;
 
 const DT: f64 = 0.1;
@@ -72,7 +73,7 @@ impl Feed {
 fn monitor() -> Monitor {
     let mut cfg = Config::default();
     cfg.scheduler.enabled = false;
-    Monitor::new(&cfg, "self")
+    Monitor::new(&cfg.core(), "self")
 }
 
 fn excitations(out: &[Output]) -> Vec<&Excitation> {
@@ -219,7 +220,7 @@ fn trigger_is_refused_while_a_test_runs_or_without_auto() {
 fn standby_in_the_simulated_ship_aborts_a_lockstep_test() {
     let mut cfg = Config::default();
     cfg.scheduler.enabled = false;
-    let mut ls = Lockstep::new(&cfg, &Scenario::nominal(&cfg, 7)).unwrap();
+    let mut ls = Lockstep::new(&cfg.core(), &cfg.sim(), &Scenario::nominal(&cfg.sim(), 7)).unwrap();
     let mut out = Vec::new();
     ls.run_until(300.0, &mut out);
     assert!(ls.trigger(Method::Clfrt).accepted);
@@ -281,7 +282,7 @@ proptest! {
         let cfg = Config::default();
         let max_exc = cfg.safety.max_excitation_deg.to_radians();
         let servo = cfg.servo.max_angle_rad();
-        let mut m = Monitor::new(&cfg, "self");
+        let mut m = Monitor::new(&cfg.core(), "self");
         let mut t = 0.0;
         let mut accepted_headings = 0u64;
         let mut errors = 0u64;

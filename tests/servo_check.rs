@@ -4,11 +4,13 @@
 //! servo for the degraded one. Also: the test stays within its duration limit and the safety
 //! gate never bounds a nominal test's excitation.
 
-use helmwatch::config::{Config, Method, SeaState};
-use helmwatch::monitor::Output;
-use helmwatch::probe::Lockstep;
+use helmwatch::config::Config;
+use helmwatch::core::model::SeaState;
+use helmwatch::core::monitor::Output;
+use helmwatch::core::wire::Method;
+use helmwatch::core::wire::{Outcome, Report};
+use helmwatch::drivers::probe::Lockstep;
 use helmwatch::sim::{Fault, FaultKind, Scenario, Ship, SimOptions};
-use helmwatch::wire::{Outcome, Report};
 use rustfft::num_complex::Complex64;
 use std::f64::consts::PI;
 
@@ -22,8 +24,8 @@ struct Run {
 fn run(cfg: &Config, sc: &Scenario, options: SimOptions, warmup_s: f64) -> Run {
     let mut cfg = cfg.clone();
     cfg.scheduler.enabled = false;
-    let mut ls = Lockstep::new(&cfg, sc).unwrap();
-    ls.ship = Ship::with_options(&cfg, sc, options).unwrap();
+    let mut ls = Lockstep::new(&cfg.core(), &cfg.sim(), sc).unwrap();
+    ls.ship = Ship::with_options(&cfg.sim(), sc, options).unwrap();
     let mut out = Vec::new();
     ls.run_until(warmup_s, &mut out);
     let reply = ls.trigger(Method::Clfrt);
@@ -423,5 +425,5 @@ fn halton(mut i: usize, base: usize) -> f64 {
 
 /// Runs `jobs` on two threads, keeping the order (the library's worker pool).
 fn par_map<T: Clone + Sync, R: Send>(jobs: Vec<T>, f: impl Fn(T) -> R + Sync) -> Vec<R> {
-    helmwatch::estimator::database::par_map(jobs.len(), 2, |i| f(jobs[i].clone()))
+    helmwatch::tools::training::database::par_map(jobs.len(), 2, |i| f(jobs[i].clone()))
 }

@@ -4,9 +4,10 @@
 
 #![allow(clippy::unwrap_used)]
 
-use helmwatch::config::{Config, SeaState};
+use helmwatch::config::Config;
+use helmwatch::core::model::SeaState;
+use helmwatch::core::wire::{Excitation, ExcitationMode, Input};
 use helmwatch::sim::{CommandSource, Fault, Scenario, Ship, SimOptions};
-use helmwatch::wire::{Excitation, ExcitationMode, Input};
 use proptest::prelude::*;
 use std::f64::consts::PI;
 
@@ -24,7 +25,7 @@ fn scenario(u: f64, d: f64, sea: SeaState, faults: &[&str], seed: u64) -> Scenar
 
 fn clean_ship(cfg: &Config, u: f64, d: f64, faults: &[&str]) -> Ship {
     Ship::with_options(
-        cfg,
+        &cfg.sim(),
         &scenario(u, d, SeaState::Calm, faults, 1),
         SimOptions::CLEAN,
     )
@@ -259,7 +260,7 @@ fn large_step_moves_at_the_rate_limit() {
 fn course_change_settles_with_small_overshoot() {
     let cfg = Config::default();
     for seed in [1, 2, 3] {
-        let mut ship = Ship::new(&cfg, &Scenario::nominal(&cfg, seed)).unwrap();
+        let mut ship = Ship::new(&cfg.sim(), &Scenario::nominal(&cfg.sim(), seed)).unwrap();
         run(&mut ship, ticks(600.0, &cfg));
         let course = ship.truth().target_rad;
         let psi_start = ship.truth().psi_rad;
@@ -304,7 +305,7 @@ fn course_change_settles_with_small_overshoot() {
 fn steady_course_in_moderate_sea() {
     let cfg = Config::default();
     for seed in [11, 12, 13] {
-        let mut ship = Ship::new(&cfg, &Scenario::nominal(&cfg, seed)).unwrap();
+        let mut ship = Ship::new(&cfg.sim(), &Scenario::nominal(&cfg.sim(), seed)).unwrap();
         run(&mut ship, ticks(600.0, &cfg));
         let n = ticks(1800.0, &cfg);
         let (mut sum2, mut limited, mut rudder_sum, mut rudder_sum2) = (0.0, 0usize, 0.0, 0.0);
@@ -511,7 +512,7 @@ fn same_seed_same_bytes_other_seed_other_bytes() {
             seed,
         );
         let mut out = Vec::new();
-        let lines = helmwatch::sim::record(&cfg, &sc, 120.0, "self", &mut out).unwrap();
+        let lines = helmwatch::sim::record(&cfg.sim(), &sc, 120.0, "self", &mut out).unwrap();
         (lines, out)
     };
     let (l1, a) = rec(5);
@@ -523,7 +524,7 @@ fn same_seed_same_bytes_other_seed_other_bytes() {
     assert_eq!(a, b);
     assert_ne!(a, c);
     let text = String::from_utf8(a).unwrap();
-    let first: helmwatch::wire::RecordLine =
+    let first: helmwatch::core::wire::RecordLine =
         serde_json::from_str(text.lines().next().unwrap()).unwrap();
     assert_eq!(first.key, "vessels/self/steering/rudderAngle");
     assert_eq!(text.lines().count() as u64, l1);
@@ -536,9 +537,9 @@ fn same_seed_same_bytes_other_seed_other_bytes() {
 #[test]
 fn publish_order_and_single_draw() {
     let cfg = Config::default();
-    let sc = Scenario::nominal(&cfg, 9);
-    let mut a = Ship::new(&cfg, &sc).unwrap();
-    let mut b = Ship::new(&cfg, &sc).unwrap();
+    let sc = Scenario::nominal(&cfg.sim(), 9);
+    let mut a = Ship::new(&cfg.sim(), &sc).unwrap();
+    let mut b = Ship::new(&cfg.sim(), &sc).unwrap();
     let mut buf = Vec::new();
     let mut status_ticks = Vec::new();
     for k in 0..50 {
@@ -552,7 +553,7 @@ fn publish_order_and_single_draw() {
         assert_eq!(again[1], first[1]);
         assert_eq!(again[2], first[first.len() - 1]);
         let kinds: Vec<_> = first.iter().map(Input::stream).collect();
-        use helmwatch::wire::Stream::*;
+        use helmwatch::core::wire::Stream::*;
         if kinds.len() == 5 {
             assert_eq!(
                 kinds,
@@ -577,8 +578,12 @@ fn publish_order_and_single_draw() {
 #[test]
 fn excitation_and_standby_on_the_ship() {
     let cfg = Config::default();
-    let mut ship =
-        Ship::with_options(&cfg, &Scenario::nominal(&cfg, 4), SimOptions::CLEAN).unwrap();
+    let mut ship = Ship::with_options(
+        &cfg.sim(),
+        &Scenario::nominal(&cfg.sim(), 4),
+        SimOptions::CLEAN,
+    )
+    .unwrap();
     run(&mut ship, 100);
     let t = ship.time_s();
     ship.receive_excitation(&Excitation {
@@ -627,22 +632,32 @@ fn bad_scenarios_are_refused() {
         (7.0, 0.0),
         (7.0, f64::INFINITY),
     ] {
-        assert!(Ship::new(&cfg, &scenario(u, d, SeaState::Calm, &[], 1)).is_err());
+        assert!(Ship::new(&cfg.sim(), &scenario(u, d, SeaState::Calm, &[], 1)).is_err());
     }
-    let mut sc = Scenario::nominal(&cfg, 1);
+    let mut sc = Scenario::nominal(&cfg.sim(), 1);
     sc.faults.push(Fault {
         kind: helmwatch::sim::FaultKind::RudderEffectiveness,
         value: 0.0,
         onset_s: 0.0,
     });
-    assert!(Ship::new(&cfg, &sc).is_err());
+    assert!(Ship::new(&cfg.sim(), &sc).is_err());
     let mut out = Vec::new();
-    assert!(
-        helmwatch::sim::record(&cfg, &Scenario::nominal(&cfg, 1), 1.0, "a/b", &mut out).is_err()
-    );
-    assert!(
-        helmwatch::sim::record(&cfg, &Scenario::nominal(&cfg, 1), -1.0, "self", &mut out).is_err()
-    );
+    assert!(helmwatch::sim::record(
+        &cfg.sim(),
+        &Scenario::nominal(&cfg.sim(), 1),
+        1.0,
+        "a/b",
+        &mut out
+    )
+    .is_err());
+    assert!(helmwatch::sim::record(
+        &cfg.sim(),
+        &Scenario::nominal(&cfg.sim(), 1),
+        -1.0,
+        "self",
+        &mut out
+    )
+    .is_err());
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -671,7 +686,7 @@ fn relay_limit_cycle_matches_domain_reference() {
             disturbances: false,
         };
         let mut ship =
-            Ship::with_options(&cfg, &scenario(u, d, SeaState::Calm, &[], 21), opts).unwrap();
+            Ship::with_options(&cfg.sim(), &scenario(u, d, SeaState::Calm, &[], 21), opts).unwrap();
         let target = ship.truth().target_rad;
         let mut relay = h;
         // Upward switches (relay goes to +h) and the heading trace.

@@ -34,9 +34,10 @@
 //! re-engaging is smooth. A test override of the command (open loop) also freezes the
 //! integral.
 
-use crate::angle::{wrap_2pi, wrap_pi};
-use crate::config::PidGains;
-use crate::wire::{Excitation, ExcitationMode};
+use crate::core::angle::{wrap_2pi, wrap_pi};
+use crate::core::model::ShipConfig;
+use crate::core::wire::{Excitation, ExcitationMode};
+use crate::sim::config::AutopilotConfig;
 
 /// Where the rudder command of a tick came from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -198,6 +199,50 @@ impl Autopilot {
         }
         self.last_command_rad = cmd;
         (cmd, source)
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Pole placement (Fossen): the gains of the simulated autopilot
+
+/// PID gains resolved from [`AutopilotConfig`] and the nominal ship.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PidGains {
+    /// Proportional gain [rad/rad].
+    pub kp: f64,
+    /// Derivative time [s].
+    pub td_s: f64,
+    /// Integral time [s].
+    pub ti_s: f64,
+}
+
+impl AutopilotConfig {
+    /// Gains by pole placement for the nominal ship of `ship`, with overrides applied.
+    pub fn gains(&self, ship: &ShipConfig) -> PidGains {
+        self.gains_for(ship, ship.nominal_speed_mps)
+    }
+
+    /// Gains for a ship sailing at `speed_mps`: pole placement at that speed and the nominal
+    /// displacement when `speed-scheduling` is on, else the nominal ship's gains.
+    pub fn gains_at(&self, ship: &ShipConfig, speed_mps: f64) -> PidGains {
+        if self.speed_scheduling {
+            self.gains_for(ship, speed_mps)
+        } else {
+            self.gains(ship)
+        }
+    }
+
+    fn gains_for(&self, ship: &ShipConfig, speed_mps: f64) -> PidGains {
+        let (a, b) = ship.nomoto(speed_mps, ship.nominal_displacement_t);
+        let t = 1.0 / a;
+        let k = b / a;
+        let wn = self.natural_frequency_rad_s;
+        let kp = self.kp.unwrap_or(t / k * wn * wn);
+        let td_s = self
+            .td_s
+            .unwrap_or((t / (k * kp) * (2.0 * self.damping * wn - 1.0 / t)).max(0.0));
+        let ti_s = self.ti_s.unwrap_or(self.integral_time_factor / wn);
+        PidGains { kp, td_s, ti_s }
     }
 }
 

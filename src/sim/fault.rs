@@ -266,11 +266,11 @@ impl Effects {
                 FaultKind::DisplacementPct => fx.displacement_factor *= 1.0 + v / 100.0,
                 FaultKind::SpeedLogBiasMps => fx.speed_log_bias_mps += v,
                 FaultKind::SpeedLogScale => fx.speed_log_scale *= v,
-                FaultKind::ServoRateDegS => fx.servo_rate_rad_s = Some(crate::angle::deg(v)),
+                FaultKind::ServoRateDegS => fx.servo_rate_rad_s = Some(crate::core::angle::deg(v)),
                 FaultKind::RudderEffectiveness => fx.rudder_effectiveness = v,
                 FaultKind::HeadingDriftDegPerMin => {
                     let minutes = (t_s - f.onset_s).max(0.0) / 60.0;
-                    fx.heading_drift_rad += crate::angle::deg(v * minutes);
+                    fx.heading_drift_rad += crate::core::angle::deg(v * minutes);
                 }
             }
         }

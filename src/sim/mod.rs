@@ -45,6 +45,7 @@
 //! realisation unchanged, and the sequence never depends on whether `publish` was called.
 
 pub mod autopilot;
+pub mod config;
 pub mod fault;
 mod record;
 pub mod sea;
@@ -55,9 +56,11 @@ pub use autopilot::{Autopilot, CommandSource};
 pub use fault::{Fault, FaultKind, FaultParseError};
 pub use record::record;
 
-use crate::angle::{deg, wrap_2pi};
-use crate::config::{Config, ConfigError, SeaState, ShipConfig};
-use crate::wire::{Excitation, Input, Scalar, StateValue};
+use crate::core::angle::{deg, wrap_2pi};
+use crate::core::config::ConfigError;
+use crate::core::model::{SeaState, ShipConfig};
+use crate::core::wire::{Excitation, Input, Scalar, StateValue};
+use crate::sim::config::SimConfig;
 use fault::Effects;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -113,7 +116,7 @@ pub struct Scenario {
 
 impl Scenario {
     /// The nominal ship of `cfg` in its configured sea state, no fault.
-    pub fn nominal(cfg: &Config, seed: u64) -> Self {
+    pub fn nominal(cfg: &SimConfig, seed: u64) -> Self {
         Self {
             speed_mps: cfg.ship.nominal_speed_mps,
             displacement_t: cfg.ship.nominal_displacement_t,
@@ -264,13 +267,13 @@ pub struct Ship {
 
 impl Ship {
     /// A ship for `scenario` with noise and disturbances on. Checks `cfg` and the scenario.
-    pub fn new(cfg: &Config, scenario: &Scenario) -> Result<Ship, SimError> {
+    pub fn new(cfg: &SimConfig, scenario: &Scenario) -> Result<Ship, SimError> {
         Ship::with_options(cfg, scenario, SimOptions::default())
     }
 
     /// A ship with noise and disturbances switched by `options`.
     pub fn with_options(
-        cfg: &Config,
+        cfg: &SimConfig,
         scenario: &Scenario,
         options: SimOptions,
     ) -> Result<Ship, SimError> {

@@ -1,13 +1,14 @@
 //! Recording: what a simulated ship publishes, as JSON lines, without a daemon.
 //!
 //! One line per publication, `{"key": "vessels/<vessel>/<path>", "payload": {...}}`
-//! ([`crate::wire::RecordLine`]), in lockstep order within a tick (heading last). No excitation
+//! ([`crate::core::wire::RecordLine`]), in lockstep order within a tick (heading last). No excitation
 //! is received, so the autopilot steers on its own command throughout. The output depends only
 //! on the configuration and the scenario (seed included): same inputs, same bytes.
 
 use super::{Scenario, Ship, SimError};
-use crate::config::{check_vessel_name, Config};
-use crate::wire::{Input, Keys, RecordLine, Stream};
+use crate::core::config::check_vessel_name;
+use crate::core::wire::{Input, Keys, RecordLine, Stream};
+use crate::sim::config::SimConfig;
 use std::io::Write;
 
 /// Longest recording accepted [s] (a year of ship time).
@@ -18,7 +19,7 @@ const MAX_DURATION_S: f64 = 366.0 * 86400.0;
 ///
 /// The ticks recorded are those at `start + k dt` for `k < round(duration_s / dt)`.
 pub fn record<W: Write>(
-    cfg: &Config,
+    cfg: &SimConfig,
     scenario: &Scenario,
     duration_s: f64,
     vessel: &str,

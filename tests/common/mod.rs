@@ -3,8 +3,8 @@
 #![allow(dead_code)]
 
 use helmwatch::config::Config;
-use helmwatch::net::{free_loopback_port, loopback_peer};
-use helmwatch::wire::{Keys, TriggerReply};
+use helmwatch::core::wire::{Keys, TriggerReply};
+use helmwatch::shells::net::{free_loopback_port, loopback_peer};
 use serde_json::Value;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;

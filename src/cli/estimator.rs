@@ -1,0 +1,408 @@
+//! The `helmwatch train` and `helmwatch eval` subcommands: thin drivers around
+//! [`crate::tools::training::database`], [`crate::tools::training::build`] and [`crate::tools::eval::estimator`] that print what they do.
+//!
+//! `train` simulates the training database (both methods at every point, calm and moderate
+//! seas), trains the four networks with Levenberg-Marquardt (the shipped models, written to
+//! `--out`) and with the paper's Fletcher-Reeves conjugate gradient at 100 epochs (written to
+//! `--out/traincgf/`, for the comparison), and prints the records and the wall-clock time
+//! (printed only: nothing time-dependent enters a file). `eval` simulates a held-out database
+//! on other random streams and prints the accuracy tables, the test durations, the
+//! accuracy against test length and, with `--drift`, the effect of a 1 deg/min heading drift.
+
+use crate::cli::{fail, Failure, EX_CONFIG, EX_IOERR, EX_SOFTWARE};
+use crate::config::Config;
+use crate::core::estimator::model::{Model, Target};
+use crate::core::estimator::{Estimator, SLOTS};
+use crate::core::model::SeaState;
+use crate::core::wire::Method;
+use crate::sim::Fault;
+use crate::tools::eval::estimator::{accuracy, durations, find, fmt_unit, table, target_mse, Cell};
+use crate::tools::training::build::{build_models, BuildSettings};
+use crate::tools::training::database::{
+    default_threads, design, simulate, Database, DatabaseSpec, Purpose,
+};
+use crate::tools::training::train::{CgfOptions, LmOptions, Trainer};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Latin-hypercube points per sea state of the training database (default of `--points`).
+pub const DEFAULT_TRAIN_POINTS: usize = 1200;
+/// Restarts per network and trainer (default of `--restarts`).
+pub const DEFAULT_RESTARTS: usize = 3;
+/// Held-out points per sea state for `eval` (default of `--points`).
+pub const DEFAULT_EVAL_POINTS: usize = 300;
+/// Sea states of the databases.
+pub const SEAS: [SeaState; 2] = [SeaState::Calm, SeaState::Moderate];
+/// The limit on a test's duration, settling included [s].
+pub const MAX_TEST_S: f64 = 1800.0;
+
+/// The shipped trainer: Levenberg-Marquardt.
+pub fn lm_trainer() -> Trainer {
+    Trainer::Lm(LmOptions {
+        max_epochs: 300,
+        ..LmOptions::default()
+    })
+}
+
+/// The paper's trainer: Fletcher-Reeves conjugate gradient, 100 epochs.
+pub fn cgf_trainer() -> Trainer {
+    Trainer::Cgf(CgfOptions::default())
+}
+
+/// Options of `helmwatch train`.
+#[derive(Debug, Clone)]
+pub struct TrainOptions {
+    /// Database and training seed.
+    pub seed: u64,
+    /// Output directory.
+    pub out: PathBuf,
+    /// Points per sea state.
+    pub points: usize,
+    /// Restarts per network and trainer.
+    pub restarts: usize,
+    /// Worker threads (None: every core).
+    pub threads: Option<usize>,
+}
+
+/// Options of `helmwatch eval`.
+#[derive(Debug, Clone)]
+pub struct EvalOptions {
+    /// Held-out database seed.
+    pub seed: u64,
+    /// Model directory.
+    pub models: PathBuf,
+    /// Points per sea state.
+    pub points: usize,
+    /// Compare with a 1 deg/min heading drift on every test.
+    pub drift: bool,
+    /// Print the accuracy against test length.
+    pub lengths: bool,
+    /// Worker threads (None: every core).
+    pub threads: Option<usize>,
+}
+
+/// The training database of a seed.
+pub fn training_spec(seed: u64, points: usize) -> DatabaseSpec {
+    DatabaseSpec {
+        seed,
+        purpose: Purpose::Training,
+        points_per_sea: points,
+        seas: SEAS.to_vec(),
+        methods: vec![Method::Clfrt, Method::Hbt],
+        faults: Vec::new(),
+    }
+}
+
+/// The held-out database of a seed.
+pub fn evaluation_spec(seed: u64, points: usize) -> DatabaseSpec {
+    DatabaseSpec {
+        purpose: Purpose::Evaluation,
+        ..training_spec(seed, points)
+    }
+}
+
+/// A progress printer for stderr: one line per tenth.
+fn progress(label: &'static str) -> impl Fn(usize, usize) + Sync {
+    move |done, total| {
+        if total >= 10 && done % (total / 10) == 0 || done == total {
+            eprintln!("  {label}: {done}/{total} tests");
+        }
+    }
+}
+
+fn print_failures(db: &Database) {
+    for &m in &db.spec.methods {
+        let f = db.failures(m);
+        let n = db.runs_of(m).len();
+        println!(
+            "  {}: {} of {n} tests completed, {} failed",
+            m.name(),
+            n - f.len(),
+            f.len()
+        );
+        for (i, reason) in f.iter().take(3) {
+            let p = &db.points[*i];
+            println!(
+                "    e.g. u {:.2} m/s, D {:.0} t, {}: {reason}",
+                p.speed_mps,
+                p.displacement_t,
+                p.sea.name()
+            );
+        }
+    }
+}
+
+/// `helmwatch train`.
+pub(crate) fn train(cfg: &Config, o: &TrainOptions) -> Result<(), Failure> {
+    let t0 = Instant::now();
+    let threads = o.threads.unwrap_or_else(default_threads).max(1);
+    let spec = training_spec(o.seed, o.points);
+    println!(
+        "helmwatch train: seed {}, {} Latin-hypercube points per sea state ({}), CLFRT and HBT at each, {threads} threads",
+        o.seed,
+        o.points,
+        SEAS.map(|s| s.name()).join(", ")
+    );
+    let db = simulate(cfg, &spec, threads, &progress("database"));
+    let t_db = t0.elapsed().as_secs_f64();
+    println!(
+        "database: {} tests simulated in {t_db:.1} s",
+        db.points.len() * db.spec.methods.len()
+    );
+    print_failures(&db);
+    let t1 = Instant::now();
+    let trainers = [lm_trainer(), cgf_trainer()];
+    let settings = BuildSettings::new(o.seed, o.restarts, threads);
+    let built =
+        build_models(cfg, &db, &settings, &trainers).map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
+    let t_train = t1.elapsed().as_secs_f64();
+    let dirs = [o.out.clone(), o.out.join("traincgf")];
+    for (models, dir) in built.iter().zip(&dirs) {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", dir.display())))?;
+        for m in models {
+            m.save(dir).map_err(|e| fail(EX_IOERR)(e.into()))?;
+        }
+    }
+    println!();
+    println!("| model | trainer | inputs | epochs (kept) | stop | MSE train | MSE validation | MSE test | RMSE test | residual std calm / moderate | file |");
+    println!("|---|---|---:|---:|---|---:|---:|---:|---:|---|---|");
+    for (models, dir) in built.iter().zip(&dirs) {
+        for m in models {
+            let r = &m.file.training;
+            let spread: Vec<String> = m
+                .file
+                .uncertainty
+                .by_sea
+                .iter()
+                .map(|s| fmt_unit(s.residual_std, m.file.target))
+                .collect();
+            println!(
+                "| {} {} | {} | {} | {} ({}) | {:?} | {:.5} | {:.5} | {:.5} | {} | {} | {} |",
+                m.file.method.name(),
+                m.file.target.name(),
+                r.trainer.name(),
+                m.inputs.len(),
+                r.epochs,
+                r.best_epoch,
+                r.stop,
+                r.mse_train,
+                r.mse_validation,
+                r.mse_test,
+                fmt_unit(r.rmse_test, m.file.target),
+                spread.join(" / "),
+                dir.join(m.file_name()).display()
+            );
+        }
+    }
+    let total = t0.elapsed().as_secs_f64();
+    println!();
+    println!(
+        "time: database {t_db:.1} s, training {t_train:.1} s, total {total:.1} s on {threads} threads (budget 600 s)"
+    );
+    Ok(())
+}
+
+fn models_of(e: &Estimator) -> Vec<Model> {
+    SLOTS.iter().map(|&(m, t)| e.model(m, t).clone()).collect()
+}
+
+/// The durations table of a database.
+fn print_durations(db: &Database) {
+    println!("| method | sea | completed | mean duration | longest | limit |");
+    println!("|---|---|---:|---:|---:|---:|");
+    for &m in &db.spec.methods {
+        for &sea in &db.spec.seas {
+            let (n, mean, max) = durations(db, m, sea);
+            println!(
+                "| {} | {} | {n} | {:.0} s ({:.1} min) | {:.0} s ({:.1} min){} | {:.0} s |",
+                m.name().to_uppercase(),
+                sea.name(),
+                mean,
+                mean / 60.0,
+                max,
+                max / 60.0,
+                if max > MAX_TEST_S { " OVER" } else { "" },
+                MAX_TEST_S
+            );
+        }
+    }
+}
+
+/// `helmwatch eval`.
+pub(crate) fn eval(cfg: &Config, o: &EvalOptions) -> Result<(), Failure> {
+    let t0 = Instant::now();
+    let threads = o.threads.unwrap_or_else(default_threads).max(1);
+    let lm = Estimator::load_dir(&o.models, &cfg.core()).map_err(|e| fail(EX_CONFIG)(e.into()))?;
+    let cgf_dir = o.models.join("traincgf");
+    let cgf = match Estimator::load_dir(&cgf_dir, &cfg.core()) {
+        Ok(e) => Some(e),
+        Err(e) => {
+            eprintln!("helmwatch: no Fletcher-Reeves models: {e}");
+            None
+        }
+    };
+    let lm_models = models_of(&lm);
+    let cgf_models = cgf.as_ref().map(models_of);
+    let rec = &lm_models[0].file.training;
+    let spec = evaluation_spec(o.seed, o.points);
+    // Independence: the held-out design shares no simulation seed with the training one.
+    let train_pts = design(
+        cfg,
+        &training_spec(rec.database_seed, rec.design_points_per_sea),
+    );
+    let eval_pts = design(cfg, &spec);
+    let train_seeds: std::collections::HashSet<u64> = train_pts.iter().map(|p| p.seed).collect();
+    let shared = eval_pts
+        .iter()
+        .filter(|p| train_seeds.contains(&p.seed))
+        .count();
+    println!(
+        "helmwatch eval: held-out seed {} ({} points per sea state, evaluation streams), models trained on seed {} ({} points per sea state); simulation seeds shared with training: {shared}",
+        o.seed, o.points, rec.database_seed, rec.design_points_per_sea
+    );
+    let db = simulate(cfg, &spec, threads, &progress("held-out"));
+    print_failures(&db);
+    let cells_lm = accuracy(&lm_models, &db);
+    let cells_cgf = cgf_models.as_ref().map(|m| accuracy(m, &db));
+    let mut labelled: Vec<(&str, &[Cell])> = vec![("LM", &cells_lm)];
+    if let Some(c) = &cells_cgf {
+        labelled.push(("FR-CG 100 ep.", c));
+    }
+    println!();
+    println!("## Accuracy on the held-out set (MSE on the [-1, 1] scale; RMSE in m/s and t)");
+    println!();
+    print!("{}", table(&labelled, &db.spec.seas));
+    let misses: Vec<String> = cells_lm
+        .iter()
+        .filter(|c| target_mse(c.method, c.sea, c.target).is_some_and(|t| c.mse > t))
+        .map(|c| format!("{} {} {}", c.method.name(), c.sea.name(), c.target.name()))
+        .collect();
+    println!(
+        "LM targets met: {} of {}{}",
+        8 - misses.len(),
+        8,
+        if misses.is_empty() {
+            String::new()
+        } else {
+            format!(" (missed: {})", misses.join(", "))
+        }
+    );
+    println!();
+    println!("## Test durations (trigger to report, settling and ramp-down included)");
+    println!();
+    print_durations(&db);
+
+    if o.drift {
+        let drift: Fault = "heading_drift_deg_per_min:1@0"
+            .parse()
+            .map_err(|e| fail(EX_SOFTWARE)(anyhow::anyhow!("{e}")))?;
+        let mut dspec = spec.clone();
+        dspec.faults = vec![drift];
+        let ddb = simulate(cfg, &dspec, threads, &progress("held-out with drift"));
+        let cells_d = accuracy(&lm_models, &ddb);
+        println!();
+        println!("## Heading drift 1 deg/min on every test (same points and seeds), LM models");
+        println!();
+        println!("| method | sea | parameter | MSE | MSE with drift | growth | limit |");
+        println!("|---|---|---|---:|---:|---:|---|");
+        for c in &cells_lm {
+            if let Some(d) = find(&cells_d, c.method, c.sea, c.target) {
+                let g = 100.0 * (d.mse / c.mse - 1.0);
+                println!(
+                    "| {} | {} | {} | {:.5} | {:.5} | {g:+.1} % | {} |",
+                    c.method.name().to_uppercase(),
+                    c.sea.name(),
+                    c.target.name(),
+                    c.mse,
+                    d.mse,
+                    if g <= 10.0 {
+                        "<= +10 % ok"
+                    } else {
+                        "> +10 % MISS"
+                    }
+                );
+            }
+        }
+        print_failures(&ddb);
+    }
+
+    if o.lengths {
+        println!();
+        println!("## Accuracy against test length (LM models; the same design, shorter or longer measurement)");
+        println!();
+        println!("| method | measurement | mean duration | longest | calm speed | calm displacement | moderate speed | moderate displacement |");
+        println!("|---|---|---:|---:|---:|---:|---:|---:|");
+        for (label, variant) in length_variants(cfg) {
+            let lspec = DatabaseSpec {
+                methods: vec![variant.0],
+                ..evaluation_spec(o.seed, o.points)
+            };
+            let vdb = simulate(&variant.1, &lspec, threads, &|_, _| {});
+            let cells = accuracy(&lm_models, &vdb);
+            let (n_c, mean_c, max_c) = durations(&vdb, variant.0, SeaState::Calm);
+            let (n_m, mean_m, max_m) = durations(&vdb, variant.0, SeaState::Moderate);
+            let failed = vdb.failures(variant.0).len();
+            let mut row = format!(
+                "| {} | {label} | {:.0} s | {:.0} s |",
+                variant.0.name().to_uppercase(),
+                (mean_c * n_c as f64 + mean_m * n_m as f64) / (n_c + n_m).max(1) as f64,
+                max_c.max(max_m)
+            );
+            for sea in SEAS {
+                for t in Target::ALL {
+                    match find(&cells, variant.0, sea, t) {
+                        Some(c) if c.n > 0 => {
+                            row.push_str(&format!(" {:.5} ({}) |", c.mse, fmt_unit(c.rmse, t)))
+                        }
+                        _ => row.push_str(" - |"),
+                    }
+                }
+            }
+            if failed > 0 {
+                row.push_str(&format!(" {failed} failed"));
+            }
+            println!("{row}");
+        }
+    }
+    println!();
+    println!("eval time: {:.1} s", t0.elapsed().as_secs_f64());
+    Ok(())
+}
+
+/// Configurations that change only the measurement length of one method (the default one
+/// included), with a label. The duration limits (`safety.max-test-duration-s`,
+/// `hbt.timeout-s`) are lifted to two hours so that the longer variants can complete.
+pub fn length_variants(cfg: &Config) -> Vec<(String, (Method, Config))> {
+    let mut v = Vec::new();
+    let mut cfg = cfg.clone();
+    cfg.safety.max_test_duration_s = cfg.safety.max_test_duration_s.max(7200.0);
+    cfg.hbt.timeout_s = cfg.hbt.timeout_s.max(7200.0);
+    let cfg = &cfg;
+    let c = &cfg.clfrt;
+    for m in 1..=c.measure_windows + 1 {
+        let mut x = cfg.clone();
+        x.clfrt.measure_windows = m;
+        let default = if m == c.measure_windows {
+            " (default)"
+        } else {
+            ""
+        };
+        v.push((
+            format!("{m} x {:.0} s windows{default}", c.window_s),
+            (Method::Clfrt, x),
+        ));
+    }
+    let h = &cfg.hbt;
+    for p in 1..=h.measure_periods + 2 {
+        let mut x = cfg.clone();
+        x.hbt.measure_periods = p;
+        let default = if p == h.measure_periods {
+            " (default)"
+        } else {
+            ""
+        };
+        v.push((format!("{p} periods{default}"), (Method::Hbt, x)));
+    }
+    v
+}

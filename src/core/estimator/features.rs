@@ -1,0 +1,363 @@
+//! The networks' input vectors, read from a report's `features` JSON by stable names.
+//!
+//! ## Names and meaning
+//!
+//! | name | value | unit | method |
+//! |---|---|---|---|
+//! | `ln_gain_<k>` | `ln |G(j w_k)|`, tone k (1 = lowest) | ln(rad/rad) | CLFRT |
+//! | `phase_<k>_rad` | `arg G(j w_k)`, in (-2 pi, 0] (dsp convention: no wrap near -180 deg) | rad | CLFRT |
+//! | `ln_omega_u` | `ln w_u`, limit-cycle frequency | ln(rad/s) | HBT |
+//! | `ln_amplitude` | `ln a_u`, first-harmonic heading amplitude | ln(rad) | HBT |
+//! | `period_cv` | `period_std_s / period_s`, relative spread of the measured periods | 1 | HBT |
+//! | `ln_response_gain` | `ln |G(j w_u)|`, heading over measured rudder, first harmonics | ln(rad/rad) | HBT |
+//! | `response_phase_rad` | `arg G(j w_u)`, in (-2 pi, 0] | rad | HBT |
+//! | `speed_log_mps` | mean speed-log reading over the test (report field `speed_log_mps`) | m/s | both |
+//!
+//! Why these (DOMAIN.md, the ship `G(s) = b / (s (s + a))`, `a = a0 u / l`,
+//! `b = 0.5 (u/l)^2 A l / V`): the phase `-pi/2 - atan(w/a)` carries `a`, hence speed, most
+//! where `w ~ a` (0.008 .. 0.021 rad/s); the gain `b / (w sqrt(w^2 + a^2))` tends to `b / w^2`
+//! at the upper tones, and `b` given the speed carries displacement. Logarithms turn the
+//! power laws into sums, which a small tanh network fits with less curvature. For HBT the
+//! period follows `a` (speed) and the amplitude `b / a^2` (displacement); but the sea moves
+//! the relay's switching instants, which shifts the period and the amplitude (a calm-sea
+//! test read by a network that cannot tell the sea state was 0.14 m/s slow on average), and
+//! spreads the periods: `period_cv` tells the network how rough the test was (calm-sea speed
+//! MSE 0.0045 -> 0.0025 with it). The response `G(j w_u)`, heading over the measured rudder
+//! at the limit-cycle frequency, reads the ship itself, whatever the switching did: its
+//! phase `-pi/2 - atan(w_u/a)` carries `a` and its gain `b`. With it the HBT speed error in a
+//! moderate sea halves (docs/estimator.md).
+//!
+//! The speed network sees the test's features only; the displacement network sees them and
+//! the measured speed (`speed_log_mps`): speed from the features alone is poorly conditioned,
+//! displacement given speed is well conditioned (DOMAIN.md, "Estimator").
+
+use crate::core::wire::Method;
+use serde_json::Value;
+use std::fmt;
+
+/// A feature name that is unknown, or a report that lacks a feature.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum FeatureError {
+    /// The name is not one of the documented feature names.
+    #[error("unknown feature name `{0}`")]
+    UnknownName(String),
+    /// The feature does not belong to this method's reports.
+    #[error("feature `{name}` is not a {method} feature")]
+    WrongMethod {
+        /// The feature name.
+        name: String,
+        /// The method asked for.
+        method: &'static str,
+    },
+    /// The report has no such value (missing field, missing tone).
+    #[error("report features lack `{0}`")]
+    Missing(String),
+    /// The value is NaN, infinite, or not positive where a logarithm is taken.
+    #[error("report feature `{name}` = {value} is not usable")]
+    Unusable {
+        /// The feature name.
+        name: String,
+        /// The offending value.
+        value: f64,
+    },
+}
+
+/// One input of a network.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Feature {
+    /// `ln_gain_<k>`: log gain of tone k (1-based, lowest first).
+    LnGain(usize),
+    /// `phase_<k>_rad`: phase of tone k [rad].
+    Phase(usize),
+    /// `ln_omega_u`: log limit-cycle frequency.
+    LnOmegaU,
+    /// `ln_amplitude`: log limit-cycle amplitude.
+    LnAmplitude,
+    /// `speed_log_mps`: mean speed-log reading over the test [m/s].
+    SpeedLog,
+    /// `period_cv`: relative spread of the limit-cycle periods, `period_std_s / period_s`.
+    PeriodCv,
+    /// `ln_response_gain`: log gain of heading over the measured rudder at `w_u`.
+    LnResponseGain,
+    /// `response_phase_rad`: phase of heading over the measured rudder at `w_u` [rad].
+    ResponsePhase,
+}
+
+impl fmt::Display for Feature {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Feature::LnGain(k) => write!(f, "ln_gain_{k}"),
+            Feature::Phase(k) => write!(f, "phase_{k}_rad"),
+            Feature::LnOmegaU => f.write_str("ln_omega_u"),
+            Feature::LnAmplitude => f.write_str("ln_amplitude"),
+            Feature::SpeedLog => f.write_str("speed_log_mps"),
+            Feature::PeriodCv => f.write_str("period_cv"),
+            Feature::LnResponseGain => f.write_str("ln_response_gain"),
+            Feature::ResponsePhase => f.write_str("response_phase_rad"),
+        }
+    }
+}
+
+impl std::str::FromStr for Feature {
+    type Err = FeatureError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let tone = |t: &str| t.parse::<usize>().ok().filter(|&k| (1..=64).contains(&k));
+        let unknown = || FeatureError::UnknownName(s.to_string());
+        match s {
+            "ln_omega_u" => Ok(Feature::LnOmegaU),
+            "ln_amplitude" => Ok(Feature::LnAmplitude),
+            "speed_log_mps" => Ok(Feature::SpeedLog),
+            "period_cv" => Ok(Feature::PeriodCv),
+            "ln_response_gain" => Ok(Feature::LnResponseGain),
+            "response_phase_rad" => Ok(Feature::ResponsePhase),
+            _ => {
+                if let Some(k) = s.strip_prefix("ln_gain_") {
+                    tone(k).map(Feature::LnGain).ok_or_else(unknown)
+                } else if let Some(k) = s
+                    .strip_prefix("phase_")
+                    .and_then(|r| r.strip_suffix("_rad"))
+                {
+                    tone(k).map(Feature::Phase).ok_or_else(unknown)
+                } else {
+                    Err(unknown())
+                }
+            }
+        }
+    }
+}
+
+/// The report field holding the mean speed-log reading over the test [m/s].
+pub const SPEED_LOG_FIELD: &str = "speed_log_mps";
+
+impl Feature {
+    /// Whether the feature exists in reports of `method`.
+    pub fn belongs_to(&self, method: Method) -> bool {
+        match self {
+            Feature::LnGain(_) | Feature::Phase(_) => method == Method::Clfrt,
+            Feature::LnOmegaU
+            | Feature::LnAmplitude
+            | Feature::PeriodCv
+            | Feature::LnResponseGain
+            | Feature::ResponsePhase => method == Method::Hbt,
+            Feature::SpeedLog => true,
+        }
+    }
+
+    /// Reads the feature from a report's `features` object.
+    pub fn value(&self, features: &Value) -> Result<f64, FeatureError> {
+        let missing = || FeatureError::Missing(self.to_string());
+        let field = |obj: &Value, key: &str| obj.get(key).and_then(Value::as_f64);
+        let tone = |k: usize, key: &str| {
+            features
+                .get("tones")
+                .and_then(Value::as_array)
+                .and_then(|t| t.get(k - 1))
+                .and_then(|t| field(t, key))
+        };
+        let (raw, log) = match *self {
+            Feature::LnGain(k) => (tone(k, "gain").ok_or_else(missing)?, true),
+            Feature::Phase(k) => (tone(k, "phase_rad").ok_or_else(missing)?, false),
+            Feature::LnOmegaU => (field(features, "omega_u_rad_s").ok_or_else(missing)?, true),
+            Feature::LnAmplitude => (field(features, "amplitude_rad").ok_or_else(missing)?, true),
+            Feature::SpeedLog => (field(features, SPEED_LOG_FIELD).ok_or_else(missing)?, false),
+            Feature::LnResponseGain => {
+                (field(features, "response_gain").ok_or_else(missing)?, true)
+            }
+            Feature::ResponsePhase => (
+                field(features, "response_phase_rad").ok_or_else(missing)?,
+                false,
+            ),
+            Feature::PeriodCv => {
+                let p = field(features, "period_s").ok_or_else(missing)?;
+                let sd = field(features, "period_std_s").ok_or_else(missing)?;
+                (sd / p, false)
+            }
+        };
+        let v = if log {
+            if raw > 0.0 {
+                raw.ln()
+            } else {
+                f64::NAN
+            }
+        } else {
+            raw
+        };
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(FeatureError::Unusable {
+                name: self.to_string(),
+                value: raw,
+            })
+        }
+    }
+}
+
+/// Parses names, checking each belongs to `method`.
+pub fn parse_names(method: Method, names: &[String]) -> Result<Vec<Feature>, FeatureError> {
+    names
+        .iter()
+        .map(|n| {
+            let f: Feature = n.parse()?;
+            if f.belongs_to(method) {
+                Ok(f)
+            } else {
+                Err(FeatureError::WrongMethod {
+                    name: n.clone(),
+                    method: method.name(),
+                })
+            }
+        })
+        .collect()
+}
+
+/// The inputs of the speed network of `method`, for a CLFRT design with `n_tones` tones:
+/// CLFRT `ln_gain_k, phase_k_rad` for each tone; HBT `ln_omega_u, ln_amplitude, period_cv,
+/// ln_response_gain, response_phase_rad`.
+pub fn speed_inputs(method: Method, n_tones: usize) -> Vec<Feature> {
+    match method {
+        Method::Clfrt => (1..=n_tones)
+            .flat_map(|k| [Feature::LnGain(k), Feature::Phase(k)])
+            .collect(),
+        Method::Hbt => vec![
+            Feature::LnOmegaU,
+            Feature::LnAmplitude,
+            Feature::PeriodCv,
+            Feature::LnResponseGain,
+            Feature::ResponsePhase,
+        ],
+    }
+}
+
+/// The inputs of the displacement network: the speed network's, then `speed_log_mps`.
+pub fn displacement_inputs(method: Method, n_tones: usize) -> Vec<Feature> {
+    let mut v = speed_inputs(method, n_tones);
+    v.push(Feature::SpeedLog);
+    v
+}
+
+/// Fills `out` with the values of `inputs` read from `features` (cleared first; reuses its
+/// allocation).
+pub fn extract_into(
+    inputs: &[Feature],
+    features: &Value,
+    out: &mut Vec<f64>,
+) -> Result<(), FeatureError> {
+    out.clear();
+    for f in inputs {
+        out.push(f.value(features)?);
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn clfrt() -> Value {
+        json!({
+            "tones": [
+                {"omega_rad_s": 0.02, "gain": 2.0, "phase_rad": -2.0},
+                {"omega_rad_s": 0.05, "gain": 0.5, "phase_rad": -2.8},
+            ],
+            "window_s": 600.0,
+            "speed_log_mps": 7.01,
+        })
+    }
+
+    #[test]
+    fn names_round_trip() {
+        for f in [
+            Feature::LnGain(1),
+            Feature::Phase(3),
+            Feature::LnOmegaU,
+            Feature::LnAmplitude,
+            Feature::SpeedLog,
+            Feature::PeriodCv,
+            Feature::LnResponseGain,
+            Feature::ResponsePhase,
+        ] {
+            assert_eq!(f.to_string().parse::<Feature>().unwrap(), f);
+        }
+        for bad in [
+            "ln_gain_0",
+            "ln_gain_x",
+            "phase_2",
+            "gain_1",
+            "",
+            "ln_gain_65",
+        ] {
+            assert!(bad.parse::<Feature>().is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn clfrt_values_are_read_by_name() {
+        let inputs = displacement_inputs(Method::Clfrt, 2);
+        let names: Vec<String> = inputs.iter().map(|f| f.to_string()).collect();
+        assert_eq!(
+            names,
+            [
+                "ln_gain_1",
+                "phase_1_rad",
+                "ln_gain_2",
+                "phase_2_rad",
+                "speed_log_mps"
+            ]
+        );
+        let mut out = Vec::new();
+        extract_into(&inputs, &clfrt(), &mut out).unwrap();
+        assert_eq!(out, vec![2.0f64.ln(), -2.0, 0.5f64.ln(), -2.8, 7.01]);
+    }
+
+    #[test]
+    fn hbt_values_are_read_by_name() {
+        let f = json!({
+            "omega_u_rad_s": 0.035,
+            "amplitude_rad": 0.05,
+            "period_s": 180.0,
+            "period_std_s": 3.6,
+            "response_gain": 0.9,
+            "response_phase_rad": -2.8,
+            "speed_log_mps": 7.0
+        });
+        let mut out = Vec::new();
+        extract_into(&displacement_inputs(Method::Hbt, 0), &f, &mut out).unwrap();
+        assert_eq!(
+            out,
+            vec![
+                0.035f64.ln(),
+                0.05f64.ln(),
+                3.6 / 180.0,
+                0.9f64.ln(),
+                -2.8,
+                7.0
+            ]
+        );
+    }
+
+    #[test]
+    fn missing_or_unusable_values_are_errors() {
+        let mut out = Vec::new();
+        let e = extract_into(&speed_inputs(Method::Clfrt, 3), &clfrt(), &mut out).unwrap_err();
+        assert_eq!(e, FeatureError::Missing("ln_gain_3".into()));
+        let bad = json!({"tones": [{"gain": 0.0, "phase_rad": -2.0}]});
+        assert!(matches!(
+            Feature::LnGain(1).value(&bad),
+            Err(FeatureError::Unusable { .. })
+        ));
+        let e = extract_into(&[Feature::SpeedLog], &json!({}), &mut out).unwrap_err();
+        assert_eq!(e, FeatureError::Missing("speed_log_mps".into()));
+    }
+
+    #[test]
+    fn method_membership_is_checked() {
+        assert!(parse_names(Method::Hbt, &["ln_gain_1".to_string()]).is_err());
+        assert!(parse_names(Method::Clfrt, &["ln_omega_u".to_string()]).is_err());
+        assert_eq!(
+            parse_names(Method::Hbt, &["speed_log_mps".to_string()]).unwrap(),
+            vec![Feature::SpeedLog]
+        );
+    }
+}

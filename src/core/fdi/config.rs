@@ -1,0 +1,201 @@
+//! The `[fdi]` section: residual spreads, decision rule, alarm state.
+
+use crate::core::config::{check_count, check_range, check_range_open_low, fail, ConfigError};
+use crate::core::wire::Method;
+use serde::{Deserialize, Serialize};
+
+/// The decision rule on the normalised residuals (see `crate::core::fdi`).
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum DecisionRule {
+    /// Chi-square on each residual group, with persistence over successive tests.
+    #[default]
+    ChiSquare,
+    /// Two-sided CUSUM on each normalised residual.
+    Cusum,
+}
+
+impl DecisionRule {
+    /// Name in the configuration and the reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            DecisionRule::ChiSquare => "chi-square",
+            DecisionRule::Cusum => "cusum",
+        }
+    }
+}
+
+/// Fault detection and isolation (see `crate::core::fdi`). Pairs are `[calm, moderate]` values,
+/// interpolated by the test's measured sea index.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
+pub struct FdiConfig {
+    /// Decide on completed tests (false: residuals are still reported, decision inconclusive).
+    pub enabled: bool,
+    /// `chi-square` (with persistence) or `cusum`.
+    pub rule: DecisionRule,
+    /// Chi-square limit of each two-dimensional residual group (13.82: 0.1 % for m = 2).
+    pub chi2_threshold: f64,
+    /// Exceeding tests in a row (of one method) before the alarm (chi-square rule).
+    pub persistence: u32,
+    /// Non-exceeding tests in a row that clear an alarm.
+    pub clear_after: u32,
+    /// CUSUM reference value k [sigma].
+    pub cusum_k: f64,
+    /// CUSUM decision interval h [sigma].
+    pub cusum_h: f64,
+    /// Name the second parameter cause too when its GLR cost is within this margin [chi2].
+    pub isolation_margin: f64,
+    /// Band of the wave yaw on the heading (`features.wave_yaw_rad`) [rad/s].
+    pub wave_band_rad_s: [f64; 2],
+    /// The measured wave yaw in a calm and a moderate sea [deg]: anchors of the spread
+    /// interpolation (the sea index).
+    pub sea_wave_yaw_deg: [f64; 2],
+    /// Speed residual spread proportional to the speed log (model files' `relative_std`)
+    /// rather than absolute.
+    pub relative_spread_speed: bool,
+    /// Displacement residual spread proportional to the nominal displacement.
+    pub relative_spread_displacement: bool,
+    /// Per-test decay of the remembered sea index (0: each test alone).
+    pub sea_memory: f64,
+    /// Spread of the servo check's rudder-rate ratio (CLFRT: the burst's 95th percentile, HBT:
+    /// the relay slews' peak, over the healthy servo's) on a healthy servo, for the one-sided
+    /// shortfall.
+    pub actuator_rate_sigma: f64,
+    /// Floor of the ln-gain spread of a tone in the model fit.
+    pub model_fit_floor_ln_gain: f64,
+    /// Floor of the phase spread of a tone in the model fit [deg].
+    pub model_fit_floor_phase_deg: f64,
+    /// Chi-square limit of the model fit (4 dof: 18.47 at 0.1 %).
+    pub model_fit_threshold: f64,
+    /// Let the model fit join the actuator group of the decision.
+    pub model_fit_decides: bool,
+    /// Baseline (equation error): spread of its speed from a, CLFRT record [m/s].
+    pub baseline_clfrt_speed_sigma_mps: [f64; 2],
+    /// Baseline: spread of its displacement from b and the speed log, CLFRT record [t].
+    pub baseline_clfrt_displacement_sigma_t: [f64; 2],
+    /// Baseline: spread of its speed, HBT record [m/s].
+    pub baseline_hbt_speed_sigma_mps: [f64; 2],
+    /// Baseline: spread of its displacement, HBT record [t].
+    pub baseline_hbt_displacement_sigma_t: [f64; 2],
+}
+
+impl Default for FdiConfig {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            rule: DecisionRule::ChiSquare,
+            chi2_threshold: 13.82,
+            persistence: 2,
+            clear_after: 3,
+            cusum_k: 0.5,
+            cusum_h: 5.0,
+            isolation_margin: 0.0,
+            wave_band_rad_s: [0.4, 2.0],
+            sea_wave_yaw_deg: [0.05, 0.18],
+            relative_spread_speed: false,
+            relative_spread_displacement: true,
+            sea_memory: 0.0,
+            actuator_rate_sigma: 0.03,
+            model_fit_floor_ln_gain: 0.01,
+            model_fit_floor_phase_deg: 0.5,
+            model_fit_threshold: 18.47,
+            model_fit_decides: false,
+            baseline_clfrt_speed_sigma_mps: [0.07, 0.33],
+            baseline_clfrt_displacement_sigma_t: [20.0, 100.0],
+            baseline_hbt_speed_sigma_mps: [0.04, 0.16],
+            baseline_hbt_displacement_sigma_t: [12.0, 65.0],
+        }
+    }
+}
+
+impl FdiConfig {
+    /// The baseline's `(speed, displacement)` spread pairs for `method`'s record.
+    pub fn baseline_sigmas(&self, method: Method) -> ([f64; 2], [f64; 2]) {
+        match method {
+            Method::Clfrt => (
+                self.baseline_clfrt_speed_sigma_mps,
+                self.baseline_clfrt_displacement_sigma_t,
+            ),
+            Method::Hbt => (
+                self.baseline_hbt_speed_sigma_mps,
+                self.baseline_hbt_displacement_sigma_t,
+            ),
+        }
+    }
+
+    /// Checks the section's limits; the error names the key and its allowed range.
+    pub fn check(&self) -> Result<(), ConfigError> {
+        check_range_open_low("fdi.chi2-threshold", self.chi2_threshold, 0.0, 1000.0)?;
+        check_count("fdi.persistence", self.persistence, 1, 20)?;
+        check_count("fdi.clear-after", self.clear_after, 1, 1000)?;
+        check_range("fdi.cusum-k", self.cusum_k, 0.0, 10.0)?;
+        check_range_open_low("fdi.cusum-h", self.cusum_h, 0.0, 1000.0)?;
+        check_range("fdi.isolation-margin", self.isolation_margin, 0.0, 1000.0)?;
+        let increasing = |key: &str, p: [f64; 2], hi: f64| -> Result<(), ConfigError> {
+            check_range(key, p[0], 0.0, hi)?;
+            check_range(key, p[1], 0.0, hi)?;
+            if p[1] > p[0] {
+                Ok(())
+            } else {
+                Err(fail(
+                    key,
+                    format!("[{}, {}]", p[0], p[1]),
+                    "[calm, moderate] with calm < moderate",
+                ))
+            }
+        };
+        increasing("fdi.sea-wave-yaw-deg", self.sea_wave_yaw_deg, 10.0)?;
+        increasing("fdi.wave-band-rad-s", self.wave_band_rad_s, 10.0)?;
+        check_range("fdi.sea-memory", self.sea_memory, 0.0, 0.99)?;
+        let spread = |key: &str, p: [f64; 2], hi: f64| -> Result<(), ConfigError> {
+            check_range_open_low(key, p[0], 0.0, hi)?;
+            check_range_open_low(key, p[1], 0.0, hi)
+        };
+        check_range_open_low(
+            "fdi.actuator-rate-sigma",
+            self.actuator_rate_sigma,
+            0.0,
+            1.0,
+        )?;
+        check_range_open_low(
+            "fdi.model-fit-floor-ln-gain",
+            self.model_fit_floor_ln_gain,
+            0.0,
+            10.0,
+        )?;
+        check_range_open_low(
+            "fdi.model-fit-floor-phase-deg",
+            self.model_fit_floor_phase_deg,
+            0.0,
+            90.0,
+        )?;
+        check_range_open_low(
+            "fdi.model-fit-threshold",
+            self.model_fit_threshold,
+            0.0,
+            1e6,
+        )?;
+        spread(
+            "fdi.baseline-clfrt-speed-sigma-mps",
+            self.baseline_clfrt_speed_sigma_mps,
+            100.0,
+        )?;
+        spread(
+            "fdi.baseline-clfrt-displacement-sigma-t",
+            self.baseline_clfrt_displacement_sigma_t,
+            1e6,
+        )?;
+        spread(
+            "fdi.baseline-hbt-speed-sigma-mps",
+            self.baseline_hbt_speed_sigma_mps,
+            100.0,
+        )?;
+        spread(
+            "fdi.baseline-hbt-displacement-sigma-t",
+            self.baseline_hbt_displacement_sigma_t,
+            1e6,
+        )?;
+        Ok(())
+    }
+}

@@ -1,0 +1,754 @@
+//! Parity-space fault detection and isolation: residuals, decision, alarm state, isolation.
+//!
+//! ## Residuals (one completed test)
+//!
+//! ```text
+//! r_speed = u_est(f) - u_log - m_u            [m/s]  z_speed = r_speed / s_u
+//! r_disp  = D_est(f, u_log) - D_nom - m_D     [t]    z_disp  = r_disp  / s_D
+//! ```
+//!
+//! `f` are the test's features, `u_log` the mean speed-log reading over the test, `D_nom` the
+//! nominal displacement (`ship.nominal-displacement-t`, or the latest `design/displacement` the
+//! ship published). `m` and `s` are the estimator's own bias and spread on its validation set
+//! (recorded per sea state in the model files; for the displacement, by default, relative to
+//! the truth and scaled by `D_nom`: `fdi.relative-spread-*`), chosen by how disturbed the sea
+//! is: the *sea index* is the test's wave yaw (`features.wave_yaw_rad`, the heading's rms in
+//! `fdi.wave-band-rad-s`, in deg), optionally remembered as a decaying maximum over the
+//! method's tests (`fdi.sea-memory`, default 0), and it interpolates linearly between the calm
+//! and the moderate spread, anchored at `fdi.sea-wave-yaw-deg` (above the moderate anchor the
+//! spread keeps growing, up to 3 times the moderate one; a test without a wave yaw gets the
+//! moderate spread).
+//!
+//! Both methods carry a *servo check* (actuator residual): the rudder's measured rate against
+//! the healthy servo's, `rho`, gives the one-sided `z_rate = max(0, 1 - rho) /
+//! fdi.actuator-rate-sigma`: a rate-limited servo cannot follow. CLFRT reads the rudder's
+//! 95th-percentile rate during its servo-check burst; HBT the median over the measured periods
+//! of each period's peak rate, which the relay's steps drive to the rate limit
+//! (`features.servo_rate`; 1.01 healthy, 0.52 with a 2 deg/s servo, in either sea).
+//!
+//! CLFRT adds a second parity check:
+//! - the *model fit*: the three measured G(jw_k) = psi/delta against the Nomoto model
+//!   b / (jw (jw + a)) fitted by weighted least squares (weights from the tones' own 90 %
+//!   intervals, floored by `fdi.model-fit-floor-*`): six numbers, two unknowns, a chi-square
+//!   with four degrees of freedom over the four directions no (u, D) explains. It is reported;
+//!   it enters the decision only with `fdi.model-fit-decides = true` (see docs/fdi.md).
+//!
+//! ## Decision (per method, tests of the same method in sequence)
+//!
+//! Chi-square rule: `q = z_speed^2 + z_disp^2` (m = 2) and `q_act = z_rate^2`
+//! (compared with the same limit: conservative for one degree of freedom); a test *exceeds* when either is above `fdi.chi2-threshold` (13.82:
+//! 0.1 % for m = 2). CUSUM rule: a two-sided CUSUM per normalised residual,
+//! `S+ = max(0, S+ + z - k)`, `S- = max(0, S- - z - k)`; a test exceeds when any sum is above
+//! `h`. State machine: `normal -> alert` at the first exceeding test, `-> alarm` after
+//! `fdi.persistence` exceeding tests in a row (1 for CUSUM, which integrates by itself);
+//! an alert clears at the next test that does not exceed, an alarm after `fdi.clear-after` of
+//! them. The report's decision follows the state after the test: normal `nominal`, alert
+//! `inconclusive`, alarm `fault`. Aborted tests and tests without an estimate change nothing.
+//!
+//! ## Isolation (directional residuals, a GLR over the episode)
+//!
+//! In normalised coordinates each cause moves `z = (z_speed, z_disp)` along its own direction:
+//! a speed-log bias `beta` gives `r_speed = -beta` and `r_disp = g beta` with `g = dD_est/du_log`
+//! (the displacement network's own sensitivity, by a central difference at this test), so
+//! `v_log = (-1/s_u, g/s_D)`; a displacement change, or a rudder effectiveness loss (both lower
+//! `b`; nothing in the features tells them apart), gives `v_D = (0, 1)`; an actuator that adds
+//! lag to the loop moves the speed estimate alone, `v_act = (1, 0)` (what the HBT period
+//! showed with a slow servo; the servo checks now carry it in both methods). The cost of a cause over the tests of the episode (since it left `normal`) is the
+//! sum of each test's squared distance to the cause's line, `J = sum_k (|z_k|^2 - (v_k.z_k)^2 /
+//! |v_k|^2)` (each test its own magnitude: a fault's size and the estimator's error vary from
+//! test to test); the cause with the lowest cost is named, and others within
+//! `fdi.isolation-margin` of it too. A servo check that exceeded in the episode names
+//! `steering_actuator`. A heading-sensor drift moves none of these residuals: the features are
+//! drift-free by construction (docs/fdi.md).
+//!
+//! The same rule runs on the equation-error baseline's estimate (`crate::core::baseline`, reported
+//! under `residuals.baseline`) for comparison; only the method's own decision drives the
+//! alarm.
+
+pub mod config;
+mod fit;
+
+use crate::core::estimator::features::SPEED_LOG_FIELD;
+use crate::core::estimator::model::{Target, Uncertainty};
+use crate::core::estimator::{Estimator, EstimatorScratch};
+use crate::core::fdi::config::{DecisionRule, FdiConfig};
+use crate::core::model::ShipConfig;
+pub use crate::core::model::{displacement_from_b, speed_from_a};
+use crate::core::monitor::config::CoreConfig;
+use crate::core::wire::Method;
+use crate::core::wire::{AlarmState, Decision, Estimate, Notification};
+use serde_json::{json, Value};
+
+/// Isolation: the speed log reads wrong.
+pub const SPEED_LOG: &str = "speed_log";
+/// Isolation: the ship is heavier or lighter, or the rudder lost effectiveness (both move b).
+pub const DISPLACEMENT_OR_RUDDER: &str = "displacement_or_rudder_effectiveness";
+/// Isolation: the steering actuator (servo) responds unlike the nominal one.
+pub const STEERING_ACTUATOR: &str = "steering_actuator";
+
+/// Speed step of the central difference for `dD/du_log` [m/s].
+const DU_MPS: f64 = 0.05;
+
+/// Parameter residuals of one test (ours or the baseline's).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ParamResiduals {
+    /// `u_est - u_log - bias` [m/s].
+    pub speed_mps: f64,
+    /// Its spread [m/s].
+    pub speed_sigma_mps: f64,
+    /// `D_est(f, u_log) - D_nom - bias` [t].
+    pub displacement_t: f64,
+    /// Its spread [t].
+    pub displacement_sigma_t: f64,
+    /// `dD_est / du_log` at this test [t per m/s]: the speed-log fault's direction.
+    pub dd_du_t_per_mps: f64,
+}
+
+impl ParamResiduals {
+    /// Normalised residual vector `(z_speed, z_disp)`.
+    pub fn z(&self) -> [f64; 2] {
+        [
+            self.speed_mps / self.speed_sigma_mps,
+            self.displacement_t / self.displacement_sigma_t,
+        ]
+    }
+
+    /// Directions of the parameter causes in normalised coordinates: speed log,
+    /// displacement (or rudder effectiveness), and the actuator's signature (the speed
+    /// estimate alone moves: a slower servo adds lag to the loop, which the features read as
+    /// another speed, while the log and the displacement agree with each other).
+    fn directions(&self) -> [[f64; 2]; 3] {
+        [
+            [
+                -1.0 / self.speed_sigma_mps,
+                self.dd_du_t_per_mps / self.displacement_sigma_t,
+            ],
+            [0.0, 1.0],
+            [1.0, 0.0],
+        ]
+    }
+
+    fn to_json(self) -> Value {
+        let z = self.z();
+        json!({
+            "speed_mps": self.speed_mps,
+            "speed_sigma_mps": self.speed_sigma_mps,
+            "z_speed": z[0],
+            "displacement_t": self.displacement_t,
+            "displacement_sigma_t": self.displacement_sigma_t,
+            "z_displacement": z[1],
+            "dd_du_t_per_mps": self.dd_du_t_per_mps,
+        })
+    }
+}
+
+/// Alarm state of one track.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Default)]
+pub enum TrackState {
+    /// Nothing exceeded lately.
+    #[default]
+    Normal,
+    /// Exceeded, not yet persistently.
+    Alert,
+    /// Exceeded persistently: a fault.
+    Alarm,
+}
+
+impl TrackState {
+    /// The Signal K notification state.
+    pub fn alarm_state(self) -> AlarmState {
+        match self {
+            TrackState::Normal => AlarmState::Normal,
+            TrackState::Alert => AlarmState::Alert,
+            TrackState::Alarm => AlarmState::Alarm,
+        }
+    }
+    /// The report's decision.
+    pub fn decision(self) -> Decision {
+        match self {
+            TrackState::Normal => Decision::Nominal,
+            TrackState::Alert => Decision::Inconclusive,
+            TrackState::Alarm => Decision::Fault,
+        }
+    }
+}
+
+/// Sums over the tests of an episode (O(1) memory).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+struct Episode {
+    tests: u32,
+    /// Per parameter cause (speed log, displacement, actuator): the sum over the episode's
+    /// tests of the squared distance of z to the cause's line.
+    cost: [f64; 3],
+    /// Sum of |z|^2 of the parameter residuals.
+    zz: f64,
+    param_exceeded: u32,
+    actuator_exceeded: u32,
+    /// Sum of the actuator chi-square over the episode (orders the causes).
+    q_act: f64,
+    q_param: f64,
+}
+
+/// What one test did to a track.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrackOutcome {
+    /// State after the test.
+    pub state: TrackState,
+    /// The test's decision (from the state).
+    pub decision: Decision,
+    /// Suspected causes, most likely first (empty when normal).
+    pub isolation: Vec<String>,
+    /// This test's parameter chi-square (NaN without parameter residuals).
+    pub q_param: f64,
+    /// This test's actuator chi-square, if there was a servo check.
+    pub q_actuator: Option<f64>,
+    /// Whether this test exceeded.
+    pub exceeded: bool,
+    /// Exceeding tests in a row.
+    pub exceed_run: u32,
+}
+
+impl TrackOutcome {
+    fn to_json(&self, cfg: &FdiConfig) -> Value {
+        json!({
+            "chi2": finite_or_null(self.q_param),
+            "chi2_actuator": self.q_actuator,
+            "threshold": cfg.chi2_threshold,
+            "exceeded": self.exceeded,
+            "exceed_run": self.exceed_run,
+            "state": state_name(self.state),
+        })
+    }
+}
+
+fn finite_or_null(x: f64) -> Value {
+    if x.is_finite() {
+        json!(x)
+    } else {
+        Value::Null
+    }
+}
+
+fn state_name(s: TrackState) -> &'static str {
+    match s {
+        TrackState::Normal => "normal",
+        TrackState::Alert => "alert",
+        TrackState::Alarm => "alarm",
+    }
+}
+
+/// The decision state of one residual stream: one method, ours or the baseline's.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Track {
+    state: TrackState,
+    exceed_run: u32,
+    nominal_run: u32,
+    /// CUSUM sums `[S+, S-]` of z_speed, z_disp, z_gain, z_phase.
+    cusum: [[f64; 2]; 4],
+    episode: Episode,
+    /// The remembered sea index (decaying maximum over this track's tests).
+    sea_memory: Option<f64>,
+}
+
+impl Track {
+    /// The current state.
+    pub fn state(&self) -> TrackState {
+        self.state
+    }
+
+    /// The sea index in force for a test measuring `index`: the larger of it and the
+    /// remembered index times `decay` (the sea state outlasts a test; a single test can look
+    /// calm in a moderate sea). Remembers the result.
+    pub fn sea_index(&mut self, index: Option<f64>, decay: f64) -> Option<f64> {
+        let remembered = self.sea_memory.map(|m| m * decay);
+        let eff = match (index, remembered) {
+            (Some(i), Some(m)) => Some(i.max(m)),
+            (i, m) => i.or(m),
+        };
+        self.sea_memory = eff;
+        eff
+    }
+
+    /// Feeds one test's residuals; `None` for both changes nothing (inconclusive).
+    pub fn update(
+        &mut self,
+        cfg: &FdiConfig,
+        param: Option<&ParamResiduals>,
+        actuator_z: Option<[f64; 2]>,
+    ) -> TrackOutcome {
+        let zp = param
+            .map(|p| p.z())
+            .filter(|z| z.iter().all(|v| v.is_finite()));
+        let za = actuator_z.filter(|z| z.iter().all(|v| v.is_finite()));
+        let q_param = zp.map_or(f64::NAN, |z| z[0] * z[0] + z[1] * z[1]);
+        let q_act = za.map(|z| z[0] * z[0] + z[1] * z[1]);
+        if zp.is_none() && za.is_none() {
+            return TrackOutcome {
+                state: self.state,
+                decision: Decision::Inconclusive,
+                isolation: self.isolation(cfg),
+                q_param,
+                q_actuator: q_act,
+                exceeded: false,
+                exceed_run: self.exceed_run,
+            };
+        }
+        let (param_exceeds, act_exceeds, persistence) = match cfg.rule {
+            DecisionRule::ChiSquare => (
+                q_param > cfg.chi2_threshold,
+                q_act.is_some_and(|q| q > cfg.chi2_threshold),
+                cfg.persistence,
+            ),
+            DecisionRule::Cusum => {
+                let over = |sums: &mut [[f64; 2]], z: &[f64]| {
+                    let mut over = false;
+                    for (s, &z) in sums.iter_mut().zip(z) {
+                        s[0] = (s[0] + z - cfg.cusum_k).max(0.0);
+                        s[1] = (s[1] - z - cfg.cusum_k).max(0.0);
+                        over |= s[0] > cfg.cusum_h || s[1] > cfg.cusum_h;
+                    }
+                    over
+                };
+                let (p_sums, a_sums) = self.cusum.split_at_mut(2);
+                let p = zp.is_some_and(|z| over(p_sums, &z));
+                let a = za.is_some_and(|z| over(a_sums, &z));
+                (p, a, 1)
+            }
+        };
+        let exceeded = param_exceeds || act_exceeds;
+        if exceeded {
+            self.exceed_run += 1;
+            self.nominal_run = 0;
+        } else {
+            self.exceed_run = 0;
+            self.nominal_run += 1;
+        }
+        let before = self.state;
+        self.state = match (before, exceeded) {
+            (_, true) if self.exceed_run >= persistence => TrackState::Alarm,
+            (TrackState::Alarm, _) => {
+                if !exceeded && self.nominal_run >= cfg.clear_after {
+                    TrackState::Normal
+                } else {
+                    TrackState::Alarm
+                }
+            }
+            (_, true) => TrackState::Alert,
+            (_, false) => TrackState::Normal,
+        };
+        if before == TrackState::Normal && self.state != TrackState::Normal {
+            self.episode = Episode::default();
+        }
+        if self.state == TrackState::Normal {
+            self.episode = Episode::default();
+            if before == TrackState::Alarm {
+                self.cusum = Default::default();
+            }
+        } else {
+            let e = &mut self.episode;
+            e.tests += 1;
+            if let (Some(z), Some(p)) = (zp, param) {
+                let zz = z[0] * z[0] + z[1] * z[1];
+                e.zz += zz;
+                for (i, v) in p.directions().iter().enumerate() {
+                    let vz = v[0] * z[0] + v[1] * z[1];
+                    let vv = v[0] * v[0] + v[1] * v[1];
+                    e.cost[i] += if vv > 0.0 { zz - vz * vz / vv } else { zz };
+                }
+                e.q_param += q_param;
+            }
+            if let Some(q) = q_act {
+                e.q_act += q;
+            }
+            e.param_exceeded += u32::from(param_exceeds);
+            e.actuator_exceeded += u32::from(act_exceeds);
+        }
+        TrackOutcome {
+            state: self.state,
+            decision: self.state.decision(),
+            isolation: self.isolation(cfg),
+            q_param,
+            q_actuator: q_act,
+            exceeded,
+            exceed_run: self.exceed_run,
+        }
+    }
+
+    /// Suspected causes of the current episode, most likely first.
+    fn isolation(&self, cfg: &FdiConfig) -> Vec<String> {
+        let e = &self.episode;
+        if self.state == TrackState::Normal || e.tests == 0 {
+            return Vec::new();
+        }
+        let mut causes: Vec<(f64, &str)> = Vec::new();
+        if e.param_exceeded > 0 {
+            let names = [SPEED_LOG, DISPLACEMENT_OR_RUDDER, STEERING_ACTUATOR];
+            let mut costs: Vec<(f64, &str)> = (0..3).map(|i| (e.cost[i], names[i])).collect();
+            costs.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let best = costs[0].0;
+            for (j, name) in costs {
+                if j == best || j - best < cfg.isolation_margin {
+                    // Evidence for ordering: the energy the cause explains.
+                    causes.push((e.zz - j, name));
+                }
+            }
+        }
+        if e.actuator_exceeded > 0 && !causes.iter().any(|c| c.1 == STEERING_ACTUATOR) {
+            causes.push((e.q_act, STEERING_ACTUATOR));
+        }
+        // Stable order by evidence, strongest first (the parameter pair keeps its order).
+        causes.sort_by(|a, b| b.0.total_cmp(&a.0));
+        causes.into_iter().map(|c| c.1.to_string()).collect()
+    }
+}
+
+/// What the FDI adds to a completed test's report.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Assessment {
+    /// The report's `residuals`.
+    pub residuals: Value,
+    /// The report's `decision`.
+    pub decision: Decision,
+    /// The report's `isolation`.
+    pub isolation: Vec<String>,
+    /// A sentence for the report's message.
+    pub summary: String,
+    /// The notification to publish, when the vessel's alarm state changed.
+    pub notification: Option<Notification>,
+}
+
+/// The FDI of one vessel: the tracks of both methods and of the baseline, the alarm state.
+#[derive(Debug, Clone)]
+pub struct Fdi {
+    cfg: FdiConfig,
+    ship: ShipConfig,
+    servo_time_constant_s: f64,
+    /// Per method (index: CLFRT 0, HBT 1): ours, then the baseline's.
+    tracks: [Track; 2],
+    baseline: [Track; 2],
+    /// The vessel's alarm state as last published.
+    published: AlarmState,
+}
+
+fn method_index(m: Method) -> usize {
+    match m {
+        Method::Clfrt => 0,
+        Method::Hbt => 1,
+    }
+}
+
+/// The sea index of a test's features (see the module doc): its wave yaw [deg], if it has
+/// one.
+pub fn sea_index(features: &Value) -> Option<f64> {
+    features
+        .get(WAVE_YAW_FIELD)
+        .and_then(Value::as_f64)
+        .map(f64::to_degrees)
+        .filter(|x| x.is_finite() && *x >= 0.0)
+}
+
+/// The features' wave yaw: rms of the heading in `fdi.wave-band-rad-s` [rad].
+pub const WAVE_YAW_FIELD: &str = "wave_yaw_rad";
+
+/// Where `index` sits between the calm (0) and moderate (1) anchors, clamped to [0, 3].
+fn sea_fraction(anchors: [f64; 2], index: Option<f64>) -> f64 {
+    match index {
+        // Unknown disturbance: assume the moderate sea (the wider spread).
+        None => 1.0,
+        Some(i) => ((i - anchors[0]) / (anchors[1] - anchors[0])).clamp(0.0, 3.0),
+    }
+}
+
+/// Interpolates a `[calm, moderate]` pair at `frac`.
+fn lerp(pair: [f64; 2], frac: f64) -> f64 {
+    pair[0] + frac * (pair[1] - pair[0])
+}
+
+/// `(bias, spread)` of a model's residuals at sea fraction `frac`; relative to `reference`
+/// (the value under no fault) when given and the model file records relative spreads.
+fn spread(u: &Uncertainty, frac: f64, reference: Option<f64>) -> (f64, f64) {
+    use crate::core::model::SeaState;
+    let of = |s: SeaState| u.by_sea.iter().find(|b| b.sea == s);
+    let pick =
+        |mean: [f64; 2], sd: [f64; 2]| (lerp(mean, frac.min(1.0)), lerp(sd, frac).max(sd[0]));
+    match (of(SeaState::Calm), of(SeaState::Moderate)) {
+        (Some(c), Some(m)) => match (reference, c.relative_std, m.relative_std) {
+            (Some(y), Some(rc), Some(rm)) => {
+                let means = [
+                    c.relative_mean.unwrap_or(0.0),
+                    m.relative_mean.unwrap_or(0.0),
+                ];
+                let (bm, bs) = pick(means, [rc, rm]);
+                (bm * y, bs * y)
+            }
+            _ => pick(
+                [c.residual_mean, m.residual_mean],
+                [c.residual_std, m.residual_std],
+            ),
+        },
+        _ => (u.residual_mean, u.residual_std),
+    }
+}
+
+impl Fdi {
+    /// The FDI of a vessel with configuration `cfg`.
+    pub fn new(cfg: &CoreConfig) -> Self {
+        Self {
+            cfg: cfg.fdi.clone(),
+            ship: cfg.ship.clone(),
+            servo_time_constant_s: cfg.servo.time_constant_s,
+            tracks: Default::default(),
+            baseline: Default::default(),
+            published: AlarmState::Normal,
+        }
+    }
+
+    /// The vessel's alarm state (the worst of the methods' tracks).
+    pub fn alarm_state(&self) -> AlarmState {
+        self.worst().alarm_state()
+    }
+
+    fn worst(&self) -> TrackState {
+        self.tracks
+            .iter()
+            .map(Track::state)
+            .max()
+            .unwrap_or_default()
+    }
+
+    /// The neural estimator's parameter residuals for a completed test.
+    #[allow(clippy::too_many_arguments)]
+    fn nn_residuals(
+        &self,
+        method: Method,
+        features: &Value,
+        estimate: &Estimate,
+        d_nom_t: f64,
+        est: &Estimator,
+        scratch: &mut EstimatorScratch,
+        frac: f64,
+    ) -> Option<ParamResiduals> {
+        let u_log = features.get(SPEED_LOG_FIELD)?.as_f64()?;
+        let rel = |on: bool, y: f64| on.then_some(y);
+        let (mu, su) = spread(
+            &est.model(method, Target::Speed).file.uncertainty,
+            frac,
+            rel(self.cfg.relative_spread_speed, u_log),
+        );
+        let (md, sd) = spread(
+            &est.model(method, Target::Displacement).file.uncertainty,
+            frac,
+            rel(self.cfg.relative_spread_displacement, d_nom_t),
+        );
+        // dD/du_log by a central difference through the displacement network.
+        let mut f = features.clone();
+        let mut at = |u: f64| -> Option<f64> {
+            f.as_object_mut()?.insert(SPEED_LOG_FIELD.into(), json!(u));
+            est.predict(method, Target::Displacement, &f, scratch).ok()
+        };
+        let g = (at(u_log + DU_MPS)? - at(u_log - DU_MPS)?) / (2.0 * DU_MPS);
+        let r = ParamResiduals {
+            speed_mps: estimate.speed_mps - u_log - mu,
+            speed_sigma_mps: su,
+            displacement_t: estimate.displacement_t - d_nom_t - md,
+            displacement_sigma_t: sd,
+            dd_du_t_per_mps: g,
+        };
+        r.z().iter().all(|z| z.is_finite()).then_some(r)
+    }
+
+    /// The baseline's parameter residuals, from `features.baseline` (a, b).
+    fn baseline_residuals(
+        &self,
+        method: Method,
+        features: &Value,
+        d_nom_t: f64,
+        frac: f64,
+    ) -> Option<ParamResiduals> {
+        let u_log = features.get(SPEED_LOG_FIELD)?.as_f64()?;
+        let bl = features.get("baseline")?;
+        let a = bl.get("a_per_s")?.as_f64()?;
+        let b = bl.get("b_per_s2")?.as_f64()?;
+        if !(a > 0.0 && b > 0.0 && u_log > 0.0) {
+            return None;
+        }
+        let u_est = speed_from_a(a, &self.ship);
+        let d_est = displacement_from_b(b, u_log, &self.ship);
+        let c = self.cfg.baseline_sigmas(method);
+        let r = ParamResiduals {
+            speed_mps: u_est - u_log,
+            speed_sigma_mps: lerp(c.0, frac).max(c.0[0]),
+            displacement_t: d_est - d_nom_t,
+            displacement_sigma_t: lerp(c.1, frac).max(c.1[0]),
+            dd_du_t_per_mps: 2.0 * d_est / u_log,
+        };
+        r.z().iter().all(|z| z.is_finite()).then_some(r)
+    }
+
+    /// The servo check's normalised residual: how far the rudder's 95th-percentile
+    /// rate during the burst falls short of the healthy servo's, `z = (1 - rho) /
+    /// fdi.actuator-rate-sigma`, one-sided (a rudder moving faster than the nominal servo's
+    /// linear response, as the autopilot adds its own motion in a rougher sea, is no fault).
+    ///
+    /// HBT: the relay's steps slew the servo at its rate limit twice a period;
+    /// `features.servo_rate` holds the median of the periods' peak rudder rates, read the
+    /// same way against the rate limit.
+    fn actuator_z(&self, method: Method, features: &Value) -> Option<[f64; 2]> {
+        let (group, key) = match method {
+            Method::Clfrt => ("servo_check", "rudder_rate_p95_rad_s"),
+            Method::Hbt => ("servo_rate", "rudder_rate_peak_rad_s"),
+        };
+        let sc = features.get(group)?;
+        let p95 = sc.get(key)?.as_f64()?;
+        let nominal = sc.get("rudder_rate_nominal_rad_s")?.as_f64()?;
+        if nominal.is_nan() || nominal <= 0.0 {
+            return None;
+        }
+        let rho = p95 / nominal;
+        Some([((1.0 - rho) / self.cfg.actuator_rate_sigma).max(0.0), 0.0])
+    }
+
+    /// Assesses a completed test. `estimate` is the networks' estimate (with the estimator
+    /// that made it), `d_nom_t` the nominal displacement in force.
+    pub fn assess(
+        &mut self,
+        method: Method,
+        features: &Value,
+        estimate: Option<(&Estimate, &Estimator, &mut EstimatorScratch)>,
+        d_nom_t: f64,
+    ) -> Assessment {
+        let i = method_index(method);
+        let measured = sea_index(features);
+        let index = self.tracks[i].sea_index(measured, self.cfg.sea_memory);
+        let frac = sea_fraction(self.cfg.sea_wave_yaw_deg, index);
+        let param = estimate.and_then(|(e, est, scratch)| {
+            self.nn_residuals(method, features, e, d_nom_t, est, scratch, frac)
+        });
+        let fit = match method {
+            Method::Clfrt => fit::model_fit(features, &self.ship, &self.cfg),
+            Method::Hbt => None,
+        };
+        let mut act = self.actuator_z(method, features);
+        if self.cfg.model_fit_decides {
+            // The fit's chi-square (4 dof) joins the actuator group, scaled to its threshold.
+            if let Some(f) = &fit {
+                let scaled = f.chi2 * self.cfg.chi2_threshold / self.cfg.model_fit_threshold;
+                let a = act.unwrap_or([0.0, 0.0]);
+                let q = a[0] * a[0] + a[1] * a[1];
+                if scaled > q {
+                    act = Some([scaled.sqrt(), 0.0]);
+                }
+            }
+        }
+        let ours = if self.cfg.enabled {
+            self.tracks[i].update(&self.cfg, param.as_ref(), act)
+        } else {
+            self.tracks[i].update(&self.cfg, None, None)
+        };
+        let bl_param = self.baseline_residuals(method, features, d_nom_t, frac);
+        let bl = self.baseline[i].update(&self.cfg, bl_param.as_ref(), None);
+
+        let mut residuals = json!({
+            "rule": self.cfg.rule.name(),
+            "sea_index": index,
+            "sea_index_measured": measured,
+            "sea_fraction": frac,
+            "displacement_nominal_t": d_nom_t,
+            "decision": ours.to_json(&self.cfg),
+        });
+        if let Some(obj) = residuals.as_object_mut() {
+            if let Some(p) = &param {
+                obj.insert("parameters".into(), p.to_json());
+            }
+            if let Some(z) = act {
+                obj.insert(
+                    "actuator".into(),
+                    json!({ "z_gain": z[0], "z_phase": z[1] }),
+                );
+            }
+            if let Some(f) = &fit {
+                obj.insert("model_fit".into(), f.to_json(&self.ship));
+            }
+            obj.insert(
+                "baseline".into(),
+                json!({
+                    "parameters": bl_param.map(ParamResiduals::to_json),
+                    "decision": bl.to_json(&self.cfg),
+                    "outcome": decision_name(bl.decision),
+                    "isolation": bl.isolation,
+                }),
+            );
+            obj.insert(
+                "servo_time_constant_s".into(),
+                json!(self.servo_time_constant_s),
+            );
+        }
+        let summary = summary(&ours, param.as_ref(), self.cfg.enabled);
+        let now = self.alarm_state();
+        let notification = (now != self.published).then(|| {
+            self.published = now;
+            let method_list = match now {
+                AlarmState::Alarm | AlarmState::Warn => vec!["visual".into(), "sound".into()],
+                AlarmState::Alert => vec!["visual".into()],
+                AlarmState::Normal => Vec::new(),
+            };
+            Notification {
+                state: now,
+                method: method_list,
+                message: format!("Steering FDI ({}): {summary}", method.name().to_uppercase()),
+            }
+        });
+        Assessment {
+            residuals,
+            decision: ours.decision,
+            isolation: ours.isolation,
+            summary,
+            notification,
+        }
+    }
+}
+
+/// Name of a decision on the wire.
+pub fn decision_name(d: Decision) -> &'static str {
+    match d {
+        Decision::Nominal => "nominal",
+        Decision::Fault => "fault",
+        Decision::Inconclusive => "inconclusive",
+    }
+}
+
+fn summary(o: &TrackOutcome, p: Option<&ParamResiduals>, enabled: bool) -> String {
+    if !enabled {
+        return "FDI disabled, no decision".into();
+    }
+    let stat = match o.q_actuator {
+        Some(qa) if o.q_param.is_finite() => {
+            format!("chi2 {:.1} (servo check {:.1})", o.q_param, qa)
+        }
+        Some(qa) => format!("servo check chi2 {qa:.1}"),
+        None if o.q_param.is_finite() => format!("chi2 {:.1}", o.q_param),
+        None => return "no residuals (no estimate or speed log), no decision".into(),
+    };
+    let causes = if o.isolation.is_empty() {
+        String::new()
+    } else {
+        format!("; suspected: {}", o.isolation.join(", "))
+    };
+    let detail = p.map_or(String::new(), |p| {
+        format!(
+            " (speed {:+.2} m/s, displacement {:+.0} t against the nominal)",
+            p.speed_mps, p.displacement_t
+        )
+    });
+    match o.state {
+        TrackState::Normal => format!("nominal, {stat}{detail}"),
+        TrackState::Alert => format!(
+            "alert, {stat}{detail}, {} test(s) in a row over the limit{causes}",
+            o.exceed_run
+        ),
+        TrackState::Alarm => format!("FAULT, {stat}{detail}{causes}"),
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,305 @@
+use super::*;
+use crate::core::monitor::config::CoreConfig;
+
+fn cfg() -> FdiConfig {
+    FdiConfig::default()
+}
+
+/// Residuals with unit spreads: z = (speed, disp), g = dD/du.
+fn p(speed: f64, disp: f64, g: f64) -> ParamResiduals {
+    ParamResiduals {
+        speed_mps: speed,
+        speed_sigma_mps: 1.0,
+        displacement_t: disp,
+        displacement_sigma_t: 1.0,
+        dd_du_t_per_mps: g,
+    }
+}
+
+#[test]
+fn chi_square_alarm_needs_persistence_and_clears_after_nominal_tests() {
+    let c = cfg();
+    let mut t = Track::default();
+    // q = 9 + 4 = 13 < 13.82: nominal.
+    let o = t.update(&c, Some(&p(3.0, 2.0, 0.0)), None);
+    assert_eq!(
+        (o.state, o.decision),
+        (TrackState::Normal, Decision::Nominal)
+    );
+    assert!((o.q_param - 13.0).abs() < 1e-12);
+    // q = 16 + 0 > 13.82: alert (1 of 2), inconclusive.
+    let o = t.update(&c, Some(&p(0.0, 4.0, 0.0)), None);
+    assert_eq!(
+        (o.state, o.decision),
+        (TrackState::Alert, Decision::Inconclusive)
+    );
+    // A nominal test clears an alert at once.
+    let o = t.update(&c, Some(&p(0.0, 1.0, 0.0)), None);
+    assert_eq!(o.state, TrackState::Normal);
+    assert!(o.isolation.is_empty());
+    // Two in a row: alarm.
+    t.update(&c, Some(&p(0.0, 5.0, 0.0)), None);
+    let o = t.update(&c, Some(&p(0.0, 5.0, 0.0)), None);
+    assert_eq!((o.state, o.decision), (TrackState::Alarm, Decision::Fault));
+    assert_eq!(o.isolation, vec![DISPLACEMENT_OR_RUDDER.to_string()]);
+    // The alarm holds for clear-after - 1 nominal tests, then clears.
+    for _ in 1..c.clear_after {
+        let o = t.update(&c, Some(&p(0.0, 0.0, 0.0)), None);
+        assert_eq!(o.state, TrackState::Alarm);
+    }
+    let o = t.update(&c, Some(&p(0.0, 0.0, 0.0)), None);
+    assert_eq!(
+        (o.state, o.decision),
+        (TrackState::Normal, Decision::Nominal)
+    );
+}
+
+#[test]
+fn no_residuals_change_nothing() {
+    let c = cfg();
+    let mut t = Track::default();
+    t.update(&c, Some(&p(0.0, 5.0, 0.0)), None);
+    let before = t.clone();
+    let o = t.update(&c, None, None);
+    assert_eq!(o.decision, Decision::Inconclusive);
+    assert_eq!(t, before);
+    // NaN residuals count as none.
+    let o = t.update(&c, Some(&p(f64::NAN, 1.0, 0.0)), None);
+    assert_eq!(o.decision, Decision::Inconclusive);
+    assert_eq!(t, before);
+}
+
+#[test]
+fn isolation_follows_the_fault_directions() {
+    let c = cfg();
+    // A speed-log bias of beta: r_speed = -beta, r_disp = g beta (g = 2 here).
+    let mut t = Track::default();
+    for _ in 0..2 {
+        t.update(&c, Some(&p(-3.0, 6.0, 2.0)), None);
+    }
+    let o = t.update(&c, Some(&p(-3.0, 6.0, 2.0)), None);
+    assert_eq!(o.isolation, vec![SPEED_LOG.to_string()]);
+    // The same r_disp with r_speed = 0 is a displacement change.
+    let mut t = Track::default();
+    t.update(&c, Some(&p(0.0, 6.0, 2.0)), None);
+    let o = t.update(&c, Some(&p(0.0, 6.0, 2.0)), None);
+    assert_eq!(o.isolation, vec![DISPLACEMENT_OR_RUDDER.to_string()]);
+    // Half-way between the two: with a margin both are named, the nearer first.
+    let wide = FdiConfig {
+        isolation_margin: 100.0,
+        ..cfg()
+    };
+    let mut t = Track::default();
+    t.update(&wide, Some(&p(-1.0, 6.0, 2.0)), None);
+    let o = t.update(&wide, Some(&p(-1.0, 6.0, 2.0)), None);
+    assert!(o.isolation.len() >= 2, "{:?}", o.isolation);
+}
+
+#[test]
+fn the_isolation_costs_match_a_direct_least_squares() {
+    // Independent answer: the cost of a direction v is the sum over the tests of
+    // min over theta_k of |z_k - theta_k v_k|^2, found here by a dense scan of each theta_k.
+    let tests = [p(-0.8, 5.0, 3.0), p(-1.6, 7.0, 2.5), p(0.3, 6.0, 2.8)];
+    let c = cfg();
+    let mut t = Track::default();
+    for x in &tests {
+        t.update(&c, Some(x), None);
+    }
+    let e = t.episode;
+    for i in 0..3 {
+        let mut total = 0.0;
+        for x in &tests {
+            let (z, v) = (x.z(), x.directions()[i]);
+            let mut best = f64::INFINITY;
+            for k in 0..400_001 {
+                let theta = -20.0 + k as f64 * 1e-4;
+                let cost = (z[0] - theta * v[0]).powi(2) + (z[1] - theta * v[1]).powi(2);
+                best = best.min(cost);
+            }
+            total += best;
+        }
+        approx::assert_relative_eq!(e.cost[i], total, max_relative = 1e-6, epsilon = 1e-9);
+    }
+}
+
+#[test]
+fn actuator_residuals_alone_name_the_steering_actuator() {
+    let c = cfg();
+    let mut t = Track::default();
+    t.update(&c, Some(&p(0.5, -0.5, 2.0)), Some([-6.0, -3.0]));
+    let o = t.update(&c, Some(&p(0.2, 0.4, 2.0)), Some([-5.5, -2.0]));
+    assert_eq!(o.decision, Decision::Fault);
+    assert_eq!(o.isolation, vec![STEERING_ACTUATOR.to_string()]);
+}
+
+#[test]
+fn cusum_integrates_small_persistent_shifts() {
+    let c = FdiConfig {
+        rule: DecisionRule::Cusum,
+        ..cfg()
+    };
+    // z = 1.5 per test: S+ grows by 1 per test, over h = 5 at the sixth test; the chi-square
+    // rule (q = 2.25) never fires.
+    let mut t = Track::default();
+    let mut chi = Track::default();
+    for k in 1..=8 {
+        let o = t.update(&c, Some(&p(0.0, 1.5, 0.0)), None);
+        let oc = chi.update(&cfg(), Some(&p(0.0, 1.5, 0.0)), None);
+        assert_eq!(oc.decision, Decision::Nominal);
+        let expect = if k >= 6 {
+            Decision::Fault
+        } else {
+            Decision::Nominal
+        };
+        assert_eq!(o.decision, expect, "test {k}");
+    }
+    // Zero-mean residuals within +-k never accumulate.
+    let mut t = Track::default();
+    for k in 0..1000 {
+        let z = if k % 2 == 0 { 0.45 } else { -0.45 };
+        assert_eq!(
+            t.update(&c, Some(&p(z, z, 0.0)), None).decision,
+            Decision::Nominal
+        );
+    }
+}
+
+#[test]
+fn sea_fraction_interpolates_and_clamps() {
+    assert_eq!(sea_fraction([0.02, 0.06], Some(0.02)), 0.0);
+    assert_eq!(sea_fraction([0.02, 0.06], Some(0.01)), 0.0);
+    assert!((sea_fraction([0.02, 0.06], Some(0.04)) - 0.5).abs() < 1e-12);
+    assert_eq!(sea_fraction([0.02, 0.06], Some(1.0)), 3.0);
+    assert_eq!(sea_fraction([0.02, 0.06], None), 1.0);
+}
+
+#[test]
+fn sea_index_reads_the_wave_yaw_in_degrees() {
+    let f = serde_json::json!({ "wave_yaw_rad": 0.2f64.to_radians() });
+    assert!((sea_index(&f).unwrap() - 0.2).abs() < 1e-12);
+    assert_eq!(
+        sea_index(&serde_json::json!({ "wave_yaw_rad": null })),
+        None
+    );
+    assert_eq!(
+        sea_index(&serde_json::json!({ "wave_yaw_rad": -1.0 })),
+        None
+    );
+}
+
+/// Relative spreads scale with the reference; absolute ones (or files without relative
+/// figures) do not; between the anchors both interpolate, above moderate the spread grows.
+#[test]
+fn spreads_relative_and_absolute() {
+    use crate::core::estimator::model::SeaSpread;
+    use crate::core::model::SeaState;
+    let sea = |sea, m, sd, rel: Option<(f64, f64)>| SeaSpread {
+        sea,
+        n: 100,
+        residual_mean: m,
+        residual_std: sd,
+        relative_mean: rel.map(|r| r.0),
+        relative_std: rel.map(|r| r.1),
+    };
+    let u = |rel: bool| Uncertainty {
+        residual_mean: 0.0,
+        residual_std: 100.0,
+        by_sea: vec![
+            sea(SeaState::Calm, 2.0, 30.0, rel.then_some((0.001, 0.005))),
+            sea(
+                SeaState::Moderate,
+                10.0,
+                130.0,
+                rel.then_some((0.002, 0.02)),
+            ),
+        ],
+    };
+    let close = |a: (f64, f64), b: (f64, f64)| {
+        assert!(
+            (a.0 - b.0).abs() < 1e-9 && (a.1 - b.1).abs() < 1e-9,
+            "{a:?} vs {b:?}"
+        )
+    };
+    close(spread(&u(true), 0.0, Some(4000.0)), (4.0, 20.0));
+    close(spread(&u(true), 1.0, Some(10000.0)), (20.0, 200.0));
+    close(spread(&u(true), 0.5, Some(8000.0)), (12.0, 0.0125 * 8000.0));
+    // Twice the moderate fraction: the spread extrapolates, the bias stays at moderate's.
+    close(spread(&u(true), 2.0, Some(1000.0)), (2.0, 35.0));
+    close(spread(&u(true), 0.0, None), (2.0, 30.0));
+    close(spread(&u(false), 1.0, Some(4000.0)), (10.0, 130.0));
+}
+
+/// Exact Nomoto tones for (a, b), with given CIs.
+fn tones_json(a: f64, b: f64, ws: &[f64]) -> serde_json::Value {
+    let tones: Vec<_> = ws
+        .iter()
+        .map(|&w| {
+            let gain = b / (w * (w * w + a * a).sqrt());
+            let phase = -std::f64::consts::FRAC_PI_2 - (w / a).atan();
+            json!({"omega_rad_s": w, "gain": gain, "phase_rad": phase,
+                   "gain_ci90_rel": 0.03, "phase_ci90_rad": 0.02})
+        })
+        .collect();
+    json!({ "tones": tones })
+}
+
+#[test]
+fn model_fit_recovers_exact_nomoto_tones_and_flags_a_foreign_one() {
+    let c = cfg();
+    let ship = CoreConfig::default().ship;
+    let (a, b) = (0.0146, 5.98e-4);
+    let ws = [0.032, 0.0745, 0.181];
+    let f = fit::model_fit(&tones_json(a, b, &ws), &ship, &c).unwrap();
+    approx::assert_relative_eq!(f.a_per_s, a, max_relative = 1e-6);
+    approx::assert_relative_eq!(f.b_per_s2, b, max_relative = 1e-6);
+    assert!(f.chi2 < 1e-12, "{}", f.chi2);
+    assert_eq!(f.dof, 4);
+    // Its (u, D) from DOMAIN's formulas: a = 0.0146 is u = 7 m/s; b = 5.98e-4 is D = 7000 t.
+    let j = f.to_json(&ship);
+    approx::assert_relative_eq!(j["speed_mps"].as_f64().unwrap(), 7.008, max_relative = 1e-3);
+    let d = j["displacement_t"].as_f64().unwrap();
+    assert!((d - 7000.0).abs() < 30.0, "{d}");
+    // Add a lag of 10 deg at the top tone (an unmodelled actuator lag): no (a, b) explains it.
+    let mut bad = tones_json(a, b, &ws);
+    let p = bad["tones"][2]["phase_rad"].as_f64().unwrap();
+    bad["tones"][2]["phase_rad"] = json!(p - 10f64.to_radians());
+    let f = fit::model_fit(&bad, &ship, &c).unwrap();
+    assert!(f.chi2 > 100.0, "{}", f.chi2);
+}
+
+#[test]
+fn notifications_follow_the_vessel_alarm_state() {
+    let mut full = CoreConfig::default();
+    full.fdi.persistence = 2;
+    let mut fdi = Fdi::new(&full);
+    let features = json!({"speed_log_mps": 7.0});
+    // Without an estimate nothing happens and nothing is published.
+    let a = fdi.assess(Method::Hbt, &features, None, 7000.0);
+    assert_eq!(a.decision, Decision::Inconclusive);
+    assert!(a.notification.is_none());
+    // Drive the HBT track by hand through its states; the vessel state is the worst track.
+    let c = full.fdi.clone();
+    fdi.tracks[1].update(&c, Some(&p(0.0, 9.0, 0.0)), None);
+    assert_eq!(fdi.alarm_state(), AlarmState::Alert);
+    fdi.tracks[1].update(&c, Some(&p(0.0, 9.0, 0.0)), None);
+    assert_eq!(fdi.alarm_state(), AlarmState::Alarm);
+}
+
+/// The servo check reads each method's own field: CLFRT the burst's p95 rate, HBT the relay
+/// slews' peak rate; one-sided, and `(1 - rho) / sigma` by hand.
+#[test]
+fn actuator_z_reads_each_methods_servo_field() {
+    let fdi = Fdi::new(&CoreConfig::default());
+    let sigma = FdiConfig::default().actuator_rate_sigma;
+    let hbt = |peak: f64| json!({"servo_rate": {"rudder_rate_peak_rad_s": peak, "rudder_rate_nominal_rad_s": 0.07}});
+    let clfrt = |p95: f64| json!({"servo_check": {"rudder_rate_p95_rad_s": p95, "rudder_rate_nominal_rad_s": 0.07}});
+    let z = fdi.actuator_z(Method::Hbt, &hbt(0.035)).unwrap();
+    approx::assert_relative_eq!(z[0], 0.5 / sigma, max_relative = 1e-12);
+    assert_eq!(fdi.actuator_z(Method::Hbt, &hbt(0.0707)).unwrap()[0], 0.0);
+    let z = fdi.actuator_z(Method::Clfrt, &clfrt(0.063)).unwrap();
+    approx::assert_relative_eq!(z[0], 0.1 / sigma, max_relative = 1e-9);
+    // Each method reads only its own field.
+    assert!(fdi.actuator_z(Method::Clfrt, &hbt(0.035)).is_none());
+    assert!(fdi.actuator_z(Method::Hbt, &clfrt(0.035)).is_none());
+    assert!(fdi.actuator_z(Method::Hbt, &json!({})).is_none());
+}

@@ -1,0 +1,901 @@
+//! The monitor core: a pure state machine, one per vessel, fed timestamped samples.
+//!
+//! ## Driving it (the order a driver follows, as in quinn-proto)
+//!
+//! 1. Decode each incoming payload ([`crate::core::wire::decode`]); on a decode error call
+//!    [`Monitor::count_malformed`]; otherwise call [`Monitor::handle_input`].
+//! 2. After every call, drain [`Monitor::poll_output`] until `None` and publish each output on
+//!    its key. Every accepted heading sample yields exactly one [`Output::Excitation`] with the
+//!    same `t` (the autopilot's heartbeat), so drain promptly: the autopilot waits for it.
+//! 3. Call [`Monitor::trigger`] for the `fdi/trigger` queryable; its reply is immediate.
+//! 4. When no heading arrives, call [`Monitor::handle_timeout`] with the driver's estimate of
+//!    ship time (last heading `t` plus elapsed wall time) so a silent stream aborts a test.
+//!
+//! The core never reads a clock: all time is the ship time carried by the samples. It never
+//! draws random numbers either (the multisine phases come from a seeded design). Given the
+//! same inputs it gives the same outputs, bit for bit.
+//!
+//! ## States (published on `fdi/status` at every change)
+//!
+//! `idle -> settling -> exciting -> analysing -> idle`; any state -> `idle` on abort.
+//! - HBT: settling = trim measurement (autopilot steering, mean rudder = delta0) and the first
+//!   `hbt.settle-periods` relay periods; exciting = `hbt.measure-periods` periods measured
+//!   between switches to `+h`; analysing = features, then the relay runs on until the
+//!   hand-back instant (`hbt.handback-lead-s`), then the report.
+//! - CLFRT: settling = `clfrt.settle-windows` windows: the servo check (a 0.6 rad/s sinusoid,
+//!   ~2 min) then the faded-in multisine; exciting =
+//!   `clfrt.measure-windows` windows recorded; analysing = features, then the excitation ramps
+//!   to zero at the safety rate limit, then the report.
+//!
+//! ## Estimate
+//!
+//! A completed test's `features` also carry `speed_log_mps`, the mean of the speed-log
+//! samples received from the test's start to its end (settling included): the measured speed
+//! that the displacement network reads, defined once here for the daemon and the training
+//! database alike. When the monitor was built with an estimator
+//! ([`Monitor::with_estimator`]), the report's `estimate` holds the networks' speed and
+//! displacement ([`crate::core::estimator`]), and [`crate::core::fdi`] turns them into the report's
+//! `residuals`, `decision` and `isolation`, and queues a notification when the vessel's alarm
+//! state changes (after the report). Every completed
+//! test's `features` also carry `baseline`, the time-domain least-squares a and b on the
+//! same records ([`crate::core::baseline`]; `null` and `baseline_error` when that fit failed).
+//!
+//! ## Safety (checked at every heading sample of a test; an abort sends `mode: none` at once)
+//!
+//! Autopilot not in `auto`; |heading error| over `safety.max-heading-error-deg`; |rudder| at
+//! `safety.rudder-saturation-deg`; any stream silent longer than `safety.stream-timeout-s`;
+//! smoothed speed off its start value by more than `safety.max-speed-change-mps`; the target
+//! course changed; the test longer than `safety.max-test-duration-s`; a record full (flood).
+//! Every excitation passes a final gate that bounds its value (`safety.max-excitation-deg`
+//! around zero for `add`, around the trim for `replace`, and the servo's angle limit) and, for
+//! `add`, its rate (`safety.max-excitation-rate-deg-s`).
+
+mod clfrt;
+pub mod config;
+mod hbt;
+pub mod input;
+pub mod record;
+
+use crate::core::angle::wrap_pi;
+use crate::core::dsp::multisine::Multisine;
+use crate::core::estimator::features::SPEED_LOG_FIELD;
+use crate::core::estimator::{Estimator, EstimatorScratch};
+use crate::core::fdi::Fdi;
+use crate::core::monitor::config::CoreConfig;
+use crate::core::wire::Method;
+use crate::core::wire::{
+    Decision, Excitation, ExcitationMode, Input, MonitorState, Notification, Outcome, Report,
+    Status, Stream, TriggerReply,
+};
+use input::{Counters, Latest, Limits, RejectReason, Rejection};
+use std::collections::VecDeque;
+use std::sync::Arc;
+
+/// Something the driver publishes.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Output {
+    /// On `steering/autopilot/excitation`; one per accepted heading sample.
+    Excitation(Excitation),
+    /// On `fdi/status`, at every change of state.
+    Status(Status),
+    /// On `fdi/report`, after every test.
+    Report(Box<Report>),
+    /// On `notifications/steering/fdi`, when the alarm state changes.
+    Notification(Notification),
+}
+
+/// What a finished test measured, by method.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Features {
+    /// Relay test features.
+    Hbt(hbt::HbtReport),
+    /// Multisine test features.
+    Clfrt(clfrt::ClfrtReport),
+}
+
+impl Features {
+    /// The `features` object of the report.
+    pub fn to_json(&self) -> serde_json::Value {
+        match self {
+            Features::Hbt(f) => f.to_json(),
+            Features::Clfrt(f) => f.to_json(),
+        }
+    }
+}
+
+pub use clfrt::ClfrtReport;
+pub use hbt::HbtReport;
+
+/// Counters beyond the per-stream input counts.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Stats {
+    /// Tests started.
+    pub tests_started: u64,
+    /// Tests completed.
+    pub tests_completed: u64,
+    /// Tests aborted.
+    pub tests_aborted: u64,
+    /// Excitation values the safety gate had to bound (should stay 0: a non-zero count means
+    /// a generator asked for more than the limits allow).
+    pub excitation_clamped: u64,
+}
+
+/// Smoothing time constant of the speed used for the speed-change abort [s].
+const SPEED_SMOOTHING_S: f64 = 10.0;
+
+/// Detects a steady course for the scheduler, in O(1) memory.
+#[derive(Debug, Clone, Default)]
+struct Steady {
+    since: Option<f64>,
+    rudder: (f64, f64),
+    speed: (f64, f64),
+}
+
+/// A test in progress.
+#[derive(Debug)]
+struct Run {
+    id: String,
+    method: Method,
+    t_start: f64,
+    phase: MonitorState,
+    target_rad: f64,
+    speed_start_mps: f64,
+    /// Sum and count of the speed-log samples since the start (for `speed_log_mps`).
+    speed_sum_mps: f64,
+    speed_n: u64,
+    kind: RunKind,
+}
+
+#[derive(Debug)]
+enum RunKind {
+    Hbt(Box<hbt::HbtRun>),
+    Clfrt(Box<clfrt::ClfrtRun>),
+}
+
+/// What one step of a test run asks for at a heading sample.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Step {
+    /// Excitation mode and value for this sample.
+    mode: ExcitationMode,
+    value: f64,
+    /// New phase, if it changed.
+    phase: Option<MonitorState>,
+    /// The test is over: features or an abort reason.
+    done: Option<Result<Features, String>>,
+}
+
+/// The monitor of one vessel. See the module documentation for the driving order.
+#[derive(Debug)]
+pub struct Monitor {
+    /// The configuration, checked.
+    cfg: CoreConfig,
+    /// Used in test ids.
+    vessel: String,
+    /// Plausibility limits derived from the configuration.
+    limits: Limits,
+    /// The latest accepted sample of each stream (safety checks, steadiness).
+    latest: Latest,
+    /// Smoothed speed [m/s] and the time of its last update.
+    speed_smooth: Option<(f64, f64)>,
+    /// The heading made continuous (no jump at 0 / 2 pi), for records [rad].
+    heading_unwrapped: Option<f64>,
+    /// Accepted and rejected samples.
+    counters: Counters,
+    /// Test and gate counters.
+    stats: Stats,
+    /// Steady-course detector for the scheduler.
+    steady: Steady,
+    /// The test in progress.
+    run: Option<Run>,
+    /// End of the last test (ship time), for the scheduler interval.
+    last_test_end: Option<f64>,
+    /// Which scheduled method runs next (index into `scheduler.methods`).
+    next_method: usize,
+    /// Tests started so far (part of the test id).
+    test_seq: u64,
+    /// Outputs waiting for the driver.
+    outputs: VecDeque<Output>,
+    /// The last status published.
+    status: MonitorState,
+    /// The last excitation published: `(t, mode, value)`.
+    last_excitation: Option<(f64, ExcitationMode, f64)>,
+    /// The CLFRT multisine, designed once from the configuration (or why it could not be).
+    multisine: Result<crate::core::dsp::multisine::Multisine, String>,
+    /// The networks that turn features into an estimate, with their buffers (optional).
+    estimator: Option<(Arc<Estimator>, EstimatorScratch)>,
+    /// Residuals, decision, alarm state and isolation over the completed tests.
+    fdi: Fdi,
+}
+
+impl Monitor {
+    /// A monitor for `vessel` with a checked configuration.
+    pub fn new(cfg: &CoreConfig, vessel: &str) -> Self {
+        Self::with_parts(cfg, vessel, None, None)
+    }
+
+    /// The CLFRT multisine of `cfg` (a seeded phase optimisation, ~0.1 s of CPU).
+    pub fn design_multisine(cfg: &CoreConfig) -> Result<Multisine, String> {
+        Multisine::design(
+            cfg.clfrt.window_s,
+            &cfg.clfrt.harmonics,
+            cfg.clfrt.amplitude_rad(),
+            cfg.clfrt.phase_seed,
+        )
+        .map_err(|e| format!("multisine design failed: {e}"))
+    }
+
+    /// A monitor whose completed tests carry an `estimate` from `estimator` (validated for
+    /// `cfg`, e.g. by [`Estimator::load_dir`] or [`Estimator::embedded`]).
+    pub fn with_estimator(cfg: &CoreConfig, vessel: &str, estimator: Arc<Estimator>) -> Self {
+        Self::with_parts(cfg, vessel, None, Some(estimator))
+    }
+
+    /// A monitor built from parts prepared once for many monitors of one configuration (the
+    /// training database runs thousands): `multisine` from [`Monitor::design_multisine`]`(cfg)`
+    /// (designed here when `None`, or when its window, harmonics or amplitude differ from
+    /// `cfg`'s), and an optional estimator.
+    pub fn with_parts(
+        cfg: &CoreConfig,
+        vessel: &str,
+        multisine: Option<Multisine>,
+        estimator: Option<Arc<Estimator>>,
+    ) -> Self {
+        let c = &cfg.clfrt;
+        let multisine = match multisine {
+            Some(ms)
+                if ms.window_s() == c.window_s
+                    && ms.harmonics() == c.harmonics.as_slice()
+                    && ms.amplitude_rad() == c.amplitude_rad() =>
+            {
+                Ok(ms)
+            }
+            _ => Self::design_multisine(cfg),
+        };
+        let estimator = estimator.map(|e| {
+            let scratch = e.scratch();
+            (e, scratch)
+        });
+        Self {
+            limits: Limits {
+                max_rudder_rad: cfg.input.max_rudder_deg.to_radians(),
+                max_speed_mps: cfg.input.max_speed_mps,
+            },
+            cfg: cfg.clone(),
+            vessel: vessel.to_string(),
+            latest: Latest::default(),
+            speed_smooth: None,
+            heading_unwrapped: None,
+            counters: Counters::default(),
+            stats: Stats::default(),
+            steady: Steady::default(),
+            run: None,
+            last_test_end: None,
+            next_method: 0,
+            test_seq: 0,
+            outputs: VecDeque::new(),
+            status: MonitorState::Idle,
+            last_excitation: None,
+            multisine,
+            estimator,
+            fdi: Fdi::new(cfg),
+        }
+    }
+
+    /// The vessel's alarm state (the worst of the methods' decision tracks).
+    pub fn alarm_state(&self) -> crate::core::wire::AlarmState {
+        self.fdi.alarm_state()
+    }
+
+    /// The nominal displacement in force [t]: the ship's latest `design/displacement`, or
+    /// `ship.nominal-displacement-t`.
+    pub fn nominal_displacement_t(&self) -> f64 {
+        self.latest
+            .design_displacement
+            .map_or(self.cfg.ship.nominal_displacement_t, |(_, kg)| kg / 1000.0)
+    }
+
+    /// The vessel this monitor watches.
+    pub fn vessel(&self) -> &str {
+        &self.vessel
+    }
+
+    /// Current state.
+    pub fn state(&self) -> MonitorState {
+        self.status
+    }
+
+    /// Input counters.
+    pub fn counters(&self) -> &Counters {
+        &self.counters
+    }
+
+    /// Test and gate counters.
+    pub fn stats(&self) -> &Stats {
+        &self.stats
+    }
+
+    /// Ship time of the last accepted heading sample.
+    pub fn last_heading_t(&self) -> Option<f64> {
+        self.latest.heading.map(|h| h.0)
+    }
+
+    /// Next output for the driver to publish, oldest first.
+    pub fn poll_output(&mut self) -> Option<Output> {
+        self.outputs.pop_front()
+    }
+
+    /// Counts a payload that did not decode on `stream`. Returns whether to log it (first of
+    /// a burst).
+    pub fn count_malformed(&mut self, stream: Stream) -> bool {
+        self.counters
+            .count_rejection(stream, RejectReason::Malformed)
+    }
+
+    /// Feeds one sample. A rejected sample is counted and returned as an error; it changes
+    /// nothing else. An accepted heading sample queues exactly one excitation.
+    pub fn handle_input(&mut self, input: Input) -> Result<(), Rejection> {
+        if let Err(r) = input::validate(&input, &self.latest, &self.limits) {
+            if self.counters.count_rejection(r.stream, r.reason) {
+                tracing::warn!(
+                    vessel = %self.vessel,
+                    stream = r.stream.name(),
+                    reason = r.reason.name(),
+                    count = self.counters.rejected(r.stream, r.reason),
+                    "{}",
+                    r.detail
+                );
+            }
+            return Err(r);
+        }
+        self.counters.count_accepted(input.stream());
+        let prev_heading_t = self.last_heading_t();
+        input::store(&input, &mut self.latest);
+        match input {
+            Input::Heading(s) => self.on_heading(s.t, s.value, prev_heading_t),
+            Input::Rudder(s) => self.on_rudder(s.t, s.value),
+            Input::Speed(s) => self.on_speed(s.t, s.value),
+            Input::AutopilotState(_) | Input::TargetHeading(_) | Input::DesignDisplacement(_) => {}
+        }
+        Ok(())
+    }
+
+    /// Lets the monitor notice silence: `now_s` is the driver's estimate of ship time. A test
+    /// whose heading stream has been silent longer than `safety.stream-timeout-s` is aborted
+    /// (status and report; the autopilot reverts by itself when `hold_s` runs out).
+    pub fn handle_timeout(&mut self, now_s: f64) {
+        if !now_s.is_finite() {
+            return;
+        }
+        let Some(last) = self.last_heading_t() else {
+            return;
+        };
+        let silent = now_s - last;
+        if self.run.is_some() && silent > self.cfg.safety.stream_timeout_s {
+            let reason = format!("heading stream silent for {silent:.1} s");
+            self.finish(now_s, Err(reason));
+        }
+    }
+
+    /// Starts a test now if possible (the `fdi/trigger` queryable).
+    pub fn trigger(&mut self, method: Method) -> TriggerReply {
+        let refuse = |reason: String| TriggerReply {
+            accepted: false,
+            test: None,
+            reason: Some(reason),
+        };
+        if let Some(run) = &self.run {
+            return refuse(format!("test {} is under way", run.id));
+        }
+        let Some(t) = self.last_heading_t() else {
+            return refuse("no heading received yet".into());
+        };
+        if let Err(reason) = self.preconditions(t) {
+            return refuse(reason);
+        }
+        match self.start(t, method, "trigger") {
+            Ok(id) => TriggerReply {
+                accepted: true,
+                test: Some(id),
+                reason: None,
+            },
+            Err(reason) => refuse(reason),
+        }
+    }
+
+    // -----------------------------------------------------------------------------------------
+
+    fn on_rudder(&mut self, t: f64, rudder_rad: f64) {
+        let full = match &mut self.run {
+            Some(run) => match &mut run.kind {
+                RunKind::Hbt(h) => h.push_rudder(t, rudder_rad).err(),
+                RunKind::Clfrt(c) => c.push_rudder(t, rudder_rad).err(),
+            },
+            None => None,
+        };
+        if let Some(e) = full {
+            self.finish(t, Err(e.to_string()));
+        }
+    }
+
+    fn on_speed(&mut self, t: f64, speed_mps: f64) {
+        if let Some(run) = &mut self.run {
+            run.speed_sum_mps += speed_mps;
+            run.speed_n += 1;
+        }
+        self.speed_smooth = Some(match self.speed_smooth {
+            None => (speed_mps, t),
+            Some((s, t_prev)) => {
+                let alpha = 1.0 - (-(t - t_prev).max(0.0) / SPEED_SMOOTHING_S).exp();
+                (s + alpha * (speed_mps - s), t)
+            }
+        });
+    }
+
+    fn on_heading(&mut self, t: f64, heading_rad: f64, prev_heading_t: Option<f64>) {
+        // Continuous heading for the records.
+        let continuous = self.unwrap_heading(heading_rad);
+        self.heading_unwrapped = Some(continuous);
+
+        if self.run.is_some() {
+            self.step_run(t, heading_rad, continuous, prev_heading_t);
+        } else {
+            self.update_steady(t, heading_rad);
+            if self.scheduled_start_due(t) {
+                let methods = &self.cfg.scheduler.methods;
+                let method = methods[self.next_method % methods.len()];
+                self.next_method = (self.next_method + 1) % methods.len();
+                if self.start(t, method, "schedule").is_ok() {
+                    self.step_run(t, heading_rad, continuous, prev_heading_t);
+                } else {
+                    self.last_test_end = Some(t);
+                }
+            }
+        }
+        // Exactly one excitation per accepted heading sample: idle, or a test that just ended.
+        if !self.excitation_sent_at(t) {
+            self.emit_excitation(t, ExcitationMode::None, 0.0);
+        }
+    }
+
+    fn excitation_sent_at(&self, t: f64) -> bool {
+        self.last_excitation.is_some_and(|e| e.0 == t)
+    }
+
+    /// Unwraps the new heading against the previous continuous heading.
+    fn unwrap_heading(&self, heading_rad: f64) -> f64 {
+        match self.heading_unwrapped {
+            None => heading_rad,
+            Some(prev) => prev + wrap_pi(heading_rad - prev),
+        }
+    }
+
+    fn heading_error(&self, t_target: f64, heading_rad: f64) -> f64 {
+        wrap_pi(t_target - heading_rad)
+    }
+
+    /// Conditions for starting any test at `t`: fresh streams, autopilot in auto, a target,
+    /// a heading error within the abort limit.
+    fn preconditions(&self, t: f64) -> Result<(), String> {
+        let timeout = self.cfg.safety.stream_timeout_s;
+        for s in Stream::REQUIRED {
+            match self.latest.t(s) {
+                None => return Err(format!("no {} received yet", s.name())),
+                Some(ts) if t - ts > timeout => {
+                    return Err(format!("{} stream silent for {:.1} s", s.name(), t - ts))
+                }
+                _ => {}
+            }
+        }
+        if !matches!(self.latest.auto, Some((_, true))) {
+            return Err("autopilot is not in auto".into());
+        }
+        if let (Some((_, h)), Some((_, target))) = (self.latest.heading, self.latest.target) {
+            let e = self.heading_error(target, h).abs();
+            if e > self.cfg.safety.max_heading_error_deg.to_radians() {
+                return Err(format!(
+                    "heading error {:.1} deg over the limit",
+                    e.to_degrees()
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    fn update_steady(&mut self, t: f64, heading_rad: f64) {
+        let sc = &self.cfg.scheduler;
+        let ok = self.preconditions(t).is_ok()
+            && self.latest.target.is_some_and(|(_, target)| {
+                self.heading_error(target, heading_rad).abs()
+                    < sc.steady_heading_error_deg.to_radians()
+            });
+        let (Some((_, rudder)), Some((speed, _))) = (self.latest.rudder, self.speed_smooth) else {
+            self.steady.since = None;
+            return;
+        };
+        if !ok {
+            self.steady.since = None;
+            return;
+        }
+        let st = &mut self.steady;
+        match st.since {
+            None => {
+                st.since = Some(t);
+                st.rudder = (rudder, rudder);
+                st.speed = (speed, speed);
+            }
+            Some(_) => {
+                st.rudder = (st.rudder.0.min(rudder), st.rudder.1.max(rudder));
+                st.speed = (st.speed.0.min(speed), st.speed.1.max(speed));
+                if st.rudder.1 - st.rudder.0 > 2.0 * sc.steady_rudder_deg.to_radians()
+                    || st.speed.1 - st.speed.0 > 2.0 * sc.steady_speed_mps
+                {
+                    st.since = Some(t);
+                    st.rudder = (rudder, rudder);
+                    st.speed = (speed, speed);
+                }
+            }
+        }
+    }
+
+    fn scheduled_start_due(&self, t: f64) -> bool {
+        let sc = &self.cfg.scheduler;
+        sc.enabled
+            && self
+                .steady
+                .since
+                .is_some_and(|since| t - since >= sc.steady_time_s)
+            && self
+                .last_test_end
+                .is_none_or(|end| t - end >= sc.interval_s)
+    }
+
+    /// Starts a test at `t` (preconditions already checked). Returns its id.
+    fn start(&mut self, t: f64, method: Method, why: &str) -> Result<String, String> {
+        let kind = match method {
+            Method::Hbt => RunKind::Hbt(Box::new(hbt::HbtRun::new(&self.cfg, t))),
+            Method::Clfrt => {
+                let ms = self.multisine.clone()?;
+                RunKind::Clfrt(Box::new(clfrt::ClfrtRun::new(&self.cfg, t, ms)))
+            }
+        };
+        self.test_seq += 1;
+        let id = format!(
+            "{}-{}-{}-{}",
+            self.vessel,
+            method.name(),
+            t.floor() as i64,
+            self.test_seq
+        );
+        let target_rad = self.latest.target.map(|x| x.1).unwrap_or(0.0);
+        let speed_start_mps = self.speed_smooth.map(|x| x.0).unwrap_or(0.0);
+        self.run = Some(Run {
+            id: id.clone(),
+            method,
+            t_start: t,
+            phase: MonitorState::Settling,
+            target_rad,
+            speed_start_mps,
+            speed_sum_mps: 0.0,
+            speed_n: 0,
+            kind,
+        });
+        self.stats.tests_started += 1;
+        self.steady.since = None;
+        tracing::info!(vessel = %self.vessel, test = %id, method = method.name(), "test started ({why})");
+        self.emit_status(t, MonitorState::Settling, Some(format!("started on {why}")));
+        Ok(id)
+    }
+
+    /// The safety checks of a running test at heading sample `t`. `Err(reason)` aborts.
+    fn safety_check(
+        &self,
+        t: f64,
+        heading_rad: f64,
+        prev_heading_t: Option<f64>,
+    ) -> Result<(), String> {
+        let Some(run) = &self.run else { return Ok(()) };
+        let s = &self.cfg.safety;
+        if !matches!(self.latest.auto, Some((_, true))) {
+            return Err("autopilot left auto".into());
+        }
+        let e = self.heading_error(run.target_rad, heading_rad);
+        if e.abs() > s.max_heading_error_deg.to_radians() {
+            return Err(format!(
+                "heading error {:.1} deg over the limit {:.1} deg",
+                e.to_degrees(),
+                s.max_heading_error_deg
+            ));
+        }
+        if let Some((_, rudder)) = self.latest.rudder {
+            if rudder.abs() >= s.rudder_saturation_deg.to_radians() {
+                return Err(format!(
+                    "rudder saturated at {:.1} deg",
+                    rudder.to_degrees()
+                ));
+            }
+        }
+        if let Some((_, target)) = self.latest.target {
+            if wrap_pi(target - run.target_rad).abs() > 1e-6 {
+                return Err("autopilot course changed".into());
+            }
+        }
+        for stream in Stream::REQUIRED {
+            let last = if stream == Stream::Heading {
+                prev_heading_t
+            } else {
+                self.latest.t(stream)
+            };
+            if let Some(ts) = last {
+                if t - ts > s.stream_timeout_s {
+                    return Err(format!(
+                        "{} stream silent for {:.1} s",
+                        stream.name(),
+                        t - ts
+                    ));
+                }
+            }
+        }
+        if let Some((speed, _)) = self.speed_smooth {
+            if (speed - run.speed_start_mps).abs() > s.max_speed_change_mps {
+                return Err(format!(
+                    "speed changed from {:.2} to {:.2} m/s",
+                    run.speed_start_mps, speed
+                ));
+            }
+        }
+        if t - run.t_start > s.max_test_duration_s {
+            return Err(format!("test longer than {:.0} s", s.max_test_duration_s));
+        }
+        Ok(())
+    }
+}
+
+impl Monitor {
+    /// One heading sample of a running test: safety, then the method's step.
+    fn step_run(
+        &mut self,
+        t: f64,
+        heading_rad: f64,
+        continuous_rad: f64,
+        prev_heading_t: Option<f64>,
+    ) {
+        if let Err(reason) = self.safety_check(t, heading_rad, prev_heading_t) {
+            self.finish(t, Err(reason));
+            return;
+        }
+        let Some(run) = &mut self.run else { return };
+        let error_rad = wrap_pi(run.target_rad - heading_rad);
+        let step = match &mut run.kind {
+            RunKind::Hbt(h) => h.on_heading(t, continuous_rad, error_rad),
+            RunKind::Clfrt(c) => c.on_heading(t, continuous_rad),
+        };
+        let (center, test) = match &run.kind {
+            RunKind::Hbt(h) => (h.trim_rad(), run.id.clone()),
+            RunKind::Clfrt(_) => (0.0, run.id.clone()),
+        };
+        if let Some(phase) = step.phase {
+            if phase != run.phase {
+                run.phase = phase;
+                self.emit_status(t, phase, None);
+            }
+        }
+        match step.done {
+            Some(result) => self.finish(t, result),
+            None => self.emit_gated(t, step.mode, step.value, center, Some(test)),
+        }
+    }
+
+    /// Ends the test in progress at `t`: `Ok(features)` completed, `Err(reason)` aborted.
+    /// Queues, in order: the excitation `none` for this sample (when `t` is a heading sample
+    /// time), the report, and the idle status.
+    fn finish(&mut self, t: f64, result: Result<Features, String>) {
+        let Some(run) = self.run.take() else { return };
+        self.last_test_end = Some(t);
+        let mut estimate = None;
+        let mut assessment = None;
+        let (outcome, reason, features, message) = match result {
+            Ok(f) => {
+                self.stats.tests_completed += 1;
+                let mut features = f.to_json();
+                if run.speed_n > 0 {
+                    if let Some(obj) = features.as_object_mut() {
+                        let mean = run.speed_sum_mps / run.speed_n as f64;
+                        obj.insert(SPEED_LOG_FIELD.into(), mean.into());
+                    }
+                }
+                let name = run.method.name().to_uppercase();
+                let d_nom_t = self.nominal_displacement_t();
+                let (est_text, a) = match &mut self.estimator {
+                    None => (
+                        "no estimator loaded".to_string(),
+                        self.fdi.assess(run.method, &features, None, d_nom_t),
+                    ),
+                    Some((est, scratch)) => match est.estimate(run.method, &features, scratch) {
+                        Ok(e) => {
+                            estimate = Some(e);
+                            let a = self.fdi.assess(
+                                run.method,
+                                &features,
+                                Some((&e, est.as_ref(), scratch)),
+                                d_nom_t,
+                            );
+                            (
+                                format!(
+                                    "estimate {:.2} m/s, {:.0} t",
+                                    e.speed_mps, e.displacement_t
+                                ),
+                                a,
+                            )
+                        }
+                        Err(e) => (
+                            format!("no estimate: {e}"),
+                            self.fdi.assess(run.method, &features, None, d_nom_t),
+                        ),
+                    },
+                };
+                let msg = format!("{name} test completed; {est_text}; {}", a.summary);
+                assessment = Some(a);
+                (Outcome::Completed, None, features, msg)
+            }
+            Err(reason) => {
+                self.stats.tests_aborted += 1;
+                tracing::warn!(vessel = %self.vessel, test = %run.id, "test aborted: {reason}");
+                let msg = format!(
+                    "{} test aborted: {reason}",
+                    run.method.name().to_uppercase()
+                );
+                (
+                    Outcome::Aborted,
+                    Some(reason),
+                    serde_json::Value::Object(Default::default()),
+                    msg,
+                )
+            }
+        };
+        // Stop the excitation first: at a heading sample, its excitation is `none`.
+        if self.last_heading_t() == Some(t) && !self.excitation_sent_at(t) {
+            self.emit_excitation(t, ExcitationMode::None, 0.0);
+        }
+        let report = Report {
+            test: run.id.clone(),
+            method: run.method,
+            t_start: run.t_start,
+            t_end: t,
+            outcome,
+            reason: reason.clone(),
+            features,
+            estimate,
+            residuals: assessment
+                .as_ref()
+                .map_or_else(|| serde_json::json!({}), |a| a.residuals.clone()),
+            decision: assessment
+                .as_ref()
+                .map_or(Decision::Inconclusive, |a| a.decision),
+            isolation: assessment
+                .as_ref()
+                .map_or_else(Vec::new, |a| a.isolation.clone()),
+            message,
+        };
+        self.outputs.push_back(Output::Report(Box::new(report)));
+        if let Some(n) = assessment.and_then(|a| a.notification) {
+            tracing::warn!(vessel = %self.vessel, state = ?n.state, "{}", n.message);
+            self.outputs.push_back(Output::Notification(n));
+        }
+        let status_reason = match outcome {
+            Outcome::Completed => Some("completed".to_string()),
+            Outcome::Aborted => reason.map(|r| format!("aborted: {r}")),
+        };
+        self.emit_status_for(t, MonitorState::Idle, None, None, status_reason);
+    }
+
+    /// Publishes the excitation of a running test after the safety gate: the value is bounded
+    /// to `center +- max-excitation` and the servo's angle limit; in `add` mode its change from
+    /// the previous `add` value is bounded by the rate limit.
+    fn emit_gated(
+        &mut self,
+        t: f64,
+        mode: ExcitationMode,
+        value: f64,
+        center: f64,
+        test: Option<String>,
+    ) {
+        let s = &self.cfg.safety;
+        let max_exc = s.max_excitation_deg.to_radians();
+        let servo_max = self.cfg.servo.max_angle_rad();
+        let mut v = if value.is_finite() { value } else { 0.0 };
+        let (lo, hi) = match mode {
+            ExcitationMode::None => (0.0, 0.0),
+            ExcitationMode::Add => (-max_exc, max_exc),
+            ExcitationMode::Replace => (
+                (center - max_exc).max(-servo_max),
+                (center + max_exc).min(servo_max),
+            ),
+        };
+        v = v.clamp(lo, hi);
+        if mode == ExcitationMode::Add {
+            let (prev_v, dt) = match self.last_excitation {
+                Some((tp, ExcitationMode::Add, vp)) => (vp, t - tp),
+                Some((tp, _, _)) => (0.0, t - tp),
+                None => (0.0, 1.0 / self.cfg.sensors.rate_hz),
+            };
+            let dmax = s.max_excitation_rate_deg_s.to_radians() * dt.max(0.0);
+            v = v.clamp(prev_v - dmax, prev_v + dmax);
+        }
+        if v != value {
+            self.stats.excitation_clamped += 1;
+            if self.stats.excitation_clamped.is_power_of_two() {
+                tracing::warn!(vessel = %self.vessel, asked = value, sent = v, "excitation bounded by the safety gate");
+            }
+        }
+        self.push_excitation(t, mode, v, test);
+    }
+
+    fn emit_excitation(&mut self, t: f64, mode: ExcitationMode, value: f64) {
+        self.push_excitation(t, mode, value, None);
+    }
+
+    fn push_excitation(&mut self, t: f64, mode: ExcitationMode, value: f64, test: Option<String>) {
+        self.last_excitation = Some((t, mode, value));
+        self.outputs.push_back(Output::Excitation(Excitation {
+            t,
+            mode,
+            value,
+            hold_s: self.cfg.safety.hold_s,
+            test,
+        }));
+    }
+
+    fn emit_status(&mut self, t: f64, state: MonitorState, reason: Option<String>) {
+        let (test, method) = match &self.run {
+            Some(r) => (Some(r.id.clone()), Some(r.method)),
+            None => (None, None),
+        };
+        self.emit_status_for(t, state, test, method, reason);
+    }
+
+    fn emit_status_for(
+        &mut self,
+        t: f64,
+        state: MonitorState,
+        test: Option<String>,
+        method: Option<Method>,
+        reason: Option<String>,
+    ) {
+        self.status = state;
+        self.outputs.push_back(Output::Status(Status {
+            t,
+            state,
+            test,
+            method,
+            reason,
+        }));
+    }
+}
+
+impl Monitor {
+    /// The driver is stopping (daemon shutdown): stops any excitation and closes the books.
+    ///
+    /// Queues, in order: an excitation `none` at the last accepted heading's `t` (it supersedes
+    /// what the autopilot holds, so it reverts at once instead of after `hold_s`); then, if a
+    /// test is under way, its report (aborted with `reason`) and the idle status; otherwise an
+    /// idle status with `reason`. Call it once, drain [`Monitor::poll_output`], publish.
+    pub fn shutdown(&mut self, reason: &str) {
+        let t_heading = self.last_heading_t();
+        if let Some(t) = t_heading {
+            self.push_excitation(t, ExcitationMode::None, 0.0, None);
+        }
+        let t = t_heading
+            .or_else(|| {
+                Stream::ALL
+                    .into_iter()
+                    .filter_map(|s| self.latest.t(s))
+                    .reduce(f64::max)
+            })
+            .unwrap_or(0.0);
+        if self.run.is_some() {
+            self.finish(t, Err(reason.to_string()));
+        } else {
+            self.emit_status_for(t, MonitorState::Idle, None, None, Some(reason.to_string()));
+        }
+    }
+}

@@ -1,0 +1,206 @@
+//! Virtual-time driver: the simulated ship and the monitor core in lockstep, in one process.
+//!
+//! One tick follows the contract's lockstep order: the ship publishes its samples (rudder,
+//! speed, autopilot state and target when due, heading last), the monitor consumes them and
+//! answers the heading with exactly one excitation of the same `t`, the ship's autopilot takes
+//! that excitation, and the ship advances one sample period. No clock and no thread: a
+//! simulated hour costs milliseconds and the same seed gives the same result bit for bit.
+//!
+//! [`Lockstep`] is the building block (the offline probe, tests, the training database and
+//! benchmarks all use it); [`run_probe`] runs one test after a warm-up and returns its report.
+
+use crate::core::dsp::multisine::Multisine;
+use crate::core::estimator::Estimator;
+use crate::core::monitor::config::CoreConfig;
+use crate::core::monitor::{Monitor, Output};
+use crate::core::wire::Method;
+use crate::core::wire::{Input, Report, Status, TriggerReply};
+use crate::sim::config::SimConfig;
+use crate::sim::{Scenario, Ship, SimError};
+use std::sync::Arc;
+
+/// Errors of the virtual-time drivers.
+#[derive(Debug, thiserror::Error)]
+pub enum ProbeError {
+    /// The scenario is not valid.
+    #[error(transparent)]
+    Sim(#[from] SimError),
+    /// The monitor refused to start the test for longer than the warm-up allows.
+    #[error("the monitor refused the test: {0}")]
+    Refused(String),
+    /// No report within the time limit.
+    #[error("no report within {0:.0} s of ship time")]
+    Timeout(f64),
+}
+
+/// A simulated ship and a monitor, driven tick by tick.
+#[derive(Debug)]
+pub struct Lockstep {
+    /// The ship (tests reach in to change course, disengage the autopilot, ...).
+    pub ship: Ship,
+    /// The monitor core.
+    pub monitor: Monitor,
+    /// Samples of the current tick (reused).
+    inputs: Vec<Input>,
+    /// Samples the monitor rejected so far.
+    pub rejected: u64,
+}
+
+impl Lockstep {
+    /// A ship for `scenario` (configured by `sim`) and a monitor (configured by `core`) for
+    /// vessel `sim.simulation.vessel`.
+    pub fn new(core: &CoreConfig, sim: &SimConfig, scenario: &Scenario) -> Result<Self, SimError> {
+        Self::with_parts(core, sim, scenario, None, None)
+    }
+
+    /// As [`Lockstep::new`], the monitor built by [`Monitor::with_parts`] from a designed
+    /// multisine and an estimator when given.
+    pub fn with_parts(
+        core: &CoreConfig,
+        sim: &SimConfig,
+        scenario: &Scenario,
+        multisine: Option<Multisine>,
+        estimator: Option<Arc<Estimator>>,
+    ) -> Result<Self, SimError> {
+        let vessel = &sim.simulation.vessel;
+        Ok(Self {
+            ship: Ship::new(sim, scenario)?,
+            monitor: Monitor::with_parts(core, vessel, multisine, estimator),
+            inputs: Vec::with_capacity(8),
+            rejected: 0,
+        })
+    }
+
+    /// Ship time of the next tick [s].
+    pub fn time_s(&self) -> f64 {
+        self.ship.time_s()
+    }
+
+    /// One tick. Outputs other than excitations are appended to `out`; excitations go to the
+    /// ship's autopilot (and are appended too when `keep_excitation`).
+    pub fn tick(&mut self, out: &mut Vec<Output>, keep_excitation: bool) {
+        self.inputs.clear();
+        self.ship.publish(&mut self.inputs);
+        for input in self.inputs.drain(..) {
+            if self.monitor.handle_input(input).is_err() {
+                self.rejected += 1;
+            }
+            while let Some(o) = self.monitor.poll_output() {
+                if let Output::Excitation(e) = &o {
+                    self.ship.receive_excitation(e);
+                    if !keep_excitation {
+                        continue;
+                    }
+                }
+                out.push(o);
+            }
+        }
+        self.ship.step();
+    }
+
+    /// Runs ticks until ship time `t_end_s`, collecting outputs (excitations excluded).
+    pub fn run_until(&mut self, t_end_s: f64, out: &mut Vec<Output>) {
+        while self.ship.time_s() < t_end_s {
+            self.tick(out, false);
+        }
+    }
+
+    /// Asks the monitor for a test now.
+    pub fn trigger(&mut self, method: Method) -> TriggerReply {
+        self.monitor.trigger(method)
+    }
+}
+
+/// Options of one probe run.
+#[derive(Debug, Clone)]
+pub struct ProbeOptions {
+    /// The test to run.
+    pub method: Method,
+    /// Ship time before the test is triggered, so the autopilot and the sea settle [s].
+    pub warmup_s: f64,
+    /// Give up when no report arrived after this much ship time from the trigger [s].
+    pub max_test_s: f64,
+    /// Networks for the report's `estimate` (none: features only).
+    pub estimator: Option<Arc<Estimator>>,
+    /// The CLFRT multisine from [`Monitor::design_multisine`] for this configuration, to
+    /// skip its design (~0.1 s) when running many probes (none: designed per run).
+    pub multisine: Option<Multisine>,
+}
+
+impl ProbeOptions {
+    /// Defaults: 600 s warm-up, and the safety limit on test duration plus a margin.
+    pub fn new(cfg: &CoreConfig, method: Method) -> Self {
+        Self {
+            method,
+            warmup_s: 600.0,
+            max_test_s: cfg.safety.max_test_duration_s + 120.0,
+            estimator: None,
+            multisine: None,
+        }
+    }
+}
+
+/// What a probe run produced.
+#[derive(Debug, Clone)]
+pub struct ProbeResult {
+    /// The report of the test.
+    pub report: Report,
+    /// Every status change, in order.
+    pub statuses: Vec<Status>,
+}
+
+/// Runs one test on a simulated ship in virtual time and returns its report (with an
+/// `estimate` when `opts.estimator` is set). The scheduler
+/// is switched off: the test starts on trigger after the warm-up (retried each second while
+/// the monitor refuses, for up to the warm-up time again).
+pub fn run_probe(
+    core: &CoreConfig,
+    sim: &SimConfig,
+    scenario: &Scenario,
+    opts: &ProbeOptions,
+) -> Result<ProbeResult, ProbeError> {
+    let mut core = core.clone();
+    core.scheduler.enabled = false;
+    let mut ls = Lockstep::with_parts(
+        &core,
+        sim,
+        scenario,
+        opts.multisine.clone(),
+        opts.estimator.clone(),
+    )?;
+    let mut out = Vec::new();
+    let t0 = ls.time_s();
+    ls.run_until(t0 + opts.warmup_s, &mut out);
+    let mut last_refusal = String::new();
+    let t_trigger = loop {
+        let reply = ls.trigger(opts.method);
+        if reply.accepted {
+            break ls.time_s();
+        }
+        last_refusal = reply.reason.unwrap_or_default();
+        if ls.time_s() > t0 + 2.0 * opts.warmup_s {
+            return Err(ProbeError::Refused(last_refusal));
+        }
+        let t = ls.time_s();
+        ls.run_until(t + 1.0, &mut out);
+    };
+    let _ = last_refusal;
+    out.clear();
+    let mut statuses = Vec::new();
+    while ls.time_s() < t_trigger + opts.max_test_s {
+        ls.tick(&mut out, false);
+        for o in out.drain(..) {
+            match o {
+                Output::Status(s) => statuses.push(s),
+                Output::Report(r) => {
+                    return Ok(ProbeResult {
+                        report: *r,
+                        statuses,
+                    })
+                }
+                _ => {}
+            }
+        }
+    }
+    Err(ProbeError::Timeout(opts.max_test_s))
+}

@@ -1,0 +1,168 @@
+//! Replay: the monitor core over a recording, in the recording's order, without a clock.
+//!
+//! A recording is JSON lines `{"key": "vessels/<v>/<path>", "payload": {...}}` (the output of
+//! `helmwatch simulate` and of `helmwatch ship --record`). Each line on an input stream key is
+//! decoded and fed to the core of its vessel (one core per vessel found, created on first
+//! sight); lines on other keys (excitations, reports) are skipped. After each sample every
+//! output is handed to the caller. Silence is noticed on the recording's own clock: after a
+//! non-heading sample, [`Monitor::handle_timeout`] is called with that sample's `t`.
+//!
+//! A recording made without a daemon (`simulate`) has no excitation in it, so tests started
+//! by the scheduler see no response and abort (HBT: no limit cycle): that is the truth about
+//! such a recording. A recording of a live session (`ship --record`) replays the daemon's
+//! tests: same configuration, same inputs, same reports.
+
+use crate::core::monitor::config::CoreConfig;
+use crate::core::monitor::{Monitor, Output};
+use crate::core::wire::{self, Keys, RecordLine};
+use std::collections::HashMap;
+use std::io::BufRead;
+
+/// Most vessels one replay creates cores for (a hostile file cannot exhaust memory).
+pub const MAX_VESSELS: usize = 10_000;
+
+/// Why a replay stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum ReplayError {
+    /// Reading the recording failed.
+    #[error("reading the recording: {0}")]
+    Io(#[from] std::io::Error),
+    /// The estimator's model files are missing, invalid, or not for this configuration.
+    #[error(transparent)]
+    Estimator(#[from] crate::core::estimator::model::ModelError),
+    /// More vessels than [`MAX_VESSELS`].
+    #[error("more than {MAX_VESSELS} vessels in the recording")]
+    TooManyVessels,
+}
+
+/// Counts of a replay.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct ReplaySummary {
+    /// Lines read.
+    pub lines: u64,
+    /// Lines that are not a `{"key", "payload"}` object.
+    pub bad_lines: u64,
+    /// Lines on keys that are not input streams (skipped).
+    pub skipped: u64,
+    /// Samples rejected by the cores (malformed payloads included).
+    pub rejected: u64,
+    /// Reports produced.
+    pub reports: u64,
+    /// Vessels found.
+    pub vessels: u64,
+}
+
+/// Replays `reader` through one core per vessel; `on_output(vessel, output)` sees every
+/// output except excitations (there is no autopilot to send them to).
+pub fn replay(
+    cfg: &CoreConfig,
+    reader: impl BufRead,
+    mut on_output: impl FnMut(&str, &Output),
+) -> Result<ReplaySummary, ReplayError> {
+    let estimator = crate::core::estimator::Estimator::from_config(cfg)?;
+    // Designed once for every vessel of the recording (a failed design is the monitor's to
+    // report, per test).
+    let multisine = Monitor::design_multisine(cfg).ok();
+    let mut cores: HashMap<String, (Keys, Monitor)> = HashMap::new();
+    let mut sum = ReplaySummary::default();
+    for line in reader.lines() {
+        let line = line?;
+        sum.lines += 1;
+        if line.trim().is_empty() {
+            continue;
+        }
+        let Ok(rec) = serde_json::from_str::<RecordLine>(&line) else {
+            sum.bad_lines += 1;
+            continue;
+        };
+        let Some(vessel) = rec
+            .key
+            .strip_prefix("vessels/")
+            .and_then(|r| r.split_once('/'))
+            .map(|(v, _)| v)
+        else {
+            sum.skipped += 1;
+            continue;
+        };
+        if !cores.contains_key(vessel) {
+            if crate::core::config::check_vessel_name("vessel", vessel).is_err() {
+                sum.skipped += 1;
+                continue;
+            }
+            if cores.len() >= MAX_VESSELS {
+                return Err(ReplayError::TooManyVessels);
+            }
+            cores.insert(
+                vessel.to_string(),
+                (
+                    Keys::new(vessel),
+                    Monitor::with_parts(cfg, vessel, multisine.clone(), estimator.clone()),
+                ),
+            );
+        }
+        let Some((keys, monitor)) = cores.get_mut(vessel) else {
+            continue;
+        };
+        let Some(stream) = keys.stream_of(&rec.key) else {
+            sum.skipped += 1;
+            continue;
+        };
+        match wire::decode_value(stream, rec.payload) {
+            Err(_) => {
+                monitor.count_malformed(stream);
+                sum.rejected += 1;
+            }
+            Ok(input) => {
+                let t = input.t();
+                let heading = stream == wire::Stream::Heading;
+                if monitor.handle_input(input).is_err() {
+                    sum.rejected += 1;
+                } else if !heading {
+                    monitor.handle_timeout(t);
+                }
+            }
+        }
+        while let Some(out) = monitor.poll_output() {
+            match &out {
+                Output::Excitation(_) => continue,
+                Output::Report(_) => sum.reports += 1,
+                _ => {}
+            }
+            on_output(vessel, &out);
+        }
+    }
+    sum.vessels = cores.len() as u64;
+    Ok(sum)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::Scenario;
+
+    #[test]
+    fn replay_of_a_simulation_counts_and_skips() {
+        let mut cfg = CoreConfig::default();
+        cfg.scheduler.steady_time_s = 30.0;
+        let sim = crate::sim::config::SimConfig::default();
+        let mut buf = Vec::new();
+        crate::sim::record(&sim, &Scenario::nominal(&sim, 3), 300.0, "self", &mut buf).unwrap();
+        buf.extend_from_slice(b"not json\n{\"key\": \"vessels/self/navigation/headingTrue\", \"payload\": {\"t\": 1.0}}\n{\"key\": \"elsewhere\", \"payload\": {}}\n");
+        let mut statuses = 0;
+        let sum = replay(&cfg, &buf[..], |v, o| {
+            assert_eq!(v, "self");
+            if matches!(o, Output::Status(_)) {
+                statuses += 1;
+            }
+        })
+        .unwrap();
+        assert_eq!(sum.vessels, 1);
+        assert_eq!(sum.bad_lines, 1);
+        assert_eq!(sum.skipped, 1);
+        assert!(sum.rejected >= 1, "{sum:?}");
+        assert!(
+            statuses >= 1,
+            "the scheduler started a test on the steady ship"
+        );
+    }
+}

@@ -1,0 +1,70 @@
+//! The `[daemon]` section: vessels, queues, timers.
+
+use crate::core::config::{
+    check_count, check_range, check_range_open_low, check_vessel_name, fail, ConfigError,
+};
+use serde::{Deserialize, Serialize};
+
+/// The daemon (`helmwatch run`): one monitor core per vessel, each fed by a bounded queue.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
+pub struct DaemonConfig {
+    /// Vessels monitored, one monitor core each (`vessels/<vessel>/...`); 1 to 100000 names.
+    pub vessels: Vec<String>,
+    /// Capacity of each vessel's input queue [messages]. A full queue drops new samples and
+    /// counts them (`dropped.flood` in the stats): a flood never grows memory.
+    pub queue_capacity: u32,
+    /// Period of the silence check [s]: ship time is estimated as the last heading's `t` plus
+    /// the wall time since it arrived, so a silent heading stream aborts a test.
+    pub tick_s: f64,
+    /// Period of the statistics (log at debug level, `fdi/stats` publication) [s]; 0 = never.
+    pub stats_period_s: f64,
+    /// Publish the statistics on `vessels/<v>/fdi/stats` (an addition to the contract).
+    pub publish_stats: bool,
+    /// Longest wait for the final publications (`mode: none`, status) at shutdown [s].
+    pub shutdown_timeout_s: f64,
+}
+
+impl Default for DaemonConfig {
+    fn default() -> Self {
+        Self {
+            vessels: vec!["self".to_string()],
+            queue_capacity: 256,
+            tick_s: 0.5,
+            stats_period_s: 60.0,
+            publish_stats: true,
+            shutdown_timeout_s: 5.0,
+        }
+    }
+}
+
+impl DaemonConfig {
+    /// Checks the section's limits; the error names the key and its allowed range.
+    pub fn check(&self) -> Result<(), ConfigError> {
+        if self.vessels.is_empty() || self.vessels.len() > 100_000 {
+            return Err(fail(
+                "daemon.vessels",
+                format!("{} names", self.vessels.len()),
+                "1 to 100000 vessel names",
+            ));
+        }
+        let mut seen = std::collections::HashSet::new();
+        for (i, v) in self.vessels.iter().enumerate() {
+            let key = format!("daemon.vessels[{i}]");
+            check_vessel_name(&key, v)?;
+            if !seen.insert(v.as_str()) {
+                return Err(fail(&key, format!("{v:?}"), "each vessel once"));
+            }
+        }
+        check_count("daemon.queue-capacity", self.queue_capacity, 16, 1_000_000)?;
+        check_range_open_low("daemon.tick-s", self.tick_s, 0.0, 10.0)?;
+        check_range("daemon.stats-period-s", self.stats_period_s, 0.0, 86400.0)?;
+        check_range_open_low(
+            "daemon.shutdown-timeout-s",
+            self.shutdown_timeout_s,
+            0.0,
+            60.0,
+        )?;
+        Ok(())
+    }
+}

@@ -1,0 +1,776 @@
+//! The daemon: a thin Zenoh driver around one [`Monitor`] core per vessel.
+//!
+//! ## Tasks (all on one tokio runtime)
+//!
+//! | task | owns | does |
+//! |---|---|---|
+//! | Zenoh subscriber callbacks (one per vessel and input stream) | nothing | copy the payload, `try_send` it to the vessel's queue; a full queue drops and counts (`dropped.flood`) |
+//! | one vessel task per vessel | its `Monitor`, its publishers | decodes, feeds the core, drains every output at once (the excitation first, so a lockstep ship is answered promptly), checks silence every `daemon.tick-s`, publishes statistics |
+//! | the trigger task | the queries | parses `method=hbt\|clfrt`, asks the vessel task, replies with its [`TriggerReply`] |
+//!
+//! The core has a single owner and no lock. Every queue is bounded (`daemon.queue-capacity`
+//! samples per vessel, 64 queries), so a flood or a slow consumer never grows memory: the
+//! callbacks never block Zenoh's threads, they drop. Decisions are never dropped: status,
+//! report and notification are published by the owning task, reliably, with blocking
+//! congestion control. The excitation is published express at real-time priority, also with
+//! blocking congestion control: in lockstep the ship waits for exactly one excitation per
+//! heading, and a dropped one would stall it for `ship-peer.excitation-timeout-s`; a real
+//! autopilot reverts by itself when `hold_s` runs out, so a late excitation is harmless.
+//!
+//! ## Lifecycle
+//!
+//! [`Daemon::start`] opens the session and declares everything (publishers, vessel tasks,
+//! subscribers, the trigger queryable, and last the liveliness tokens `fdi/alive`): when it
+//! returns, the daemon is ready. [`Daemon::run`] waits for the `shutdown` future (any future:
+//! a signal in `main`, a token in tests), then stops intake, lets every vessel task publish
+//! `mode: none` at its last heading `t` and a final status (a test under way is reported as
+//! aborted), undeclares the tokens and closes the session.
+
+pub mod config;
+
+use crate::core::config::ConfigError;
+use crate::core::monitor::config::CoreConfig;
+use crate::core::monitor::{Monitor, Output};
+use crate::core::wire::Method;
+use crate::core::wire::{self, Input, Keys, Stream, TriggerReply};
+use config::DaemonConfig;
+use std::collections::HashMap;
+use std::future::Future;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use tokio::sync::{mpsc, oneshot};
+use tokio_util::sync::CancellationToken;
+use zenoh::bytes::Encoding;
+use zenoh::key_expr::KeyExpr;
+use zenoh::liveliness::LivelinessToken;
+use zenoh::pubsub::{Publisher, Subscriber};
+use zenoh::qos::{CongestionControl, Priority};
+use zenoh::query::{Query, Queryable};
+
+/// Why the daemon could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum DaemonError {
+    /// The configuration breaks a limit.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// The estimator's model files are missing, invalid, or not for this configuration.
+    #[error(transparent)]
+    Estimator(#[from] crate::core::estimator::model::ModelError),
+    /// The Zenoh session could not be opened (bad endpoint, port in use...).
+    #[error("cannot open the Zenoh session: {0}")]
+    Open(String),
+    /// A publisher, subscriber, queryable or token could not be declared.
+    #[error("cannot declare the {what} on {key}: {reason}")]
+    Declare {
+        /// What was declared.
+        what: &'static str,
+        /// On which key expression.
+        key: String,
+        /// Zenoh's message.
+        reason: String,
+    },
+}
+
+impl DaemonError {
+    fn declare(what: &'static str, key: &str) -> impl FnOnce(zenoh::Error) -> DaemonError {
+        let key = key.to_string();
+        move |e| DaemonError::Declare {
+            what,
+            key,
+            reason: e.to_string(),
+        }
+    }
+}
+
+/// What a vessel task receives.
+#[derive(Debug)]
+enum Msg {
+    /// A payload on an input stream, as received.
+    Sample { stream: Stream, payload: Vec<u8> },
+    /// A trigger request; the reply goes back on the oneshot.
+    Trigger {
+        method: Method,
+        reply: oneshot::Sender<TriggerReply>,
+    },
+}
+
+/// Counters the Zenoh callbacks update without touching the core.
+#[derive(Debug, Default)]
+struct Shared {
+    /// Samples dropped because the vessel's queue was full.
+    flood: AtomicU64,
+    /// Trigger requests refused because the vessel's queue was full.
+    triggers_dropped: AtomicU64,
+}
+
+/// Where a key's vessel queue is.
+#[derive(Debug)]
+struct Fleet {
+    /// Vessel name -> index.
+    index: HashMap<String, usize>,
+    /// Vessel names, in configuration order.
+    names: Vec<String>,
+    /// Each vessel's queue.
+    senders: Vec<mpsc::Sender<Msg>>,
+    /// Each vessel's drop counters.
+    shared: Vec<Arc<Shared>>,
+    /// Each vessel's trigger key (to match wildcard queries).
+    trigger_keys: Vec<KeyExpr<'static>>,
+    /// Samples on a stream key of a vessel that is not configured (wildcard subscriptions).
+    unknown: AtomicU64,
+    /// Queries dropped because the trigger queue was full.
+    queries_dropped: AtomicU64,
+}
+
+impl Fleet {
+    /// The vessel of `vessels/<vessel>/...`, if configured.
+    fn vessel_of(&self, key: &str) -> Option<usize> {
+        let rest = key.strip_prefix("vessels/")?;
+        let (name, _) = rest.split_once('/')?;
+        self.index.get(name).copied()
+    }
+
+    /// Hands a sample to its vessel's queue; drops and counts when the queue is full.
+    fn dispatch(&self, stream: Stream, key: &str, payload: Vec<u8>) {
+        let Some(i) = self.vessel_of(key) else {
+            self.unknown.fetch_add(1, Ordering::Relaxed);
+            return;
+        };
+        if let Err(mpsc::error::TrySendError::Full(_)) =
+            self.senders[i].try_send(Msg::Sample { stream, payload })
+        {
+            let n = self.shared[i].flood.fetch_add(1, Ordering::Relaxed) + 1;
+            if n.is_power_of_two() {
+                tracing::warn!(
+                    vessel = %self.names[i],
+                    dropped = n,
+                    "input queue full: samples dropped (flood or slow core)"
+                );
+            }
+        }
+    }
+}
+
+/// The final statistics of one vessel.
+#[derive(Debug, Clone)]
+pub struct VesselSummary {
+    /// The vessel.
+    pub vessel: String,
+    /// The statistics object (as published on `fdi/stats`).
+    pub stats: serde_json::Value,
+}
+
+/// A running daemon: the session and everything declared on it.
+pub struct Daemon {
+    session: zenoh::Session,
+    cfg: DaemonConfig,
+    fleet: Arc<Fleet>,
+    cancel: CancellationToken,
+    vessel_tasks: Vec<tokio::task::JoinHandle<VesselSummary>>,
+    trigger_task: tokio::task::JoinHandle<()>,
+    subscribers: Vec<Subscriber<()>>,
+    queryable: Queryable<()>,
+    tokens: Vec<LivelinessToken>,
+}
+
+impl std::fmt::Debug for Daemon {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Daemon")
+            .field("vessels", &self.fleet.names.len())
+            .finish_non_exhaustive()
+    }
+}
+
+/// Starts the daemon on `zcfg` and runs it until `shutdown` completes.
+pub async fn run(
+    core: &CoreConfig,
+    cfg: &DaemonConfig,
+    zcfg: zenoh::Config,
+    shutdown: impl Future<Output = ()>,
+) -> Result<Vec<VesselSummary>, DaemonError> {
+    let daemon = Daemon::start(core, cfg, zcfg).await?;
+    Ok(daemon.run(shutdown).await)
+}
+
+impl Daemon {
+    /// Opens the session and declares everything; the daemon is ready when this returns.
+    /// Every vessel's monitor core is configured by `core`; the multisine is designed once for
+    /// all of them.
+    pub async fn start(
+        core: &CoreConfig,
+        cfg: &DaemonConfig,
+        zcfg: zenoh::Config,
+    ) -> Result<Daemon, DaemonError> {
+        core.check()?;
+        cfg.check()?;
+        let estimator = crate::core::estimator::Estimator::from_config(core)?;
+        let multisine = Monitor::design_multisine(core).ok();
+        let session = zenoh::open(zcfg)
+            .await
+            .map_err(|e| DaemonError::Open(e.to_string()))?;
+        let cancel = CancellationToken::new();
+        let names = cfg.vessels.clone();
+        let capacity = cfg.queue_capacity as usize;
+
+        // Publishers and vessel tasks.
+        let mut senders = Vec::with_capacity(names.len());
+        let mut shared = Vec::with_capacity(names.len());
+        let mut trigger_keys = Vec::with_capacity(names.len());
+        let mut vessel_tasks = Vec::with_capacity(names.len());
+        for name in &names {
+            let keys = Keys::new(name);
+            let pubs = Publishers::declare(&session, &keys, cfg.publish_stats).await?;
+            let (tx, rx) = mpsc::channel(capacity);
+            let sh = Arc::new(Shared::default());
+            let trigger_key = KeyExpr::try_from(keys.trigger())
+                .map_err(DaemonError::declare("trigger key", name))?;
+            let task = VesselTask {
+                monitor: Monitor::with_parts(core, name, multisine.clone(), estimator.clone()),
+                name: name.clone(),
+                rx,
+                pubs,
+                shared: sh.clone(),
+                last_heading: None,
+                tick: Duration::from_secs_f64(cfg.tick_s),
+                stats_period: (cfg.stats_period_s > 0.0)
+                    .then(|| Duration::from_secs_f64(cfg.stats_period_s)),
+                shutdown_timeout: Duration::from_secs_f64(cfg.shutdown_timeout_s),
+                publish_errors: 0,
+            };
+            vessel_tasks.push(tokio::spawn(task.run(cancel.clone())));
+            senders.push(tx);
+            shared.push(sh);
+            trigger_keys.push(trigger_key);
+        }
+        let fleet = Arc::new(Fleet {
+            index: names
+                .iter()
+                .enumerate()
+                .map(|(i, n)| (n.clone(), i))
+                .collect(),
+            names: names.clone(),
+            senders,
+            shared,
+            trigger_keys,
+            unknown: AtomicU64::new(0),
+            queries_dropped: AtomicU64::new(0),
+        });
+
+        // Subscribers: one per vessel and stream, on exact keys. (A wildcard subscription
+        // per stream would be fewer declarations, but Zenoh then computes the route of every
+        // sample: a fleet daemon kept up with a third as many vessels in the benchmark.)
+        let single = (names.len() == 1).then(|| Keys::new(&names[0]));
+        let mut sub_keys = Vec::with_capacity(Stream::ALL.len() * names.len());
+        for n in &names {
+            let keys = Keys::new(n);
+            for stream in Stream::ALL {
+                sub_keys.push((stream, keys.stream(stream)));
+            }
+        }
+        let mut subscribers = Vec::with_capacity(sub_keys.len());
+        for (stream, key) in sub_keys {
+            let f = fleet.clone();
+            let sub = session
+                .declare_subscriber(key.clone())
+                .callback(move |sample| {
+                    let payload = sample.payload().to_bytes().into_owned();
+                    f.dispatch(stream, sample.key_expr().as_str(), payload);
+                })
+                .await
+                .map_err(DaemonError::declare("subscriber", &key))?;
+            subscribers.push(sub);
+        }
+
+        // The trigger queryable and its task.
+        let trigger_key = match &single {
+            Some(k) => k.trigger(),
+            None => "vessels/*/fdi/trigger".to_string(),
+        };
+        let (qtx, qrx) = mpsc::channel::<Query>(64);
+        let f = fleet.clone();
+        let queryable = session
+            .declare_queryable(trigger_key.clone())
+            .callback(move |query| {
+                if qtx.try_send(query).is_err() {
+                    f.queries_dropped.fetch_add(1, Ordering::Relaxed);
+                }
+            })
+            .await
+            .map_err(DaemonError::declare("queryable", &trigger_key))?;
+        let trigger_task = tokio::spawn(serve_triggers(fleet.clone(), qrx, cancel.clone()));
+
+        // Liveliness last: it tells the world the vessels are monitored.
+        let mut tokens = Vec::with_capacity(names.len());
+        for name in &names {
+            let key = Keys::new(name).alive();
+            let token = session
+                .liveliness()
+                .declare_token(key.clone())
+                .await
+                .map_err(DaemonError::declare("liveliness token", &key))?;
+            tokens.push(token);
+        }
+        tracing::info!(
+            vessels = names.len(),
+            zid = %session.zid(),
+            "daemon ready"
+        );
+        Ok(Daemon {
+            session,
+            cfg: cfg.clone(),
+            fleet,
+            cancel,
+            vessel_tasks,
+            trigger_task,
+            subscribers,
+            queryable,
+            tokens,
+        })
+    }
+
+    /// The vessels monitored.
+    pub fn vessels(&self) -> &[String] {
+        &self.fleet.names
+    }
+
+    /// Samples dropped so far because a vessel's queue was full, all vessels.
+    pub fn flood_drops(&self) -> u64 {
+        self.fleet
+            .shared
+            .iter()
+            .map(|s| s.flood.load(Ordering::Relaxed))
+            .sum()
+    }
+
+    /// The daemon's Zenoh session (for in-process tools: the demo, benchmarks).
+    pub fn session(&self) -> &zenoh::Session {
+        &self.session
+    }
+
+    /// Runs until `shutdown` completes, then stops cleanly (see the module documentation).
+    /// Returns each vessel's final statistics.
+    pub async fn run(self, shutdown: impl Future<Output = ()>) -> Vec<VesselSummary> {
+        shutdown.await;
+        self.stop().await
+    }
+
+    /// Stops now: intake first, then `mode: none` and a final status per vessel, then the
+    /// tokens and the session.
+    pub async fn stop(self) -> Vec<VesselSummary> {
+        tracing::info!("daemon stopping");
+        for sub in self.subscribers {
+            if let Err(e) = sub.undeclare().await {
+                tracing::warn!("undeclaring a subscriber: {e}");
+            }
+        }
+        if let Err(e) = self.queryable.undeclare().await {
+            tracing::warn!("undeclaring the trigger queryable: {e}");
+        }
+        self.cancel.cancel();
+        let limit = Duration::from_secs_f64(self.cfg.shutdown_timeout_s + 1.0);
+        let mut summaries = Vec::with_capacity(self.vessel_tasks.len());
+        for (i, task) in self.vessel_tasks.into_iter().enumerate() {
+            match tokio::time::timeout(limit, task).await {
+                Ok(Ok(s)) => summaries.push(s),
+                Ok(Err(e)) => {
+                    tracing::error!(vessel = %self.fleet.names[i], "vessel task failed: {e}")
+                }
+                Err(_) => {
+                    tracing::error!(vessel = %self.fleet.names[i], "vessel task did not stop in time")
+                }
+            }
+        }
+        let _ = tokio::time::timeout(limit, self.trigger_task).await;
+        for token in self.tokens {
+            if let Err(e) = token.undeclare().await {
+                tracing::warn!("undeclaring a liveliness token: {e}");
+            }
+        }
+        let unknown = self.fleet.unknown.load(Ordering::Relaxed);
+        let queries = self.fleet.queries_dropped.load(Ordering::Relaxed);
+        if unknown > 0 || queries > 0 {
+            tracing::info!(
+                unknown_vessel_samples = unknown,
+                queries_dropped = queries,
+                "daemon-wide counters"
+            );
+        }
+        if let Err(e) = self.session.close().await {
+            tracing::warn!("closing the Zenoh session: {e}");
+        }
+        tracing::info!("daemon stopped");
+        summaries
+    }
+}
+
+/// The publishers of one vessel, declared once.
+struct Publishers {
+    excitation: Publisher<'static>,
+    status: Publisher<'static>,
+    report: Publisher<'static>,
+    notification: Publisher<'static>,
+    stats: Option<Publisher<'static>>,
+}
+
+impl Publishers {
+    async fn declare(
+        session: &zenoh::Session,
+        keys: &Keys,
+        stats: bool,
+    ) -> Result<Self, DaemonError> {
+        let json = || Encoding::APPLICATION_JSON;
+        // Declared key expressions travel as numeric ids and let the receivers cache routes.
+        let excitation_key = keys.excitation();
+        let ke = session
+            .declare_keyexpr(excitation_key.clone())
+            .await
+            .map_err(DaemonError::declare("key expression", &excitation_key))?;
+        let excitation = session
+            .declare_publisher(ke)
+            .encoding(json())
+            .congestion_control(CongestionControl::Block)
+            .priority(Priority::RealTime)
+            .express(true)
+            .await
+            .map_err(DaemonError::declare("publisher", &excitation_key))?;
+        let reliable = |key: String, priority: Priority| {
+            session
+                .declare_publisher(key)
+                .encoding(json())
+                .congestion_control(CongestionControl::Block)
+                .priority(priority)
+        };
+        let k = keys.status();
+        let status = reliable(k.clone(), Priority::Data)
+            .await
+            .map_err(DaemonError::declare("publisher", &k))?;
+        let k = keys.report();
+        let report = reliable(k.clone(), Priority::Data)
+            .await
+            .map_err(DaemonError::declare("publisher", &k))?;
+        let k = keys.notification();
+        let notification = reliable(k.clone(), Priority::DataHigh)
+            .await
+            .map_err(DaemonError::declare("publisher", &k))?;
+        let stats = if stats {
+            let k = stats_key(keys);
+            Some(
+                session
+                    .declare_publisher(k.clone())
+                    .encoding(json())
+                    .congestion_control(CongestionControl::Drop)
+                    .priority(Priority::DataLow)
+                    .await
+                    .map_err(DaemonError::declare("publisher", &k))?,
+            )
+        } else {
+            None
+        };
+        Ok(Self {
+            excitation,
+            status,
+            report,
+            notification,
+            stats,
+        })
+    }
+}
+
+/// `vessels/<v>/fdi/stats`: the daemon's counters for one vessel (an addition to the contract).
+pub fn stats_key(keys: &Keys) -> String {
+    format!("{}/fdi/stats", keys.prefix)
+}
+
+/// The task that owns one vessel's monitor core.
+struct VesselTask {
+    monitor: Monitor,
+    name: String,
+    rx: mpsc::Receiver<Msg>,
+    pubs: Publishers,
+    shared: Arc<Shared>,
+    /// Last accepted heading: its ship time and when it arrived (silence check).
+    last_heading: Option<(f64, Instant)>,
+    tick: Duration,
+    stats_period: Option<Duration>,
+    shutdown_timeout: Duration,
+    /// Failed publications (logged once per burst).
+    publish_errors: u64,
+}
+
+impl VesselTask {
+    async fn run(mut self, cancel: CancellationToken) -> VesselSummary {
+        let mut tick = tokio::time::interval(self.tick);
+        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+        let mut stats = self.stats_period.map(|p| {
+            let mut i = tokio::time::interval_at(tokio::time::Instant::now() + p, p);
+            i.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+            i
+        });
+        loop {
+            tokio::select! {
+                biased;
+                _ = cancel.cancelled() => break,
+                _ = tick.tick() => {
+                    if let Some((t, at)) = self.last_heading {
+                        self.monitor.handle_timeout(t + at.elapsed().as_secs_f64());
+                        self.publish_outputs().await;
+                    }
+                }
+                _ = next_tick(stats.as_mut()) => self.publish_stats().await,
+                msg = self.rx.recv() => match msg {
+                    Some(m) => self.handle(m).await,
+                    None => break,
+                },
+            }
+        }
+        self.rx.close();
+        self.monitor.shutdown("daemon stopping");
+        let limit = self.shutdown_timeout;
+        if tokio::time::timeout(limit, self.publish_outputs())
+            .await
+            .is_err()
+        {
+            tracing::warn!(vessel = %self.name, "final publications timed out");
+        }
+        let stats = self.stats_json();
+        tracing::info!(vessel = %self.name, stats = %stats, "vessel statistics");
+        VesselSummary {
+            vessel: self.name,
+            stats,
+        }
+    }
+
+    async fn handle(&mut self, msg: Msg) {
+        match msg {
+            Msg::Sample { stream, payload } => {
+                match wire::decode(stream, &payload) {
+                    Err(e) => {
+                        if self.monitor.count_malformed(stream) {
+                            let n = self.monitor.counters().rejected(
+                                stream,
+                                crate::core::monitor::input::RejectReason::Malformed,
+                            );
+                            tracing::warn!(vessel = %self.name, stream = stream.name(), count = n, "{e}");
+                        }
+                    }
+                    Ok(input) => {
+                        let heading_t = match &input {
+                            Input::Heading(s) => Some(s.t),
+                            _ => None,
+                        };
+                        if self.monitor.handle_input(input).is_ok() {
+                            if let Some(t) = heading_t {
+                                self.last_heading = Some((t, Instant::now()));
+                            }
+                        }
+                    }
+                }
+                self.publish_outputs().await;
+            }
+            Msg::Trigger { method, reply } => {
+                let r = self.monitor.trigger(method);
+                tracing::info!(vessel = %self.name, method = method.name(), accepted = r.accepted, test = ?r.test, reason = ?r.reason, "trigger");
+                let _ = reply.send(r);
+                self.publish_outputs().await;
+            }
+        }
+    }
+
+    /// Drains the core and publishes every output on its key, in order.
+    async fn publish_outputs(&mut self) {
+        while let Some(out) = self.monitor.poll_output() {
+            let (publisher, bytes) = match &out {
+                Output::Excitation(e) => (&self.pubs.excitation, serde_json::to_vec(e)),
+                Output::Status(s) => {
+                    tracing::info!(vessel = %self.name, t = s.t, state = ?s.state, test = ?s.test, reason = ?s.reason, "status");
+                    (&self.pubs.status, serde_json::to_vec(s))
+                }
+                Output::Report(r) => {
+                    tracing::info!(
+                        vessel = %self.name,
+                        test = %r.test,
+                        outcome = ?r.outcome,
+                        decision = ?r.decision,
+                        reason = ?r.reason,
+                        "report"
+                    );
+                    (&self.pubs.report, serde_json::to_vec(r))
+                }
+                Output::Notification(n) => {
+                    tracing::warn!(vessel = %self.name, state = ?n.state, "notification: {}", n.message);
+                    (&self.pubs.notification, serde_json::to_vec(n))
+                }
+            };
+            let result = match bytes {
+                Ok(b) => publisher.put(b).await.map_err(|e| e.to_string()),
+                Err(e) => Err(e.to_string()),
+            };
+            if let Err(e) = result {
+                self.publish_errors += 1;
+                if self.publish_errors.is_power_of_two() {
+                    tracing::warn!(vessel = %self.name, count = self.publish_errors, "publication failed: {e}");
+                }
+            }
+        }
+    }
+
+    fn stats_json(&self) -> serde_json::Value {
+        let s = self.monitor.stats();
+        serde_json::json!({
+            "t": self.monitor.last_heading_t(),
+            "state": self.monitor.state(),
+            "inputs": self.monitor.counters().to_json(),
+            "dropped": {
+                "flood": self.shared.flood.load(Ordering::Relaxed),
+                "triggers": self.shared.triggers_dropped.load(Ordering::Relaxed),
+            },
+            "tests": {
+                "started": s.tests_started,
+                "completed": s.tests_completed,
+                "aborted": s.tests_aborted,
+            },
+            "excitation_clamped": s.excitation_clamped,
+            "publish_errors": self.publish_errors,
+        })
+    }
+
+    async fn publish_stats(&mut self) {
+        let stats = self.stats_json();
+        tracing::debug!(vessel = %self.name, stats = %stats, "vessel statistics");
+        if let Some(p) = &self.pubs.stats {
+            if let Ok(b) = serde_json::to_vec(&stats) {
+                if let Err(e) = p.put(b).await {
+                    tracing::debug!(vessel = %self.name, "stats publication failed: {e}");
+                }
+            }
+        }
+    }
+}
+
+/// Serves `fdi/trigger` queries: one at a time (they are rare), each answered by the vessel
+/// task that owns the core, on the vessel's own trigger key.
+async fn serve_triggers(
+    fleet: Arc<Fleet>,
+    mut rx: mpsc::Receiver<Query>,
+    cancel: CancellationToken,
+) {
+    loop {
+        let query = tokio::select! {
+            biased;
+            _ = cancel.cancelled() => return,
+            q = rx.recv() => match q { Some(q) => q, None => return },
+        };
+        let method = query
+            .parameters()
+            .get("method")
+            .ok_or_else(|| "missing parameter method=hbt|clfrt".to_string())
+            .and_then(|m| m.parse::<Method>());
+        let qke = query.key_expr().clone();
+        let targets: Vec<usize> = match fleet.vessel_of(qke.as_str()) {
+            Some(i) if fleet.trigger_keys[i].intersects(&qke) => vec![i],
+            _ => (0..fleet.names.len())
+                .filter(|&i| fleet.trigger_keys[i].intersects(&qke))
+                .collect(),
+        };
+        for i in targets {
+            let reply = match &method {
+                Err(reason) => refusal(reason.clone()),
+                Ok(m) => ask_vessel(&fleet, i, *m).await,
+            };
+            let bytes = serde_json::to_vec(&reply).unwrap_or_default();
+            if let Err(e) = query
+                .reply(fleet.trigger_keys[i].clone(), bytes)
+                .encoding(Encoding::APPLICATION_JSON)
+                .await
+            {
+                tracing::warn!(vessel = %fleet.names[i], "trigger reply failed: {e}");
+            }
+        }
+    }
+}
+
+/// The next tick of `interval`, or never.
+async fn next_tick(interval: Option<&mut tokio::time::Interval>) {
+    match interval {
+        Some(i) => {
+            i.tick().await;
+        }
+        None => std::future::pending().await,
+    }
+}
+
+fn refusal(reason: String) -> TriggerReply {
+    TriggerReply {
+        accepted: false,
+        test: None,
+        reason: Some(reason),
+    }
+}
+
+async fn ask_vessel(fleet: &Fleet, i: usize, method: Method) -> TriggerReply {
+    let (tx, rx) = oneshot::channel();
+    if fleet.senders[i]
+        .try_send(Msg::Trigger { method, reply: tx })
+        .is_err()
+    {
+        fleet.shared[i]
+            .triggers_dropped
+            .fetch_add(1, Ordering::Relaxed);
+        return refusal("the vessel's input queue is full".into());
+    }
+    match tokio::time::timeout(Duration::from_secs(5), rx).await {
+        Ok(Ok(r)) => r,
+        _ => refusal("the vessel's monitor did not answer".into()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fleet(capacity: usize) -> (Fleet, mpsc::Receiver<Msg>) {
+        let (tx, rx) = mpsc::channel(capacity);
+        let fleet = Fleet {
+            index: [("self".to_string(), 0)].into_iter().collect(),
+            names: vec!["self".into()],
+            senders: vec![tx],
+            shared: vec![Arc::new(Shared::default())],
+            trigger_keys: vec![KeyExpr::try_from("vessels/self/fdi/trigger").unwrap()],
+            unknown: AtomicU64::new(0),
+            queries_dropped: AtomicU64::new(0),
+        };
+        (fleet, rx)
+    }
+
+    #[test]
+    fn a_flood_is_dropped_and_counted_never_queued() {
+        let (fleet, mut rx) = fleet(16);
+        for _ in 0..100 {
+            fleet.dispatch(
+                Stream::Rudder,
+                "vessels/self/steering/rudderAngle",
+                b"{}".to_vec(),
+            );
+        }
+        assert_eq!(fleet.shared[0].flood.load(Ordering::Relaxed), 84);
+        let mut queued = 0;
+        while rx.try_recv().is_ok() {
+            queued += 1;
+        }
+        assert_eq!(queued, 16);
+    }
+
+    #[test]
+    fn keys_of_other_vessels_are_counted_apart() {
+        let (fleet, _rx) = fleet(16);
+        fleet.dispatch(
+            Stream::Heading,
+            "vessels/other/navigation/headingTrue",
+            vec![],
+        );
+        fleet.dispatch(Stream::Heading, "elsewhere", vec![]);
+        assert_eq!(fleet.unknown.load(Ordering::Relaxed), 2);
+        assert_eq!(fleet.vessel_of("vessels/self/fdi/trigger"), Some(0));
+    }
+}

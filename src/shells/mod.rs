@@ -1,0 +1,8 @@
+//! Shells: the core meets the world. The Zenoh session settings ([`net`]), the daemon
+//! ([`daemon`]), the simulated ship as a Zenoh peer ([`shipnode`]) and the service manager
+//! ([`systemd`]).
+
+pub mod daemon;
+pub mod net;
+pub mod shipnode;
+pub mod systemd;

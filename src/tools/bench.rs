@@ -1,0 +1,258 @@
+//! Benchmark figures of the daemon over real Zenoh sessions on loopback (`helmwatch bench`,
+//! `cargo bench --bench daemon`). Each figure is measured in one run and printed; none is
+//! asserted in a test, because machines are shared and noisy.
+//!
+//! - [`lockstep`]: one vessel, the daemon and the simulated ship as two sessions in lockstep:
+//!   ship seconds per wall second (target >= 500 at 10 Hz in release).
+//! - [`fleet`]: one daemon monitoring `n` vessels fed at 10 Hz of wall time by a feeder
+//!   session (rudder, speed, heading every 0.1 s; autopilot state and target every 1 s). The
+//!   daemon keeps up when it answers at least 99 % of the headings of the measurement window
+//!   with their excitation, the 99th percentile of the answer's delay (from the start of the
+//!   feeder's burst) is below one sample period, and no sample was dropped from a full queue.
+//!   Memory is the process's resident set (daemon and feeder together, so an upper bound).
+
+use crate::config::Config;
+use crate::core::wire::{Excitation, Keys, Scalar, StateValue, Stream};
+use crate::shells::daemon::{Daemon, DaemonError};
+use crate::shells::net::{free_loopback_port, loopback_peer, NetError};
+use crate::shells::shipnode::{ShipNode, ShipNodeError, ShipNodeOptions};
+use crate::sim::Scenario;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// Why a benchmark failed.
+#[derive(Debug, thiserror::Error)]
+pub enum BenchError {
+    /// Setting up Zenoh.
+    #[error(transparent)]
+    Net(#[from] NetError),
+    /// The daemon.
+    #[error(transparent)]
+    Daemon(#[from] DaemonError),
+    /// The ship.
+    #[error(transparent)]
+    Ship(#[from] ShipNodeError),
+    /// Anything else.
+    #[error("{0}")]
+    Other(String),
+}
+
+/// One vessel in lockstep over Zenoh.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LockstepFigure {
+    /// Ship time simulated [s].
+    pub ship_s: f64,
+    /// Wall time [s].
+    pub wall_s: f64,
+    /// Ship seconds per wall second.
+    pub ratio: f64,
+    /// Lockstep waits that ran out (should be 0).
+    pub excitation_timeouts: u64,
+}
+
+/// Runs the daemon and a lockstep ship for `ship_s` seconds of ship time.
+pub async fn lockstep(cfg: &Config, ship_s: f64) -> Result<LockstepFigure, BenchError> {
+    let port = free_loopback_port().map_err(|e| BenchError::Other(e.to_string()))?;
+    let ep = format!("tcp/127.0.0.1:{port}");
+    let mut dcfg = cfg.clone();
+    dcfg.daemon.vessels = vec![cfg.simulation.vessel.clone()];
+    let daemon = Daemon::start(
+        &dcfg.core(),
+        &dcfg.daemon,
+        loopback_peer(std::slice::from_ref(&ep), &[])?,
+    )
+    .await?;
+    let mut opts = ShipNodeOptions::from_config(&cfg.ship_peer, &cfg.simulation.vessel);
+    opts.lockstep = true;
+    opts.duration_s = Some(ship_s);
+    let ship = ShipNode::new(&cfg.sim(), &Scenario::nominal(&cfg.sim(), 1), opts)?;
+    // The ship ticks on the timer until it sees the daemon's token; wait for it first.
+    let started = Instant::now();
+    let summary = ship
+        .run(loopback_peer(&[], &[ep])?, std::future::pending())
+        .await?;
+    let wall_s = started.elapsed().as_secs_f64();
+    daemon.stop().await;
+    Ok(LockstepFigure {
+        ship_s,
+        wall_s,
+        ratio: ship_s / wall_s.max(1e-9),
+        excitation_timeouts: summary.excitation_timeouts,
+    })
+}
+
+/// One daemon, `vessels` vessels at 10 Hz of wall time.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FleetFigure {
+    /// Vessels monitored.
+    pub vessels: usize,
+    /// Headings published during the measurement window.
+    pub headings: u64,
+    /// Their excitations received.
+    pub excitations: u64,
+    /// Median delay from the burst's start to an excitation [ms].
+    pub p50_ms: f64,
+    /// 99th percentile of that delay [ms].
+    pub p99_ms: f64,
+    /// Samples the daemon dropped from full queues.
+    pub flood_drops: u64,
+    /// Resident memory of the whole process at the end of the window [MiB].
+    pub rss_mib: f64,
+    /// The criterion of the module documentation.
+    pub kept_up: bool,
+}
+
+/// Resident set size of this process [MiB], from `/proc/self/status`.
+pub fn rss_mib() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmRSS:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|kb| kb.parse::<f64>().ok())
+        })
+        .map(|kb| kb / 1024.0)
+        .unwrap_or(f64::NAN)
+}
+
+/// Feeds `vessels` vessels at 10 Hz for a second of warm-up and `window` of measurement.
+pub async fn fleet(
+    cfg: &Config,
+    vessels: usize,
+    window: Duration,
+) -> Result<FleetFigure, BenchError> {
+    let other = |e: zenoh::Error| BenchError::Other(e.to_string());
+    let port = free_loopback_port().map_err(|e| BenchError::Other(e.to_string()))?;
+    let ep = format!("tcp/127.0.0.1:{port}");
+    let names: Vec<String> = (0..vessels).map(|i| format!("v{i:05}")).collect();
+    let mut dcfg = cfg.clone();
+    dcfg.daemon.vessels = names.clone();
+    dcfg.daemon.stats_period_s = 0.0;
+    dcfg.scheduler.enabled = false;
+    let daemon = Daemon::start(
+        &dcfg.core(),
+        &dcfg.daemon,
+        loopback_peer(std::slice::from_ref(&ep), &[])?,
+    )
+    .await?;
+
+    let feeder = zenoh::open(loopback_peer(&[], &[ep])?)
+        .await
+        .map_err(other)?;
+    let dt = 0.1;
+    // Send time of each tick, and the delays of the excitations of measured ticks.
+    let sent: Arc<Mutex<Vec<Option<Instant>>>> = Arc::new(Mutex::new(Vec::new()));
+    let delays: Arc<Mutex<Vec<f64>>> = Arc::new(Mutex::new(Vec::new()));
+    let warmup_ticks = 10usize;
+    let ticks = warmup_ticks + (window.as_secs_f64() / dt).round() as usize;
+    // One excitation subscriber per vessel, as each ship has its own.
+    let mut subs = Vec::with_capacity(vessels);
+    for n in &names {
+        let (s2, d2) = (sent.clone(), delays.clone());
+        let sub = feeder
+            .declare_subscriber(Keys::new(n).excitation())
+            .callback(move |sample| {
+                let now = Instant::now();
+                let Ok(e) = serde_json::from_slice::<Excitation>(&sample.payload().to_bytes())
+                else {
+                    return;
+                };
+                let k = (e.t / dt).round() as usize;
+                if k < warmup_ticks {
+                    return;
+                }
+                let at = s2.lock().ok().and_then(|s| s.get(k).copied().flatten());
+                if let (Some(at), Ok(mut d)) = (at, d2.lock()) {
+                    d.push(now.duration_since(at).as_secs_f64() * 1e3);
+                }
+            })
+            .await
+            .map_err(other)?;
+        subs.push(sub);
+    }
+    let mut pubs = Vec::with_capacity(vessels * 5);
+    for n in &names {
+        let k = Keys::new(n);
+        for s in [
+            Stream::Rudder,
+            Stream::Speed,
+            Stream::AutopilotState,
+            Stream::TargetHeading,
+            Stream::Heading,
+        ] {
+            let ke = feeder.declare_keyexpr(k.stream(s)).await.map_err(other)?;
+            pubs.push(
+                feeder
+                    .declare_publisher(ke)
+                    .encoding(zenoh::bytes::Encoding::APPLICATION_JSON)
+                    .await
+                    .map_err(other)?,
+            );
+        }
+    }
+    if let Some(p) = pubs.last() {
+        crate::shells::net::wait_matching(p, Duration::from_secs(10)).await;
+    }
+    let target = 1.0;
+    let mut interval = tokio::time::interval(Duration::from_secs_f64(dt));
+    interval.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Burst);
+    let mut headings = 0u64;
+    for k in 0..ticks {
+        interval.tick().await;
+        if let Ok(mut s) = sent.lock() {
+            s.push(Some(Instant::now()));
+        }
+        let t = k as f64 * dt;
+        let js = |v: f64| serde_json::to_vec(&Scalar { t, value: v }).unwrap_or_default();
+        let (rudder, speed, heading) = (js(0.01), js(7.0), js(target + 0.001 * (0.3 * t).sin()));
+        let state = serde_json::to_vec(&StateValue {
+            t,
+            value: "auto".into(),
+        })
+        .unwrap_or_default();
+        for i in 0..names.len() {
+            let _ = pubs[5 * i].put(rudder.clone()).await;
+            let _ = pubs[5 * i + 1].put(speed.clone()).await;
+            if k % 10 == 0 {
+                let _ = pubs[5 * i + 2].put(state.clone()).await;
+                let _ = pubs[5 * i + 3].put(js(target)).await;
+            }
+            let _ = pubs[5 * i + 4].put(heading.clone()).await;
+            if k >= warmup_ticks {
+                headings += 1;
+            }
+        }
+    }
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let rss = rss_mib();
+    let flood_drops = daemon.flood_drops();
+    for sub in subs {
+        let _ = sub.undeclare().await;
+    }
+    let _ = feeder.close().await;
+    daemon.stop().await;
+    let mut d = delays.lock().map(|d| d.clone()).unwrap_or_default();
+    d.sort_by(f64::total_cmp);
+    let pct = |p: f64| {
+        if d.is_empty() {
+            f64::NAN
+        } else {
+            d[((d.len() - 1) as f64 * p).round() as usize]
+        }
+    };
+    let excitations = d.len() as u64;
+    let p99_ms = pct(0.99);
+    Ok(FleetFigure {
+        vessels,
+        headings,
+        excitations,
+        p50_ms: pct(0.5),
+        p99_ms,
+        flood_drops,
+        rss_mib: rss,
+        kept_up: excitations as f64 >= 0.99 * headings as f64
+            && p99_ms < dt * 1e3
+            && flood_drops == 0,
+    })
+}

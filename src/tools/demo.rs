@@ -1,0 +1,244 @@
+//! The demo: the daemon and the simulated ship in one process, as separate Zenoh sessions on
+//! loopback, in lockstep (accelerated) time, plus an observer session that prints what a
+//! client of the daemon sees: every status change and every report's decision, as they arrive.
+//!
+//! Timeline: the ship holds its course; the scheduler runs tests back to back (CLFRT and HBT
+//! in turn, one minute apart); at the fault's onset the ship's displacement steps up; the demo
+//! stops after a few reports of the faulty ship. Everything goes over real Zenoh sessions on
+//! `127.0.0.1` (a free port), multicast off.
+
+use crate::config::Config;
+use crate::core::wire::{Keys, Notification, Report, Status};
+use crate::shells::daemon::{Daemon, DaemonError};
+use crate::shells::net::{free_loopback_port, loopback_peer, NetError};
+use crate::shells::shipnode::{ShipNode, ShipNodeError, ShipNodeOptions};
+use crate::sim::{Fault, Scenario};
+use std::io::Write;
+use std::time::Instant;
+use tokio::sync::mpsc;
+use tokio_util::sync::CancellationToken;
+
+/// Why the demo failed.
+#[derive(Debug, thiserror::Error)]
+pub enum DemoError {
+    /// Setting up Zenoh.
+    #[error(transparent)]
+    Net(#[from] NetError),
+    /// The daemon.
+    #[error(transparent)]
+    Daemon(#[from] DaemonError),
+    /// The ship.
+    #[error(transparent)]
+    Ship(#[from] ShipNodeError),
+    /// The observer session or the output.
+    #[error("{0}")]
+    Io(String),
+}
+
+/// What the demo runs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DemoOptions {
+    /// Seed of the simulated ship.
+    pub seed: u64,
+    /// The fault injected (its onset is in ship time).
+    pub fault: Fault,
+    /// Reports of tests that ended after the fault's onset before the demo stops.
+    pub fault_reports: usize,
+    /// Ship time after which the demo stops anyway [s].
+    pub max_ship_s: f64,
+}
+
+impl Default for DemoOptions {
+    fn default() -> Self {
+        Self {
+            seed: 1,
+            fault: Fault {
+                kind: crate::sim::FaultKind::DisplacementPct,
+                value: 25.0,
+                onset_s: DEFAULT_ONSET_S,
+            },
+            fault_reports: 2,
+            max_ship_s: 6.0 * 3600.0,
+        }
+    }
+}
+
+/// Onset of the demo's fault [s of ship time]: after three nominal tests (CLFRT, HBT, CLFRT end by 4920 s).
+pub const DEFAULT_ONSET_S: f64 = 5000.0;
+
+/// What the demo saw.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct DemoSummary {
+    /// Reports received over Zenoh.
+    pub reports: Vec<Report>,
+    /// Notifications received over Zenoh.
+    pub notifications: usize,
+    /// Ship time simulated [s].
+    pub ship_s: f64,
+    /// Wall time [s].
+    pub wall_s: f64,
+}
+
+enum Seen {
+    Status(Status),
+    Report(Box<Report>),
+    Notification(Notification),
+}
+
+/// Runs the demo, printing to `out`.
+pub async fn run(
+    cfg: &Config,
+    opts: &DemoOptions,
+    out: &mut (impl Write + Send),
+) -> Result<DemoSummary, DemoError> {
+    let io = |e: std::io::Error| DemoError::Io(e.to_string());
+    let started = Instant::now();
+    let vessel = cfg.simulation.vessel.clone();
+    let keys = Keys::new(&vessel);
+    let port = free_loopback_port().map_err(io)?;
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+
+    let mut dcfg = cfg.clone();
+    dcfg.daemon.vessels = vec![vessel.clone()];
+    dcfg.scheduler.enabled = true;
+    dcfg.scheduler.interval_s = 60.0;
+    let daemon = Daemon::start(
+        &dcfg.core(),
+        &dcfg.daemon,
+        loopback_peer(std::slice::from_ref(&endpoint), &[])?,
+    )
+    .await?;
+
+    // The observer: a client of the daemon, as any other program would be.
+    let observer = zenoh::open(loopback_peer(&[], std::slice::from_ref(&endpoint))?)
+        .await
+        .map_err(|e| DemoError::Io(e.to_string()))?;
+    let (tx, mut rx) = mpsc::channel::<Seen>(1024);
+    let mut subs = Vec::new();
+    for key in [keys.status(), keys.report(), keys.notification()] {
+        let tx = tx.clone();
+        let sub = observer
+            .declare_subscriber(key)
+            .callback(move |s| {
+                let b = s.payload().to_bytes();
+                let k = s.key_expr().as_str();
+                let seen = if k.ends_with("fdi/status") {
+                    serde_json::from_slice(&b).ok().map(Seen::Status)
+                } else if k.ends_with("fdi/report") {
+                    serde_json::from_slice(&b)
+                        .ok()
+                        .map(|r| Seen::Report(Box::new(r)))
+                } else {
+                    serde_json::from_slice(&b).ok().map(Seen::Notification)
+                };
+                if let Some(seen) = seen {
+                    let _ = tx.try_send(seen);
+                }
+            })
+            .await
+            .map_err(|e| DemoError::Io(e.to_string()))?;
+        subs.push(sub);
+    }
+    drop(tx);
+
+    let onset = opts.fault.onset_s;
+    writeln!(
+        out,
+        "helmwatch demo: daemon and simulated ship over Zenoh on {endpoint}, lockstep time\n\
+         ship {vessel}: {} m/s, {} t, {} sea; tests on schedule (CLFRT and HBT in turn)\n\
+         fault: {} from t = {onset:.0} s\n",
+        cfg.ship.nominal_speed_mps,
+        cfg.ship.nominal_displacement_t,
+        cfg.sea.state.name(),
+        opts.fault
+    )
+    .map_err(io)?;
+
+    let mut scenario = Scenario::nominal(&cfg.sim(), opts.seed);
+    scenario.faults = vec![opts.fault];
+    let mut sopts = ShipNodeOptions::from_config(&cfg.ship_peer, &cfg.simulation.vessel);
+    sopts.vessel = vessel.clone();
+    sopts.lockstep = true;
+    sopts.duration_s = Some(opts.max_ship_s);
+    let ship = ShipNode::new(&cfg.sim(), &scenario, sopts)?;
+    let stop_ship = CancellationToken::new();
+    let stop = stop_ship.clone();
+    let ship_task = tokio::spawn(ship.run(
+        loopback_peer(&[], std::slice::from_ref(&endpoint))?,
+        async move { stop.cancelled().await },
+    ));
+
+    let mut summary = DemoSummary::default();
+    let mut after_fault = 0usize;
+    while let Some(seen) = rx.recv().await {
+        match seen {
+            Seen::Status(s) => {
+                let what = match (&s.method, &s.reason) {
+                    (Some(m), _) => format!("{} {:?}", m.name(), s.state).to_lowercase(),
+                    (None, Some(r)) => format!("{:?} ({r})", s.state).to_lowercase(),
+                    (None, None) => format!("{:?}", s.state).to_lowercase(),
+                };
+                writeln!(out, "  t = {:>6.0} s  status: {what}", s.t).map_err(io)?;
+            }
+            Seen::Report(r) => {
+                let when = if r.t_start >= onset {
+                    "faulty ship"
+                } else if r.t_end >= onset {
+                    "fault began during the test"
+                } else {
+                    "nominal ship"
+                };
+                writeln!(
+                    out,
+                    "t = {:>6.0} s  REPORT {} ({when}): {:?}{}, decision {:?}\n    {}",
+                    r.t_end,
+                    r.test,
+                    r.outcome,
+                    r.reason
+                        .as_ref()
+                        .map(|x| format!(" ({x})"))
+                        .unwrap_or_default(),
+                    r.decision,
+                    r.message
+                )
+                .map_err(io)?;
+                if r.t_start >= onset {
+                    after_fault += 1;
+                }
+                summary.reports.push(*r);
+                if after_fault >= opts.fault_reports {
+                    break;
+                }
+            }
+            Seen::Notification(n) => {
+                summary.notifications += 1;
+                writeln!(out, "NOTIFICATION {:?}: {}", n.state, n.message).map_err(io)?;
+            }
+        }
+        if ship_task.is_finished() {
+            break;
+        }
+    }
+    stop_ship.cancel();
+    let ship_summary = match ship_task.await {
+        Ok(r) => r?,
+        Err(e) => return Err(DemoError::Io(format!("ship task: {e}"))),
+    };
+    daemon.stop().await;
+    for s in subs {
+        let _ = s.undeclare().await;
+    }
+    let _ = observer.close().await;
+    summary.ship_s = ship_summary.t_end_s - cfg.simulation.start_time_s;
+    summary.wall_s = started.elapsed().as_secs_f64();
+    writeln!(
+        out,
+        "\n{} reports; {:.0} s of ship time in {:.1} s ({:.0}x real time)",
+        summary.reports.len(),
+        summary.ship_s,
+        summary.wall_s,
+        summary.ship_s / summary.wall_s.max(1e-9)
+    )
+    .map_err(io)?;
+    Ok(summary)
+}

@@ -1,0 +1,621 @@
+//! `helmwatch eval --fdi`: the seeded scenario suite of the fault decision.
+//!
+//! A *run* is one simulated ship, `(u, D)` drawn from the run's seed, the configuration's
+//! nominal displacement set to that `D` (the operator's reference), a fault present from
+//! `t = 0`, and `tests` tests of one method in a row, each triggered after a warm-up
+//! (`warmup_s`, so the autopilot and any drift transient settle) and a short gap after the
+//! previous report. The monitor core does everything - features, estimate, residuals,
+//! decision, isolation - exactly as in the daemon; the suite only reads the reports
+//! (`decision`, `isolation`, and `residuals.baseline` for the equation-error baseline, which
+//! runs through the same rule on the same records).
+//!
+//! | scenario | fault | (u, D) drawn from |
+//! |---|---|---|
+//! | nominal | none | the full range |
+//! | nominal, drift | heading drift of 0.25..1 deg/min, either sign | the full range |
+//! | displacement +-10 %, +-20 % | `displacement_pct` | D in [5000, 8333] t, so D (1 +- 0.2) stays in range |
+//! | speed log +0.5 m/s | `speed_log_bias_mps:0.5` | u in [4, 9.5] m/s |
+//! | servo 2 deg/s | `servo_rate_deg_s:2` | the full range |
+//! | rudder effectiveness -30 % | `rudder_effectiveness:0.7` | D in [4000, 7000] t (D / 0.7 in range) |
+//!
+//! Figures per method, sea and scenario: the false-alarm rate (tests whose decision is
+//! `fault`, and runs with any), the detection rate within `detect_within` tests and the mean
+//! delay (in tests, the first test is 1), and the correct isolation rate (the last test's
+//! isolation is exactly the expected cause; for the speed log also "detected and isolated
+//! within N tests").
+
+use crate::config::Config;
+use crate::core::estimator::Estimator;
+use crate::core::fdi::{DISPLACEMENT_OR_RUDDER, SPEED_LOG, STEERING_ACTUATOR};
+use crate::core::model::SeaState;
+use crate::core::monitor::{Monitor, Output};
+use crate::core::wire::Method;
+use crate::core::wire::{Decision, Outcome, Report};
+use crate::drivers::probe::Lockstep;
+use crate::sim::{Fault, Scenario};
+use crate::tools::training::database::par_map;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::sync::Arc;
+
+/// A scenario of the suite.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FdiScenario {
+    /// Name in the tables.
+    pub name: &'static str,
+    /// Fault specification (`KIND:VALUE@0`), `None` for nominal; `drift` draws its own.
+    pub fault: Option<&'static str>,
+    /// A random heading drift of 0.25..1 deg/min (either sign) on every run.
+    pub drift: bool,
+    /// The cause the isolation must name (`None`: nominal, nothing to detect).
+    pub expected: Option<&'static str>,
+    /// Range of u [m/s] and D [t] to draw from (`None`: the configured range).
+    pub speed_mps: Option<[f64; 2]>,
+    /// As above for D.
+    pub displacement_t: Option<[f64; 2]>,
+}
+
+/// The scenarios of the suite, in print order.
+pub fn scenarios() -> Vec<FdiScenario> {
+    let s = |name, fault, drift, expected, speed_mps, displacement_t| FdiScenario {
+        name,
+        fault,
+        drift,
+        expected,
+        speed_mps,
+        displacement_t,
+    };
+    let d_pm20 = Some([5000.0, 8333.0]);
+    vec![
+        s("nominal", None, false, None, None, None),
+        s("nominal, drift <= 1 deg/min", None, true, None, None, None),
+        s(
+            "displacement +10 %",
+            Some("displacement_pct:10@0"),
+            false,
+            Some(DISPLACEMENT_OR_RUDDER),
+            None,
+            d_pm20,
+        ),
+        s(
+            "displacement -10 %",
+            Some("displacement_pct:-10@0"),
+            false,
+            Some(DISPLACEMENT_OR_RUDDER),
+            None,
+            d_pm20,
+        ),
+        s(
+            "displacement +20 %",
+            Some("displacement_pct:20@0"),
+            false,
+            Some(DISPLACEMENT_OR_RUDDER),
+            None,
+            d_pm20,
+        ),
+        s(
+            "displacement -20 %",
+            Some("displacement_pct:-20@0"),
+            false,
+            Some(DISPLACEMENT_OR_RUDDER),
+            None,
+            d_pm20,
+        ),
+        s(
+            "speed log +0.5 m/s",
+            Some("speed_log_bias_mps:0.5@0"),
+            false,
+            Some(SPEED_LOG),
+            Some([4.0, 9.5]),
+            None,
+        ),
+        s(
+            "servo rate 2 deg/s",
+            Some("servo_rate_deg_s:2@0"),
+            false,
+            Some(STEERING_ACTUATOR),
+            None,
+            None,
+        ),
+        s(
+            "rudder effectiveness -30 %",
+            Some("rudder_effectiveness:0.7@0"),
+            false,
+            Some(DISPLACEMENT_OR_RUDDER),
+            None,
+            Some([4000.0, 7000.0]),
+        ),
+    ]
+}
+
+/// Options of the suite.
+#[derive(Debug, Clone)]
+pub struct FdiEvalOptions {
+    /// Seed of the run draws and simulations.
+    pub seed: u64,
+    /// Runs per fault scenario.
+    pub runs: usize,
+    /// Runs per nominal scenario.
+    pub nominal_runs: usize,
+    /// Tests per run.
+    pub tests: usize,
+    /// Ship time before the first trigger [s].
+    pub warmup_s: f64,
+    /// Ship time between a report and the next trigger [s].
+    pub gap_s: f64,
+    /// Methods.
+    pub methods: Vec<Method>,
+    /// Sea states.
+    pub seas: Vec<SeaState>,
+    /// Worker threads.
+    pub threads: usize,
+}
+
+impl Default for FdiEvalOptions {
+    fn default() -> Self {
+        Self {
+            seed: 1,
+            runs: 60,
+            nominal_runs: 60,
+            tests: 4,
+            warmup_s: 1800.0,
+            gap_s: 600.0,
+            methods: vec![Method::Clfrt, Method::Hbt],
+            seas: vec![SeaState::Calm, SeaState::Moderate],
+            threads: 1,
+        }
+    }
+}
+
+/// One test's outcome as the suite reads it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TestOutcome {
+    /// Completed (else aborted or no report).
+    pub completed: bool,
+    /// The method's decision.
+    pub decision: Decision,
+    /// The method's isolation.
+    pub isolation: Vec<String>,
+    /// The baseline's decision (`residuals.baseline.outcome`).
+    pub baseline_decision: Decision,
+    /// The baseline's isolation.
+    pub baseline_isolation: Vec<String>,
+    /// The method's parameter chi-square (NaN without residuals).
+    pub q_param: f64,
+    /// The test's sea index.
+    pub sea_index: f64,
+    /// The CLFRT model fit's chi-square (NaN for HBT).
+    pub fit_chi2: f64,
+    /// The servo check's chi-square (NaN without one).
+    pub q_actuator: f64,
+    /// The method's normalised speed and displacement residuals (NaN without).
+    pub z: [f64; 2],
+}
+
+/// One run: the drawn ship and its tests.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunOutcome {
+    /// Drawn speed [m/s].
+    pub speed_mps: f64,
+    /// Drawn displacement [t].
+    pub displacement_t: f64,
+    /// Tests in order (fewer when the ship refused or timed out).
+    pub tests: Vec<TestOutcome>,
+    /// Why the run ended early, if it did.
+    pub error: Option<String>,
+}
+
+fn decision_of(v: Option<&serde_json::Value>) -> Decision {
+    match v.and_then(|v| v.as_str()) {
+        Some("fault") => Decision::Fault,
+        Some("nominal") => Decision::Nominal,
+        _ => Decision::Inconclusive,
+    }
+}
+
+fn strings(v: Option<&serde_json::Value>) -> Vec<String> {
+    v.and_then(|v| v.as_array())
+        .map(|a| {
+            a.iter()
+                .filter_map(|s| s.as_str().map(String::from))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+fn num(v: &serde_json::Value, path: &[&str]) -> f64 {
+    path.iter()
+        .try_fold(v, |v, k| v.get(*k))
+        .and_then(serde_json::Value::as_f64)
+        .unwrap_or(f64::NAN)
+}
+
+/// `(median, 99th percentile, max)` of the finite values.
+fn quantiles(mut v: Vec<f64>) -> Option<(f64, f64, f64)> {
+    v.retain(|x| x.is_finite());
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let q = |p: f64| v[((v.len() - 1) as f64 * p).round() as usize];
+    Some((q(0.5), q(0.99), q(1.0)))
+}
+
+fn outcome_of(r: &Report) -> TestOutcome {
+    let bl = r.residuals.get("baseline");
+    TestOutcome {
+        completed: r.outcome == Outcome::Completed,
+        decision: r.decision,
+        isolation: r.isolation.clone(),
+        baseline_decision: decision_of(bl.and_then(|b| b.get("outcome"))),
+        baseline_isolation: strings(bl.and_then(|b| b.get("isolation"))),
+        q_param: num(&r.residuals, &["decision", "chi2"]),
+        sea_index: num(&r.residuals, &["sea_index"]),
+        fit_chi2: num(&r.residuals, &["model_fit", "chi2"]),
+        q_actuator: num(&r.residuals, &["decision", "chi2_actuator"]),
+        z: [
+            num(&r.residuals, &["parameters", "z_speed"]),
+            num(&r.residuals, &["parameters", "z_displacement"]),
+        ],
+    }
+}
+
+/// Draws the run's ship and fault list.
+fn draw(
+    cfg: &Config,
+    sc: &FdiScenario,
+    sea: SeaState,
+    seed: u64,
+) -> Result<(Scenario, Config), String> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let [u_lo, u_hi] = sc.speed_mps.unwrap_or(cfg.ship.speed_range_mps);
+    let [d_lo, d_hi] = sc.displacement_t.unwrap_or(cfg.ship.displacement_range_t);
+    let u = rng.gen_range(u_lo..=u_hi);
+    let d = rng.gen_range(d_lo..=d_hi);
+    let mut faults = Vec::new();
+    if let Some(f) = sc.fault {
+        faults.push(f.parse::<Fault>().map_err(|e| e.to_string())?);
+    }
+    if sc.drift {
+        let v = rng.gen_range(0.25..=1.0) * if rng.gen_bool(0.5) { 1.0 } else { -1.0 };
+        let spec = format!("heading_drift_deg_per_min:{v}@0");
+        faults.push(spec.parse::<Fault>().map_err(|e| e.to_string())?);
+    }
+    let mut cfg = cfg.clone();
+    cfg.ship.nominal_displacement_t = d;
+    cfg.scheduler.enabled = false;
+    Ok((
+        Scenario {
+            speed_mps: u,
+            displacement_t: d,
+            sea,
+            faults,
+            seed: rng.gen(),
+        },
+        cfg,
+    ))
+}
+
+/// Runs one run of `method` on the drawn ship.
+pub fn run_one(
+    cfg: &Config,
+    sc: &FdiScenario,
+    sea: SeaState,
+    method: Method,
+    seed: u64,
+    estimator: &Arc<Estimator>,
+    o: &FdiEvalOptions,
+) -> RunOutcome {
+    let (scenario, cfg) = match draw(cfg, sc, sea, seed) {
+        Ok(x) => x,
+        Err(e) => {
+            return RunOutcome {
+                speed_mps: f64::NAN,
+                displacement_t: f64::NAN,
+                tests: Vec::new(),
+                error: Some(e),
+            }
+        }
+    };
+    let mut run = RunOutcome {
+        speed_mps: scenario.speed_mps,
+        displacement_t: scenario.displacement_t,
+        tests: Vec::new(),
+        error: None,
+    };
+    let ms = Monitor::design_multisine(&cfg.core()).ok();
+    let mut ls = match Lockstep::with_parts(
+        &cfg.core(),
+        &cfg.sim(),
+        &scenario,
+        ms,
+        Some(estimator.clone()),
+    ) {
+        Ok(ls) => ls,
+        Err(e) => {
+            run.error = Some(e.to_string());
+            return run;
+        }
+    };
+    let mut out = Vec::new();
+    let mut next = ls.time_s() + o.warmup_s;
+    let max_test_s = cfg.safety.max_test_duration_s + 120.0;
+    while run.tests.len() < o.tests {
+        ls.run_until(next, &mut out);
+        out.clear();
+        // Trigger, retried each second for up to one warm-up (the course must be steady).
+        let give_up = ls.time_s() + o.warmup_s;
+        let t_trigger = loop {
+            if ls.trigger(method).accepted {
+                break Some(ls.time_s());
+            }
+            if ls.time_s() > give_up {
+                break None;
+            }
+            let t = ls.time_s();
+            ls.run_until(t + 1.0, &mut out);
+            out.clear();
+        };
+        let Some(t_trigger) = t_trigger else {
+            run.error = Some("the monitor refused the test".into());
+            return run;
+        };
+        let mut report = None;
+        while report.is_none() && ls.time_s() < t_trigger + max_test_s {
+            ls.tick(&mut out, false);
+            for x in out.drain(..) {
+                if let Output::Report(r) = x {
+                    report = Some(r);
+                }
+            }
+        }
+        let Some(r) = report else {
+            run.error = Some("no report in time".into());
+            return run;
+        };
+        run.tests.push(outcome_of(&r));
+        next = ls.time_s() + o.gap_s;
+    }
+    run
+}
+
+/// Figures of one (method or baseline, sea, scenario) cell.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Cell {
+    /// Runs.
+    pub runs: usize,
+    /// Tests with a decision (completed).
+    pub tests: usize,
+    /// Tests decided `fault`.
+    pub fault_tests: usize,
+    /// Runs with any `fault`.
+    pub fault_runs: usize,
+    /// Runs detected within the window.
+    pub detected: usize,
+    /// Sum of the detection delays of the detected runs [tests].
+    pub delay_sum: usize,
+    /// Runs whose last test names exactly the expected cause.
+    pub isolated: usize,
+    /// Runs detected and isolated (exactly) within the window.
+    pub isolated_within: usize,
+    /// Aborted tests.
+    pub aborted: usize,
+    /// Runs that ended early.
+    pub broken: usize,
+}
+
+/// Scores the runs of one scenario for the method (`baseline = false`) or the baseline.
+pub fn score(runs: &[RunOutcome], expected: Option<&str>, within: usize, baseline: bool) -> Cell {
+    let mut c = Cell {
+        runs: runs.len(),
+        tests: 0,
+        fault_tests: 0,
+        fault_runs: 0,
+        detected: 0,
+        delay_sum: 0,
+        isolated: 0,
+        isolated_within: 0,
+        aborted: 0,
+        broken: 0,
+    };
+    for r in runs {
+        c.broken += usize::from(r.error.is_some());
+        let pick = |t: &TestOutcome| {
+            if baseline {
+                (t.baseline_decision, t.baseline_isolation.clone())
+            } else {
+                (t.decision, t.isolation.clone())
+            }
+        };
+        let mut first_fault = None;
+        let mut first_isolated = None;
+        for (k, t) in r.tests.iter().enumerate() {
+            if !t.completed {
+                c.aborted += 1;
+                continue;
+            }
+            c.tests += 1;
+            let (d, iso) = pick(t);
+            if d == Decision::Fault {
+                c.fault_tests += 1;
+                first_fault.get_or_insert(k + 1);
+                if expected.is_some_and(|e| iso.len() == 1 && iso[0] == e) {
+                    first_isolated.get_or_insert(k + 1);
+                }
+            }
+        }
+        c.fault_runs += usize::from(first_fault.is_some());
+        if let Some(k) = first_fault.filter(|&k| k <= within) {
+            c.detected += 1;
+            c.delay_sum += k;
+        }
+        c.isolated_within += usize::from(first_isolated.is_some_and(|k| k <= within));
+        if let (Some(e), Some(last)) = (expected, r.tests.iter().rev().find(|t| t.completed)) {
+            let (_, iso) = pick(last);
+            c.isolated += usize::from(iso.len() == 1 && iso[0] == e);
+        }
+    }
+    c
+}
+
+fn pct(n: usize, d: usize) -> String {
+    if d == 0 {
+        "-".into()
+    } else {
+        format!("{:.1} %", 100.0 * n as f64 / d as f64)
+    }
+}
+
+/// Runs the suite and prints its tables (markdown) to standard output.
+pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
+    let scs = scenarios();
+    println!(
+        "# FDI scenario suite: seed {}, {} runs per fault scenario, {} per nominal one, {} tests per run",
+        o.seed, o.runs, o.nominal_runs, o.tests
+    );
+    println!(
+        "rule {}, chi2 threshold {}, persistence {}, clear after {}",
+        cfg.fdi.rule.name(),
+        cfg.fdi.chi2_threshold,
+        cfg.fdi.persistence,
+        cfg.fdi.clear_after
+    );
+    for &method in &o.methods {
+        for &sea in &o.seas {
+            println!();
+            println!(
+                "## {} in a {} sea",
+                method.name().to_uppercase(),
+                sea.name()
+            );
+            println!();
+            println!("| scenario | who | runs | tests | false alarms (tests / runs) | detected <= 2 | mean delay | detected <= 4 | isolated (last test) | isolated <= 2 | isolated <= 4 | aborted |");
+            println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+            let mut notes = Vec::new();
+            for (si, sc) in scs.iter().enumerate() {
+                let n = if sc.expected.is_none() {
+                    o.nominal_runs
+                } else {
+                    o.runs
+                };
+                let base = o
+                    .seed
+                    .wrapping_mul(1_000_003)
+                    .wrapping_add((si as u64) << 20)
+                    .wrapping_add(u64::from(sea == SeaState::Moderate) << 16);
+                let runs = par_map(n, o.threads, |k| {
+                    run_one(cfg, sc, sea, method, base + k as u64, &estimator, o)
+                });
+                {
+                    let all = || runs.iter().flat_map(|r| r.tests.iter());
+                    let zs: Vec<[f64; 2]> =
+                        all().map(|t| t.z).filter(|z| z[0].is_finite()).collect();
+                    if !zs.is_empty() {
+                        let n = zs.len() as f64;
+                        let m = |i: usize| zs.iter().map(|z| z[i]).sum::<f64>() / n;
+                        let sd = |i: usize| {
+                            let mi = m(i);
+                            (zs.iter().map(|z| (z[i] - mi).powi(2)).sum::<f64>() / n).sqrt()
+                        };
+                        let (m0, m1) = (m(0), m(1));
+                        let cov = zs.iter().map(|z| (z[0] - m0) * (z[1] - m1)).sum::<f64>() / n;
+                        notes.push(format!(
+                            "{}: z_speed mean {:+.2} sd {:.2}, z_displacement mean {:+.2} sd {:.2}, correlation {:+.2}",
+                            sc.name,
+                            m0,
+                            sd(0),
+                            m1,
+                            sd(1),
+                            cov / (sd(0) * sd(1))
+                        ));
+                    }
+                }
+                if sc.expected.is_none() {
+                    let all = || runs.iter().flat_map(|r| r.tests.iter());
+                    for (what, v) in [
+                        ("chi2", all().map(|t| t.q_param).collect::<Vec<_>>()),
+                        ("servo-check chi2", all().map(|t| t.q_actuator).collect()),
+                        ("model-fit chi2", all().map(|t| t.fit_chi2).collect()),
+                        ("sea index", all().map(|t| t.sea_index).collect()),
+                    ] {
+                        if let Some((m, p99, mx)) = quantiles(v) {
+                            notes.push(format!(
+                                "{}: {what} median {m:.4}, 99th percentile {p99:.4}, max {mx:.4}",
+                                sc.name
+                            ));
+                        }
+                    }
+                }
+                // The baseline's rows only when its estimate exists (features.baseline).
+                let has_baseline = runs
+                    .iter()
+                    .flat_map(|r| r.tests.iter())
+                    .any(|t| t.baseline_decision != Decision::Inconclusive);
+                if !has_baseline && si == 0 {
+                    notes.push(
+                        "baseline: no equation-error estimate in the features, no rows".into(),
+                    );
+                }
+                let whos: &[(&str, bool)] = if has_baseline {
+                    &[("ours", false), ("baseline", true)]
+                } else {
+                    &[("ours", false)]
+                };
+                for &(who, baseline) in whos {
+                    let c2 = score(&runs, sc.expected, 2, baseline);
+                    let c4 = score(&runs, sc.expected, 4, baseline);
+                    let nominal = sc.expected.is_none();
+                    let fa = if nominal {
+                        format!(
+                            "{} / {} ({})",
+                            c2.fault_tests,
+                            c2.fault_runs,
+                            pct(c2.fault_tests, c2.tests)
+                        )
+                    } else {
+                        "-".into()
+                    };
+                    let (det2, det4, delay, iso, iso2, iso4) = if nominal {
+                        (
+                            "-".into(),
+                            "-".into(),
+                            "-".into(),
+                            "-".into(),
+                            "-".into(),
+                            "-".into(),
+                        )
+                    } else {
+                        (
+                            pct(c2.detected, c2.runs),
+                            pct(c4.detected, c4.runs),
+                            if c4.detected > 0 {
+                                format!("{:.2}", c4.delay_sum as f64 / c4.detected as f64)
+                            } else {
+                                "-".into()
+                            },
+                            pct(c4.isolated, c4.runs),
+                            pct(c2.isolated_within, c2.runs),
+                            pct(c4.isolated_within, c4.runs),
+                        )
+                    };
+                    println!(
+                        "| {} | {who} | {} | {} | {fa} | {det2} | {delay} | {det4} | {iso} | {iso2} | {iso4} | {}{} |",
+                        sc.name,
+                        c2.runs,
+                        c2.tests,
+                        c2.aborted,
+                        if c2.broken > 0 {
+                            format!(" ({} runs broken)", c2.broken)
+                        } else {
+                            String::new()
+                        }
+                    );
+                }
+            }
+            println!();
+            for n in notes {
+                println!("- {n}");
+            }
+        }
+    }
+}

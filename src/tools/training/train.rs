@@ -1,0 +1,939 @@
+//! Trainers: Levenberg-Marquardt (the default, MATLAB `trainlm`) and Fletcher-Reeves
+//! conjugate gradient with a line search and restarts (the paper's `traincgf`), both with a
+//! validation set for early stopping, and seeded restarts keeping the best on validation.
+//!
+//! ## The problem
+//!
+//! Both minimise the mean squared error on the training set, in the scaled units of
+//! [`crate::core::estimator::nn`]:
+//!
+//! ```text
+//! L(theta) = (1/N) sum_i e_i^2,   e_i = y(x_i; theta) - t_i,   grad L = (2/N) J^T e
+//! ```
+//!
+//! where `J` (N x P) holds `de_i / dtheta`. Any model exposing residuals and `J^T` through
+//! [`LeastSquares`] can be trained: the network ([`NetProblem`]) and, in the tests, a linear
+//! least-squares problem whose answer is known in closed form.
+//!
+//! ## Levenberg-Marquardt
+//!
+//! Per epoch, with `H = J^T J` and `g = J^T e` at the current weights:
+//!
+//! ```text
+//! (H + mu I) dtheta = -g      (Cholesky; a failed factorisation counts as a rejected step)
+//! ```
+//!
+//! A step that lowers `L` is taken and `mu <- mu * mu_dec`; otherwise `mu <- mu * mu_inc` and
+//! the step is solved again, until `mu > mu_max` (stop). MATLAB's defaults: `mu = 1e-3`,
+//! `mu_dec = 0.1`, `mu_inc = 10`, `mu_max = 1e10`.
+//!
+//! ## Fletcher-Reeves conjugate gradient
+//!
+//! ```text
+//! d_0 = -g_0;   theta_{k+1} = theta_k + alpha_k d_k,   alpha_k = argmin_alpha L(theta_k + alpha d_k)
+//! beta_k = |g_{k+1}|^2 / |g_k|^2,   d_{k+1} = -g_{k+1} + beta_k d_k
+//! ```
+//!
+//! restarted (`d = -g`) every `P` iterations and whenever `d` is not a descent direction
+//! (`g . d >= 0`). The line search brackets the minimum (golden-ratio expansion, or shrinking
+//! when the first trial step already climbs) and refines it with Brent's method (parabolic
+//! interpolation with golden-section safeguards, MATLAB `srchbre`); it never returns a step
+//! that raises `L`. One epoch is one CG iteration, as in `traincgf`.
+//!
+//! ## Early stopping, restarts
+//!
+//! After each epoch the validation MSE is computed; the weights with the lowest validation
+//! MSE are kept, and training stops after `max_fail` epochs in a row without improvement
+//! (MATLAB: 6). Initial weights follow Nguyen-Widrow (MATLAB `initnw`) from a seeded
+//! `ChaCha8Rng`; [`train`] runs several restarts and keeps the best on validation (the lowest
+//! restart index on a tie). Everything is a deterministic function of the data and the seed:
+//! sums run in a fixed order, and no clock is read.
+
+use crate::core::estimator::nn::{n_params, Mlp, Scratch, HIDDEN};
+use nalgebra::{DMatrix, DVector};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// Why training could not run.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum TrainError {
+    /// The data set has no sample.
+    #[error("the {0} set is empty")]
+    Empty(&'static str),
+    /// Rows of different lengths, or targets not matching the rows.
+    #[error("{0}")]
+    Shape(String),
+    /// A value of the data is NaN or infinite.
+    #[error("the {set} set holds a non-finite value at sample {sample}")]
+    NotFinite {
+        /// Which set.
+        set: &'static str,
+        /// Index of the sample.
+        sample: usize,
+    },
+    /// No restart was asked for.
+    #[error("at least one restart is needed")]
+    NoRestart,
+}
+
+/// Scaled inputs and targets, one sample per row (row-major).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dataset {
+    n_in: usize,
+    x: Vec<f64>,
+    y: Vec<f64>,
+}
+
+impl Dataset {
+    /// A data set from rows of scaled inputs and scaled targets.
+    pub fn new(set: &'static str, rows: &[Vec<f64>], targets: &[f64]) -> Result<Self, TrainError> {
+        let Some(first) = rows.first() else {
+            return Err(TrainError::Empty(set));
+        };
+        let n_in = first.len();
+        if n_in == 0 {
+            return Err(TrainError::Shape(format!("{set}: rows have no input")));
+        }
+        if targets.len() != rows.len() {
+            return Err(TrainError::Shape(format!(
+                "{set}: {} rows but {} targets",
+                rows.len(),
+                targets.len()
+            )));
+        }
+        let mut x = Vec::with_capacity(rows.len() * n_in);
+        for (i, r) in rows.iter().enumerate() {
+            if r.len() != n_in {
+                return Err(TrainError::Shape(format!(
+                    "{set}: row {i} has {} inputs, row 0 has {n_in}",
+                    r.len()
+                )));
+            }
+            if !r.iter().all(|v| v.is_finite()) || !targets[i].is_finite() {
+                return Err(TrainError::NotFinite { set, sample: i });
+            }
+            x.extend_from_slice(r);
+        }
+        Ok(Self {
+            n_in,
+            x,
+            y: targets.to_vec(),
+        })
+    }
+
+    /// Number of inputs per sample.
+    pub fn n_in(&self) -> usize {
+        self.n_in
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.y.len()
+    }
+
+    /// Whether the set is empty (never, once built).
+    pub fn is_empty(&self) -> bool {
+        self.y.is_empty()
+    }
+
+    /// Scaled inputs of sample `i`.
+    pub fn row(&self, i: usize) -> &[f64] {
+        &self.x[i * self.n_in..(i + 1) * self.n_in]
+    }
+
+    /// Scaled target of sample `i`.
+    pub fn target(&self, i: usize) -> f64 {
+        self.y[i]
+    }
+}
+
+/// A model with residuals `e_i(theta)` and their Jacobian, for the trainers.
+pub trait LeastSquares {
+    /// Number of parameters P.
+    fn n_params(&self) -> usize;
+    /// Number of residuals N.
+    fn n_residuals(&self) -> usize;
+    /// Fills `e` (length N) with the residuals at `theta`.
+    fn residuals(&mut self, theta: &[f64], e: &mut [f64]);
+    /// Fills `e` and `jt` (P x N, column i = de_i/dtheta) at `theta`.
+    fn jacobian_t(&mut self, theta: &[f64], e: &mut [f64], jt: &mut DMatrix<f64>);
+}
+
+/// Mean of the squares, summed in index order.
+pub fn mean_square(e: &[f64]) -> f64 {
+    if e.is_empty() {
+        return 0.0;
+    }
+    e.iter().map(|v| v * v).sum::<f64>() / e.len() as f64
+}
+
+/// The network on a data set, as a least-squares problem.
+#[derive(Debug)]
+pub struct NetProblem<'a> {
+    data: &'a Dataset,
+    net: Mlp,
+    scratch: Scratch,
+    row: Vec<f64>,
+}
+
+impl<'a> NetProblem<'a> {
+    /// The network of `data`'s input size over `data`.
+    pub fn new(data: &'a Dataset) -> Self {
+        let n_in = data.n_in();
+        Self {
+            data,
+            net: Mlp::zeros(n_in),
+            scratch: Scratch::new(n_in),
+            row: vec![0.0; n_params(n_in)],
+        }
+    }
+
+    /// MSE of the network with parameters `theta` on the data.
+    pub fn mse(&mut self, theta: &[f64]) -> f64 {
+        self.net.set_params(theta);
+        let mut sum = 0.0;
+        for i in 0..self.data.len() {
+            let e = self.net.forward(self.data.row(i), &mut self.scratch) - self.data.target(i);
+            sum += e * e;
+        }
+        sum / self.data.len().max(1) as f64
+    }
+}
+
+impl LeastSquares for NetProblem<'_> {
+    fn n_params(&self) -> usize {
+        n_params(self.data.n_in())
+    }
+    fn n_residuals(&self) -> usize {
+        self.data.len()
+    }
+    fn residuals(&mut self, theta: &[f64], e: &mut [f64]) {
+        self.net.set_params(theta);
+        for (i, ei) in e.iter_mut().enumerate().take(self.data.len()) {
+            *ei = self.net.forward(self.data.row(i), &mut self.scratch) - self.data.target(i);
+        }
+    }
+    fn jacobian_t(&mut self, theta: &[f64], e: &mut [f64], jt: &mut DMatrix<f64>) {
+        self.net.set_params(theta);
+        for (i, ei) in e.iter_mut().enumerate().take(self.data.len()) {
+            let y = self
+                .net
+                .jacobian_row(self.data.row(i), &mut self.scratch, &mut self.row);
+            *ei = y - self.data.target(i);
+            jt.column_mut(i).copy_from_slice(&self.row);
+        }
+    }
+}
+
+pub use crate::core::estimator::trainer::{CgfOptions, LmOptions, StopReason, Trainer};
+
+/// What one optimisation produced.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Fit {
+    /// The parameters with the lowest validation error (or the last, without validation).
+    pub theta: Vec<f64>,
+    /// Epochs run.
+    pub epochs: usize,
+    /// Epoch of the kept parameters (0: the initial ones).
+    pub best_epoch: usize,
+    /// Training MSE of the kept parameters.
+    pub mse_train: f64,
+    /// Validation MSE of the kept parameters (NaN without validation).
+    pub mse_validation: f64,
+    /// Why it stopped.
+    pub stop: StopReason,
+}
+
+/// Tracks the best validation error for early stopping.
+struct EarlyStop<'v, V: LeastSquares> {
+    validation: Option<&'v mut V>,
+    e: Vec<f64>,
+    best: f64,
+    best_theta: Vec<f64>,
+    best_epoch: usize,
+    best_train: f64,
+    fails: usize,
+    max_fail: usize,
+}
+
+impl<'v, V: LeastSquares> EarlyStop<'v, V> {
+    fn new(validation: Option<&'v mut V>, theta: &[f64], train_mse: f64, max_fail: usize) -> Self {
+        let n = validation.as_ref().map_or(0, |v| v.n_residuals());
+        let mut s = Self {
+            validation,
+            e: vec![0.0; n],
+            best: f64::INFINITY,
+            best_theta: theta.to_vec(),
+            best_epoch: 0,
+            best_train: train_mse,
+            fails: 0,
+            max_fail,
+        };
+        s.best = s.loss(theta, train_mse);
+        s
+    }
+
+    /// Validation MSE, or the training MSE without validation.
+    fn loss(&mut self, theta: &[f64], train_mse: f64) -> f64 {
+        match self.validation.as_deref_mut() {
+            Some(v) => {
+                v.residuals(theta, &mut self.e);
+                mean_square(&self.e)
+            }
+            None => train_mse,
+        }
+    }
+
+    /// Records epoch `epoch`; returns true when training must stop.
+    fn update(&mut self, epoch: usize, theta: &[f64], train_mse: f64) -> bool {
+        let l = self.loss(theta, train_mse);
+        if l < self.best {
+            self.best = l;
+            self.best_theta.copy_from_slice(theta);
+            self.best_epoch = epoch;
+            self.best_train = train_mse;
+            self.fails = 0;
+            false
+        } else {
+            self.fails += 1;
+            self.validation.is_some() && self.fails >= self.max_fail
+        }
+    }
+
+    fn finish(self, epochs: usize, stop: StopReason) -> Fit {
+        let has_val = self.validation.is_some();
+        Fit {
+            theta: self.best_theta,
+            epochs,
+            best_epoch: self.best_epoch,
+            mse_train: self.best_train,
+            mse_validation: if has_val { self.best } else { f64::NAN },
+            stop,
+        }
+    }
+}
+
+/// Levenberg-Marquardt from `theta0`. See the module documentation.
+pub fn levenberg_marquardt<P: LeastSquares, V: LeastSquares>(
+    problem: &mut P,
+    validation: Option<&mut V>,
+    theta0: &[f64],
+    opts: &LmOptions,
+) -> Fit {
+    let p = problem.n_params();
+    let n = problem.n_residuals();
+    let mut theta = theta0.to_vec();
+    let mut trial = theta.clone();
+    let mut e = vec![0.0; n];
+    let mut jt = DMatrix::zeros(p, n);
+    let mut h = DMatrix::zeros(p, p);
+    let mut a = DMatrix::zeros(p, p);
+    let mut g = DVector::zeros(p);
+    problem.residuals(&theta, &mut e);
+    let mut loss = mean_square(&e);
+    let mut early = EarlyStop::new(validation, &theta, loss, opts.max_fail);
+    let mut mu = opts.mu;
+    let mut epoch = 0;
+    let stop = loop {
+        if epoch >= opts.max_epochs {
+            break StopReason::MaxEpochs;
+        }
+        problem.jacobian_t(&theta, &mut e, &mut jt);
+        let ev = DVector::from_column_slice(&e);
+        g.gemv(1.0, &jt, &ev, 0.0);
+        if 2.0 * g.norm() / n.max(1) as f64 <= opts.min_grad {
+            break StopReason::MinGradient;
+        }
+        h.gemm(1.0, &jt, &jt.transpose(), 0.0);
+        let mut accepted = false;
+        while mu <= opts.mu_max {
+            a.copy_from(&h);
+            for i in 0..p {
+                a[(i, i)] += mu;
+            }
+            let step = nalgebra::Cholesky::new(a.clone()).map(|c| c.solve(&g));
+            if let Some(step) = step {
+                for i in 0..p {
+                    trial[i] = theta[i] - step[i];
+                }
+                problem.residuals(&trial, &mut e);
+                let l = mean_square(&e);
+                if l.is_finite() && l < loss {
+                    theta.copy_from_slice(&trial);
+                    loss = l;
+                    mu *= opts.mu_dec;
+                    accepted = true;
+                    break;
+                }
+            }
+            mu *= opts.mu_inc;
+        }
+        if !accepted {
+            break StopReason::MaxMu;
+        }
+        epoch += 1;
+        if early.update(epoch, &theta, loss) {
+            break StopReason::ValidationStop;
+        }
+    };
+    early.finish(epoch, stop)
+}
+
+/// Golden ratio, for bracket expansion.
+const GOLD: f64 = 1.618_033_988_749_895;
+/// 1 - 1/golden ratio, for golden-section steps.
+const CGOLD: f64 = 0.381_966_011_250_105;
+
+/// Minimises `phi(alpha)` for `alpha >= 0` given `phi(0) = f0` and a first trial step
+/// `alpha0 > 0`: bracket, then Brent. Returns `(alpha, phi(alpha))` with
+/// `phi(alpha) <= f0` (`alpha = 0` when no lower point was found).
+pub fn line_search(
+    mut phi: impl FnMut(f64) -> f64,
+    f0: f64,
+    alpha0: f64,
+    tol: f64,
+    max_evals: usize,
+) -> (f64, f64) {
+    let mut evals = 0usize;
+    let mut eval = |x: f64, evals: &mut usize| {
+        *evals += 1;
+        let f = phi(x);
+        if f.is_finite() {
+            f
+        } else {
+            f64::INFINITY
+        }
+    };
+    // Bracket 0 <= a < b < c with f(b) < f(a) and f(b) <= f(c).
+    let mut a = 0.0;
+    let mut b = alpha0;
+    let mut fb = eval(alpha0, &mut evals);
+    let mut c;
+    if fb >= f0 {
+        // The first trial climbs: shrink towards 0 until a point below f(0).
+        c = b;
+        loop {
+            if evals >= max_evals || c < 1e-20 * alpha0.max(f64::MIN_POSITIVE) {
+                return (0.0, f0);
+            }
+            b = 0.1 * c;
+            fb = eval(b, &mut evals);
+            if fb < f0 {
+                break;
+            }
+            c = b;
+        }
+    } else {
+        // The first trial descends: expand by the golden ratio until the loss rises.
+        c = b + GOLD * (b - a);
+        let mut fc = eval(c, &mut evals);
+        while fc < fb {
+            if evals >= max_evals {
+                return (c, fc);
+            }
+            a = b;
+            b = c;
+            fb = fc;
+            c = b + GOLD * (b - a);
+            fc = eval(c, &mut evals);
+        }
+    }
+    // Brent's method on [a, c] from x = b.
+    let (mut lo, mut hi) = (a.min(c), a.max(c));
+    let (mut x, mut w, mut v) = (b, b, b);
+    let (mut fx, mut fw, mut fv) = (fb, fb, fb);
+    let (mut d, mut e) = (0.0f64, 0.0f64);
+    while evals < max_evals {
+        let xm = 0.5 * (lo + hi);
+        let tol1 = tol * x.abs() + 1e-30;
+        let tol2 = 2.0 * tol1;
+        if (x - xm).abs() <= tol2 - 0.5 * (hi - lo) {
+            break;
+        }
+        let mut golden = true;
+        if e.abs() > tol1 {
+            let r = (x - w) * (fx - fv);
+            let mut q = (x - v) * (fx - fw);
+            let mut p = (x - v) * q - (x - w) * r;
+            q = 2.0 * (q - r);
+            if q > 0.0 {
+                p = -p;
+            }
+            q = q.abs();
+            let etemp = e;
+            if !(p.abs() >= (0.5 * q * etemp).abs() || p <= q * (lo - x) || p >= q * (hi - x)) {
+                e = d;
+                d = p / q;
+                let u = x + d;
+                if u - lo < tol2 || hi - u < tol2 {
+                    d = tol1.copysign(xm - x);
+                }
+                golden = false;
+            }
+        }
+        if golden {
+            e = if x >= xm { lo - x } else { hi - x };
+            d = CGOLD * e;
+        }
+        let u = if d.abs() >= tol1 {
+            x + d
+        } else {
+            x + tol1.copysign(d)
+        };
+        let fu = eval(u, &mut evals);
+        if fu <= fx {
+            if u >= x {
+                lo = x;
+            } else {
+                hi = x;
+            }
+            v = w;
+            fv = fw;
+            w = x;
+            fw = fx;
+            x = u;
+            fx = fu;
+        } else {
+            if u < x {
+                lo = u;
+            } else {
+                hi = u;
+            }
+            if fu <= fw || w == x {
+                v = w;
+                fv = fw;
+                w = u;
+                fw = fu;
+            } else if fu <= fv || v == x || v == w {
+                v = u;
+                fv = fu;
+            }
+        }
+    }
+    if fx < f0 {
+        (x, fx)
+    } else {
+        (0.0, f0)
+    }
+}
+
+/// Fletcher-Reeves conjugate gradient from `theta0`. See the module documentation.
+pub fn conjugate_gradient_fr<P: LeastSquares, V: LeastSquares>(
+    problem: &mut P,
+    validation: Option<&mut V>,
+    theta0: &[f64],
+    opts: &CgfOptions,
+) -> Fit {
+    let p = problem.n_params();
+    let n = problem.n_residuals();
+    let scale = 2.0 / n.max(1) as f64;
+    let mut theta = theta0.to_vec();
+    let mut trial = theta.clone();
+    let mut e = vec![0.0; n];
+    let mut jt = DMatrix::zeros(p, n);
+    let mut g = DVector::zeros(p);
+    // Loss and gradient of the MSE at theta.
+    let mut grad = |problem: &mut P, theta: &[f64], g: &mut DVector<f64>, e: &mut [f64]| {
+        problem.jacobian_t(theta, e, &mut jt);
+        let ev = DVector::from_column_slice(e);
+        g.gemv(scale, &jt, &ev, 0.0);
+        mean_square(e)
+    };
+    let mut loss = grad(problem, &theta, &mut g, &mut e);
+    let mut early = EarlyStop::new(validation, &theta, loss, opts.max_fail);
+    let mut d = -&g;
+    let mut gg = g.norm_squared();
+    let mut alpha_prev = 1e-2 / d.amax().max(1e-12);
+    let mut since_restart = 0usize;
+    let mut epoch = 0;
+    let stop = loop {
+        if epoch >= opts.max_epochs {
+            break StopReason::MaxEpochs;
+        }
+        if gg.sqrt() <= opts.min_grad {
+            break StopReason::MinGradient;
+        }
+        if g.dot(&d) >= 0.0 {
+            // Not a descent direction: restart on steepest descent.
+            d = -&g;
+            since_restart = 0;
+        }
+        let (alpha, _) = line_search(
+            |a| {
+                for i in 0..p {
+                    trial[i] = theta[i] + a * d[i];
+                }
+                problem.residuals(&trial, &mut e);
+                mean_square(&e)
+            },
+            loss,
+            alpha_prev,
+            opts.line_tol,
+            opts.line_max_evals,
+        );
+        if alpha == 0.0 {
+            if since_restart == 0 {
+                break StopReason::NoProgress;
+            }
+            // Lost descent along the conjugate direction: restart on steepest descent.
+            d = -&g;
+            since_restart = 0;
+            continue;
+        }
+        let d_norm = d.norm();
+        for i in 0..p {
+            theta[i] += alpha * d[i];
+        }
+        loss = grad(problem, &theta, &mut g, &mut e);
+        let gg_new = g.norm_squared();
+        since_restart += 1;
+        if since_restart >= p {
+            d = -&g;
+            since_restart = 0;
+        } else {
+            let beta = gg_new / gg;
+            d *= beta;
+            d -= &g;
+        }
+        gg = gg_new;
+        // Next first trial: the same step length along the new direction.
+        alpha_prev = alpha * d_norm / d.norm().max(1e-300);
+        epoch += 1;
+        if early.update(epoch, &theta, loss) {
+            break StopReason::ValidationStop;
+        }
+    };
+    early.finish(epoch, stop)
+}
+
+/// Nguyen-Widrow initial weights (MATLAB `initnw`) for inputs scaled to [-1, 1], from `rng`.
+pub fn nguyen_widrow(n_in: usize, rng: &mut ChaCha8Rng) -> Mlp {
+    let mut m = Mlp::zeros(n_in);
+    let mut layer = |w: &mut DMatrix<f64>, b: &mut DVector<f64>, fan_in: usize| {
+        let beta = 0.7 * (HIDDEN as f64).powf(1.0 / fan_in as f64);
+        for j in 0..HIDDEN {
+            let mut norm = 0.0;
+            for i in 0..fan_in {
+                let v: f64 = rng.gen_range(-1.0..1.0);
+                w[(j, i)] = v;
+                norm += v * v;
+            }
+            let norm = norm.sqrt().max(1e-12);
+            for i in 0..fan_in {
+                w[(j, i)] *= beta / norm;
+            }
+            b[j] = rng.gen_range(-beta..beta);
+        }
+    };
+    layer(&mut m.w1, &mut m.b1, n_in);
+    layer(&mut m.w2, &mut m.b2, HIDDEN);
+    for j in 0..HIDDEN {
+        m.w3[j] = rng.gen_range(-0.5..0.5);
+    }
+    m.b3 = 0.0;
+    m
+}
+
+/// The seed of restart `restart` of a training whose seed is `seed`.
+pub fn restart_seed(seed: u64, restart: usize) -> u64 {
+    // SplitMix64 of the pair: distinct, well-mixed seeds per restart.
+    let mut z = seed
+        .wrapping_add(0x9E37_79B9_7F4A_7C15u64.wrapping_mul(restart as u64 + 1))
+        .wrapping_add(0xD1B5_4A32_D192_ED03);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// One restart: a trained network and its record.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrainedNet {
+    /// The network (best weights on validation).
+    pub net: Mlp,
+    /// The optimisation record.
+    pub fit: Fit,
+    /// Which restart produced it.
+    pub restart: usize,
+}
+
+/// Trains one restart from Nguyen-Widrow weights drawn with [`restart_seed`]`(seed, restart)`.
+pub fn train_restart(
+    train: &Dataset,
+    validation: &Dataset,
+    trainer: &Trainer,
+    seed: u64,
+    restart: usize,
+) -> Result<TrainedNet, TrainError> {
+    if train.is_empty() {
+        return Err(TrainError::Empty("training"));
+    }
+    if validation.is_empty() {
+        return Err(TrainError::Empty("validation"));
+    }
+    if validation.n_in() != train.n_in() {
+        return Err(TrainError::Shape(format!(
+            "validation rows have {} inputs, training rows {}",
+            validation.n_in(),
+            train.n_in()
+        )));
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(restart_seed(seed, restart));
+    let theta0 = nguyen_widrow(train.n_in(), &mut rng).params();
+    let mut problem = NetProblem::new(train);
+    let mut val = NetProblem::new(validation);
+    let fit = match trainer {
+        Trainer::Lm(o) => levenberg_marquardt(&mut problem, Some(&mut val), &theta0, o),
+        Trainer::Cgf(o) => conjugate_gradient_fr(&mut problem, Some(&mut val), &theta0, o),
+    };
+    let net =
+        Mlp::from_params(train.n_in(), &fit.theta).map_err(|e| TrainError::Shape(e.to_string()))?;
+    Ok(TrainedNet { net, fit, restart })
+}
+
+/// The best of several restarts on validation (the lowest index on a tie).
+pub fn best_of(runs: Vec<TrainedNet>) -> Option<TrainedNet> {
+    let mut best: Option<TrainedNet> = None;
+    for r in runs {
+        let better = match &best {
+            None => true,
+            Some(b) => r.fit.mse_validation < b.fit.mse_validation,
+        };
+        if better {
+            best = Some(r);
+        }
+    }
+    best
+}
+
+/// Trains `restarts` seeded restarts one after the other and keeps the best on validation.
+pub fn train(
+    train: &Dataset,
+    validation: &Dataset,
+    trainer: &Trainer,
+    seed: u64,
+    restarts: usize,
+) -> Result<TrainedNet, TrainError> {
+    let runs = (0..restarts)
+        .map(|r| train_restart(train, validation, trainer, seed, r))
+        .collect::<Result<Vec<_>, _>>()?;
+    best_of(runs).ok_or(TrainError::NoRestart)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::DMatrix;
+
+    /// Linear least squares: e = A theta - y.
+    struct Linear {
+        a: DMatrix<f64>,
+        y: DVector<f64>,
+    }
+
+    impl LeastSquares for Linear {
+        fn n_params(&self) -> usize {
+            self.a.ncols()
+        }
+        fn n_residuals(&self) -> usize {
+            self.a.nrows()
+        }
+        fn residuals(&mut self, theta: &[f64], e: &mut [f64]) {
+            let r = &self.a * DVector::from_column_slice(theta) - &self.y;
+            e.copy_from_slice(r.as_slice());
+        }
+        fn jacobian_t(&mut self, theta: &[f64], e: &mut [f64], jt: &mut DMatrix<f64>) {
+            self.residuals(theta, e);
+            jt.copy_from(&self.a.transpose());
+        }
+    }
+
+    fn linear_problem() -> (Linear, DVector<f64>) {
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let (n, p) = (40, 5);
+        let a = DMatrix::from_fn(n, p, |_, _| rng.gen_range(-1.0..1.0));
+        let y = DVector::from_fn(n, |_, _| rng.gen_range(-1.0..1.0));
+        // Closed form: the normal equations (A^T A) theta = A^T y.
+        let ata = a.transpose() * &a;
+        let aty = a.transpose() * &y;
+        let theta = ata.cholesky().unwrap().solve(&aty);
+        (Linear { a, y }, theta)
+    }
+
+    #[test]
+    fn lm_solves_linear_least_squares_in_closed_form() {
+        let (mut prob, answer) = linear_problem();
+        let opts = LmOptions {
+            max_epochs: 50,
+            ..LmOptions::default()
+        };
+        let fit = levenberg_marquardt::<_, Linear>(&mut prob, None, &[0.0; 5], &opts);
+        for (t, a) in fit.theta.iter().zip(answer.iter()) {
+            approx::assert_relative_eq!(*t, *a, max_relative = 1e-8, epsilon = 1e-10);
+        }
+        // With mu = 1e-3 the first step is already within ~mu of Gauss-Newton: few epochs.
+        assert!(fit.epochs <= 10, "{} epochs", fit.epochs);
+    }
+
+    #[test]
+    fn cgf_solves_linear_least_squares_within_p_iterations_per_restart() {
+        let (mut prob, answer) = linear_problem();
+        let opts = CgfOptions {
+            max_epochs: 60,
+            line_tol: 1e-8,
+            ..CgfOptions::default()
+        };
+        let fit = conjugate_gradient_fr::<_, Linear>(&mut prob, None, &[0.0; 5], &opts);
+        for (t, a) in fit.theta.iter().zip(answer.iter()) {
+            approx::assert_relative_eq!(*t, *a, max_relative = 1e-5, epsilon = 1e-7);
+        }
+        // 5 epochs of exact-line-search CG do not reach it from far, 60 do: a check that
+        // the iteration count matters (the test can fail).
+        let short = CgfOptions {
+            max_epochs: 2,
+            ..opts
+        };
+        let (mut prob2, _) = linear_problem();
+        let fit2 = conjugate_gradient_fr::<_, Linear>(&mut prob2, None, &[0.0; 5], &short);
+        let err: f64 = fit2
+            .theta
+            .iter()
+            .zip(answer.iter())
+            .map(|(t, a)| (t - a).abs())
+            .fold(0.0, f64::max);
+        assert!(err > 1e-4, "2 epochs already at {err}");
+    }
+
+    #[test]
+    fn line_search_finds_the_minimum_of_a_parabola() {
+        // phi(a) = (a - 3)^2 + 1, from a first trial far too short and far too long.
+        for alpha0 in [1e-4, 0.5, 100.0] {
+            let (a, f) = line_search(|a| (a - 3.0).powi(2) + 1.0, 10.0, alpha0, 1e-6, 80);
+            approx::assert_relative_eq!(a, 3.0, max_relative = 1e-4);
+            approx::assert_relative_eq!(f, 1.0, max_relative = 1e-6);
+        }
+        // Climbing everywhere: no step.
+        let (a, f) = line_search(|a| a * a, 0.0, 1.0, 1e-6, 80);
+        assert_eq!((a, f), (0.0, 0.0));
+    }
+
+    fn smooth_fn(x: &[f64]) -> f64 {
+        (std::f64::consts::PI * x[0]).sin() * (0.5 * std::f64::consts::PI * x[1]).cos()
+    }
+
+    fn grid(n: usize, offset: f64) -> (Vec<Vec<f64>>, Vec<f64>) {
+        let mut rows = Vec::new();
+        let mut ys = Vec::new();
+        for i in 0..n {
+            for j in 0..n {
+                let x = vec![
+                    -1.0 + 2.0 * (i as f64 + offset) / n as f64,
+                    -1.0 + 2.0 * (j as f64 + offset) / n as f64,
+                ];
+                ys.push(0.8 * smooth_fn(&x));
+                rows.push(x);
+            }
+        }
+        (rows, ys)
+    }
+
+    fn sets() -> (Dataset, Dataset, Dataset) {
+        let (r, y) = grid(20, 0.5);
+        let (rv, yv) = grid(7, 0.25);
+        let (rt, yt) = grid(9, 0.37);
+        (
+            Dataset::new("training", &r, &y).unwrap(),
+            Dataset::new("validation", &rv, &yv).unwrap(),
+            Dataset::new("test", &rt, &yt).unwrap(),
+        )
+    }
+
+    #[test]
+    fn lm_network_fits_a_known_smooth_function() {
+        let (tr, va, te) = sets();
+        let var = {
+            let mut p = NetProblem::new(&te);
+            // Output of an all-zero network is 0: this is the mean square of the target.
+            p.mse(&vec![0.0; n_params(2)])
+        };
+        let trainer = Trainer::Lm(LmOptions {
+            max_epochs: 200,
+            ..LmOptions::default()
+        });
+        let best = train(&tr, &va, &trainer, 1, 2).unwrap();
+        let mse = NetProblem::new(&te).mse(&best.net.params());
+        println!(
+            "LM: test MSE {mse:.2e} (target mean square {var:.3}), {} epochs, stop {:?}",
+            best.fit.epochs, best.fit.stop
+        );
+        // Measured ~2e-8; a network that merely learnt the trend stays above 1e-3.
+        assert!(mse < 1e-6, "test MSE {mse}");
+        assert!(var > 0.1, "target mean square {var}");
+    }
+
+    #[test]
+    fn cgf_network_learns_a_known_smooth_function_more_slowly() {
+        let (tr, va, te) = sets();
+        let lm = train(&tr, &va, &Trainer::Lm(LmOptions::default()), 1, 1).unwrap();
+        let cg = train(&tr, &va, &Trainer::Cgf(CgfOptions::default()), 1, 1).unwrap();
+        let init = {
+            let mut rng = ChaCha8Rng::seed_from_u64(restart_seed(1, 0));
+            nguyen_widrow(2, &mut rng).params()
+        };
+        let m0 = NetProblem::new(&te).mse(&init);
+        let m_cg = NetProblem::new(&te).mse(&cg.net.params());
+        let m_lm = NetProblem::new(&te).mse(&lm.net.params());
+        println!("initial {m0:.2e}, CGF 100 epochs {m_cg:.2e}, LM {m_lm:.2e}");
+        // CG at 100 epochs learns most of the function, LM gets much further.
+        assert!(m_cg < 0.05 * m0, "CG {m_cg} vs initial {m0}");
+        assert!(m_cg < 0.02, "CG {m_cg}");
+        assert!(m_lm < 0.2 * m_cg, "LM {m_lm} vs CG {m_cg}");
+    }
+
+    #[test]
+    fn training_is_deterministic_and_seed_dependent() {
+        let (tr, va, _) = sets();
+        let t = Trainer::Lm(LmOptions {
+            max_epochs: 20,
+            ..LmOptions::default()
+        });
+        let a = train(&tr, &va, &t, 5, 2).unwrap();
+        let b = train(&tr, &va, &t, 5, 2).unwrap();
+        let c = train(&tr, &va, &t, 6, 2).unwrap();
+        let bits = |n: &TrainedNet| {
+            n.net
+                .params()
+                .iter()
+                .map(|v| v.to_bits())
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(bits(&a), bits(&b));
+        assert_ne!(bits(&a), bits(&c));
+    }
+
+    #[test]
+    fn early_stopping_keeps_the_best_validation_weights() {
+        // Few noisy training points and a clean validation set: the validation error must
+        // be that of the kept weights, recomputed independently.
+        let (tr, va, _) = sets();
+        let best = train_restart(&tr, &va, &Trainer::Lm(LmOptions::default()), 3, 0).unwrap();
+        let recomputed = NetProblem::new(&va).mse(&best.net.params());
+        approx::assert_relative_eq!(recomputed, best.fit.mse_validation, max_relative = 1e-12);
+        assert!(best.fit.best_epoch <= best.fit.epochs);
+    }
+
+    #[test]
+    fn bad_data_is_refused() {
+        assert!(matches!(
+            Dataset::new("training", &[], &[]),
+            Err(TrainError::Empty("training"))
+        ));
+        assert!(matches!(
+            Dataset::new("training", &[vec![1.0, 2.0], vec![1.0]], &[0.0, 0.0]),
+            Err(TrainError::Shape(_))
+        ));
+        assert!(matches!(
+            Dataset::new("training", &[vec![f64::NAN]], &[0.0]),
+            Err(TrainError::NotFinite { sample: 0, .. })
+        ));
+    }
+}

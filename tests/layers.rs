@@ -1,0 +1,432 @@
+//! The floors of the house: every module of `src/` imports only from the floors below it.
+//!
+//! [`FLOORS`] lists the layout's units from the bottom up; a unit is a module path, and a
+//! file belongs to the longest unit that prefixes its module path. A reference to
+//! `crate::...` (or `super::...`) that lands in a unit listed *after* the referring file's
+//! unit is an upward import. Because the list is a total order, a cycle between folders always
+//! contains an upward import, so this also rules out cycles. Comments and string literals are
+//! left out; test modules inside `src/` are held to the same rule.
+//!
+//! A new folder or top-level file must be placed in the list (an unlisted module fails the
+//! test), which is where its floor is decided; docs/architecture.md draws the same order.
+
+use std::collections::BTreeSet;
+use std::path::Path;
+
+/// Units from the bottom floor up. See docs/architecture.md.
+const FLOORS: &[&str] = &[
+    // The pure core: config data first, then the code that uses it.
+    "core::angle",
+    "core::config",
+    "core::wire",
+    "core::model",
+    "core::design",
+    "core::baseline::config",
+    "core::estimator::config",
+    "core::fdi::config",
+    "core::monitor::config",
+    "core::dsp",
+    "core::baseline",
+    "core::estimator",
+    "core::fdi",
+    "core::monitor",
+    "core",
+    // The simulated ship.
+    "sim::config",
+    "sim",
+    // Drivers without I/O of their own.
+    "drivers::probe",
+    "drivers::replay",
+    "drivers",
+    // Shells: the world.
+    "shells::net",
+    "shells::systemd",
+    "shells::daemon",
+    "shells::shipnode",
+    "shells",
+    // The configuration file as a whole.
+    "config",
+    // Offline tools.
+    "tools::training",
+    "tools::eval",
+    "tools::demo",
+    "tools::bench",
+    "tools",
+    // The command line.
+    "cli",
+];
+
+/// One upward import: `(file, its unit, the path, the unit it reaches)`.
+type Violation = (String, String, String, String);
+
+/// Module path of a file below `src/`: `core/monitor/hbt.rs` -> `core::monitor::hbt`,
+/// `core/monitor/mod.rs` -> `core::monitor`; `lib.rs` and `main.rs` -> "" (the crate root).
+fn module_path(rel: &str) -> String {
+    let rel = rel.trim_end_matches(".rs");
+    let mut parts: Vec<&str> = rel.split('/').collect();
+    if matches!(parts.last(), Some(&"mod")) {
+        parts.pop();
+    }
+    if parts == ["lib"] || parts == ["main"] {
+        return String::new();
+    }
+    parts.join("::")
+}
+
+/// Rank of the unit a module path belongs to (the longest listed prefix), or `None`.
+fn unit_of(path: &str) -> Option<(usize, &'static str)> {
+    FLOORS
+        .iter()
+        .enumerate()
+        .filter(|(_, u)| path == **u || path.starts_with(&format!("{u}::")))
+        .max_by_key(|(_, u)| u.len())
+        .map(|(i, u)| (i, *u))
+}
+
+/// The source text without comments, string and char literals (replaced by spaces).
+fn strip(src: &str) -> String {
+    let b: Vec<char> = src.chars().collect();
+    let mut out = String::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        let c = b[i];
+        let next = b.get(i + 1).copied();
+        if c == '/' && next == Some('/') {
+            while i < b.len() && b[i] != '\n' {
+                i += 1;
+            }
+        } else if c == '/' && next == Some('*') {
+            let mut depth = 0;
+            while i < b.len() {
+                if b[i] == '/' && b.get(i + 1) == Some(&'*') {
+                    depth += 1;
+                    i += 2;
+                } else if b[i] == '*' && b.get(i + 1) == Some(&'/') {
+                    depth -= 1;
+                    i += 2;
+                    if depth == 0 {
+                        break;
+                    }
+                } else {
+                    i += 1;
+                }
+            }
+            out.push(' ');
+        } else if c == 'r' && (next == Some('"') || next == Some('#')) && !prev_ident(&b, i) {
+            // Raw string r"..." or r#"..."#.
+            let mut j = i + 1;
+            let mut hashes = 0;
+            while b.get(j) == Some(&'#') {
+                hashes += 1;
+                j += 1;
+            }
+            if b.get(j) != Some(&'"') {
+                out.push(c);
+                i += 1;
+                continue;
+            }
+            j += 1;
+            loop {
+                if j >= b.len() {
+                    break;
+                }
+                if b[j] == '"' && (0..hashes).all(|k| b.get(j + 1 + k) == Some(&'#')) {
+                    j += 1 + hashes;
+                    break;
+                }
+                j += 1;
+            }
+            i = j;
+            out.push_str("\"\"");
+        } else if c == '"' {
+            i += 1;
+            while i < b.len() && b[i] != '"' {
+                if b[i] == '\\' {
+                    i += 1;
+                }
+                i += 1;
+            }
+            i += 1;
+            out.push_str("\"\"");
+        } else if c == '\'' {
+            // A char literal ('a', '\n', '\u{..}') or a lifetime ('a): skip only literals.
+            let close = if next == Some('\\') {
+                (i + 2..b.len().min(i + 12)).find(|&k| b[k] == '\'')
+            } else if b.get(i + 2) == Some(&'\'') {
+                Some(i + 2)
+            } else {
+                None
+            };
+            match close {
+                Some(k) => {
+                    i = k + 1;
+                    out.push_str("' '");
+                }
+                None => {
+                    out.push(c);
+                    i += 1;
+                }
+            }
+        } else {
+            out.push(c);
+            i += 1;
+        }
+    }
+    out
+}
+
+fn prev_ident(b: &[char], i: usize) -> bool {
+    i > 0 && (b[i - 1].is_alphanumeric() || b[i - 1] == '_')
+}
+
+/// Every module path a `crate::` / `super::` reference in `code` names, expanded through
+/// `{...}` groups: `crate::{a::b, c::{d, e}}` -> `a::b`, `c::d`, `c::e`. `module` is the
+/// referring file's module path (for `super::`).
+fn references(code: &str, module: &str) -> BTreeSet<String> {
+    let chars: Vec<char> = code.chars().collect();
+    let mut found = BTreeSet::new();
+    // Inline modules (`mod tests { .. }`) open at a brace depth: `super::` inside one
+    // starts from it, not from the file's module.
+    let mut depth = 0usize;
+    let mut inline: Vec<(String, usize)> = Vec::new();
+    let mut i = 0;
+    while i < chars.len() {
+        let rest: String = chars[i..chars.len().min(i + 7)].iter().collect();
+        let starts_word = i == 0 || !prev_ident(&chars, i);
+        match chars[i] {
+            '{' => {
+                depth += 1;
+                i += 1;
+                continue;
+            }
+            '}' => {
+                depth = depth.saturating_sub(1);
+                while inline.last().is_some_and(|(_, d)| *d > depth) {
+                    inline.pop();
+                }
+                i += 1;
+                continue;
+            }
+            _ => {}
+        }
+        if starts_word && rest.starts_with("mod ") {
+            let mut j = i + 4;
+            let start = j;
+            while j < chars.len() && (chars[j].is_alphanumeric() || chars[j] == '_') {
+                j += 1;
+            }
+            let name: String = chars[start..j].iter().collect();
+            while j < chars.len() && chars[j].is_whitespace() {
+                j += 1;
+            }
+            if chars.get(j) == Some(&'{') {
+                depth += 1;
+                inline.push((name, depth));
+                i = j + 1;
+                continue;
+            }
+            i = j.max(i + 1);
+        } else if starts_word && (rest.starts_with("crate::") || rest.starts_with("super::")) {
+            let (base, mut j) = if rest.starts_with("crate::") {
+                (Vec::new(), i + 7)
+            } else {
+                let mut base: Vec<String> = module.split("::").map(str::to_string).collect();
+                base.extend(inline.iter().map(|(n, _)| n.clone()));
+                let mut j = i;
+                while chars[j..].iter().take(7).collect::<String>() == "super::" {
+                    base.pop();
+                    j += 7;
+                }
+                (base, j)
+            };
+            parse_tree(&chars, &mut j, base, &mut found);
+            i = j.max(i + 1);
+        } else {
+            i += 1;
+        }
+    }
+    found
+}
+
+/// Parses `seg::seg::{tree, tree}` at `chars[*j..]`, pushing each full path onto `found`.
+fn parse_tree(chars: &[char], j: &mut usize, mut path: Vec<String>, found: &mut BTreeSet<String>) {
+    loop {
+        while *j < chars.len() && chars[*j].is_whitespace() {
+            *j += 1;
+        }
+        if chars.get(*j) == Some(&'{') {
+            *j += 1;
+            loop {
+                parse_tree(chars, j, path.clone(), found);
+                while *j < chars.len() && chars[*j].is_whitespace() {
+                    *j += 1;
+                }
+                match chars.get(*j) {
+                    Some(',') => *j += 1,
+                    Some('}') => {
+                        *j += 1;
+                        return;
+                    }
+                    _ => return,
+                }
+                while *j < chars.len() && chars[*j].is_whitespace() {
+                    *j += 1;
+                }
+                if chars.get(*j) == Some(&'}') {
+                    *j += 1;
+                    return;
+                }
+            }
+        }
+        let start = *j;
+        while *j < chars.len() && (chars[*j].is_alphanumeric() || chars[*j] == '_') {
+            *j += 1;
+        }
+        let seg: String = chars[start..*j].iter().collect();
+        if seg.is_empty() || seg == "self" {
+            found.insert(path.join("::"));
+            return;
+        }
+        path.push(seg);
+        if chars[*j..].iter().take(2).collect::<String>() == "::" {
+            *j += 2;
+        } else {
+            found.insert(path.join("::"));
+            return;
+        }
+    }
+}
+
+/// Checks `files` (`(path below src/, text)`): the upward imports, and the files that belong
+/// to no listed unit.
+fn check(files: &[(String, String)]) -> (Vec<Violation>, Vec<String>) {
+    let mut violations = Vec::new();
+    let mut unlisted = Vec::new();
+    for (rel, text) in files {
+        let module = module_path(rel);
+        if module.is_empty() {
+            continue; // lib.rs and main.rs declare the floors, they are not one.
+        }
+        let Some((rank, unit)) = unit_of(&module) else {
+            unlisted.push(rel.clone());
+            continue;
+        };
+        for target in references(&strip(text), &module) {
+            if let Some((t_rank, t_unit)) = unit_of(&target) {
+                if t_rank > rank {
+                    violations.push((
+                        rel.clone(),
+                        unit.to_string(),
+                        target.clone(),
+                        t_unit.to_string(),
+                    ));
+                }
+            }
+        }
+    }
+    (violations, unlisted)
+}
+
+fn source_files(dir: &Path, root: &Path, out: &mut Vec<(String, String)>) {
+    let mut entries: Vec<_> = std::fs::read_dir(dir).unwrap().flatten().collect();
+    entries.sort_by_key(|e| e.path());
+    for e in entries {
+        let p = e.path();
+        if p.is_dir() {
+            source_files(&p, root, out);
+        } else if p.extension().is_some_and(|x| x == "rs") {
+            let rel = p
+                .strip_prefix(root)
+                .unwrap()
+                .to_string_lossy()
+                .replace('\\', "/");
+            out.push((rel, std::fs::read_to_string(&p).unwrap()));
+        }
+    }
+}
+
+#[test]
+fn no_module_imports_from_a_floor_above_it() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    source_files(&root, &root, &mut files);
+    assert!(files.len() > 40, "read {} files", files.len());
+    let (violations, unlisted) = check(&files);
+    assert!(
+        unlisted.is_empty(),
+        "modules on no floor (place them in FLOORS, tests/layers.rs, and docs/architecture.md): {unlisted:?}"
+    );
+    let lines: Vec<String> = violations
+        .iter()
+        .map(|(f, u, p, t)| format!("{f} ({u}) imports {p} ({t}, a floor above)"))
+        .collect();
+    assert!(lines.is_empty(), "upward imports:\n{}", lines.join("\n"));
+}
+
+fn file(rel: &str, text: &str) -> (String, String) {
+    (rel.to_string(), text.to_string())
+}
+
+#[test]
+fn a_planted_upward_import_is_caught() {
+    let (v, _) = check(&[file(
+        "core/dsp/spectrum.rs",
+        "use crate::core::angle::wrap_pi;\nuse crate::sim::Ship;\n",
+    )]);
+    assert_eq!(v.len(), 1, "{v:?}");
+    assert_eq!(v[0].2, "sim::Ship");
+    assert_eq!(v[0].3, "sim");
+    // Inside a group, in an expression, and through super::.
+    let (v, _) = check(&[
+        file(
+            "core/monitor/hbt.rs",
+            "use crate::{core::dsp, drivers::probe::Lockstep};",
+        ),
+        file(
+            "sim/ship.rs",
+            "fn f() { let x = crate::tools::training::database::design(); }",
+        ),
+        file("core/estimator/nn.rs", "use super::super::fdi::Fdi;"),
+        file(
+            "core/angle.rs",
+            "mod tests { use super::*; use super::super::monitor::Monitor; }",
+        ),
+    ]);
+    let targets: Vec<&str> = v.iter().map(|x| x.2.as_str()).collect();
+    assert_eq!(
+        targets,
+        vec![
+            "drivers::probe::Lockstep",
+            "tools::training::database::design",
+            "core::fdi::Fdi",
+            "core::monitor::Monitor"
+        ],
+        "{v:?}"
+    );
+}
+
+#[test]
+fn a_cycle_between_two_folders_is_caught() {
+    // dsp -> fdi and fdi -> dsp: whichever is higher, one edge points up.
+    let (v, _) = check(&[
+        file("core/dsp/mod.rs", "use crate::core::fdi::Fdi;"),
+        file("core/fdi/mod.rs", "use crate::core::dsp::spectrum;"),
+    ]);
+    assert_eq!(v.len(), 1, "{v:?}");
+    assert_eq!(v[0].0, "core/dsp/mod.rs");
+}
+
+#[test]
+fn comments_strings_and_downward_imports_are_not_violations() {
+    let (v, unlisted) = check(&[
+        file(
+            "core/model.rs",
+            "//! See [`crate::sim::Ship`].\n/* crate::cli */ const S: &str = \"crate::tools::x\";\nconst R: &str = r#\"crate::shells\"#;\nuse crate::core::config::ConfigError;\nfn f<'a>(x: &'a str) -> char { '\"' }\n",
+        ),
+        file("cli/mod.rs", "use crate::{core::monitor::Monitor, tools::demo};"),
+    ]);
+    assert!(v.is_empty(), "{v:?}");
+    assert!(unlisted.is_empty());
+    let (_, unlisted) = check(&[file("gadgets/mod.rs", "")]);
+    assert_eq!(unlisted, vec!["gadgets/mod.rs".to_string()]);
+}
