@@ -17,6 +17,8 @@ use crate::shells::daemon::{Daemon, DaemonError};
 use crate::shells::net::{free_loopback_port, loopback_peer, NetError};
 use crate::shells::shipnode::{ShipNode, ShipNodeError, ShipNodeOptions};
 use crate::sim::Scenario;
+use std::io::Write;
+use std::path::Path;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -255,4 +257,70 @@ pub async fn fleet(
             && p99_ms < dt * 1e3
             && flood_drops == 0,
     })
+}
+
+/// A fleet figure as the one JSON line `helmwatch bench --one-fleet N` prints.
+pub fn fleet_json(f: &FleetFigure) -> serde_json::Value {
+    serde_json::json!({
+        "vessels": f.vessels, "headings": f.headings, "excitations": f.excitations,
+        "p50_ms": f.p50_ms, "p99_ms": f.p99_ms, "flood_drops": f.flood_drops,
+        "rss_mib": f.rss_mib, "kept_up": f.kept_up,
+    })
+}
+
+/// Measures each fleet size of `sizes` in turn, each in a fresh child process
+/// `exe [--config CONFIG] bench --one-fleet N` so that its memory is its own, prints a line
+/// per size to `out`, and stops at the first size not kept up with. Returns the largest size
+/// kept up with (0 when none was).
+pub fn fleet_sizes(
+    exe: &Path,
+    config: Option<&Path>,
+    sizes: &[usize],
+    window_s: f64,
+    out: &mut impl Write,
+) -> Result<usize, std::io::Error> {
+    let mut best = 0usize;
+    for &n in sizes {
+        let mut cmd = std::process::Command::new(exe);
+        if let Some(c) = config {
+            cmd.arg("--config").arg(c);
+        }
+        let child = cmd
+            .args([
+                "bench",
+                "--window-s",
+                &window_s.to_string(),
+                "--one-fleet",
+                &n.to_string(),
+            ])
+            .env("RUST_LOG", "off")
+            .stderr(std::process::Stdio::null())
+            .output()?;
+        let text = String::from_utf8_lossy(&child.stdout);
+        let Some(v) = text
+            .lines()
+            .rev()
+            .find_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        else {
+            writeln!(
+                out,
+                "fleet of {n}: the measurement failed ({})",
+                child.status
+            )?;
+            break;
+        };
+        let g = |k: &str| v.get(k).and_then(|x| x.as_f64()).unwrap_or(f64::NAN);
+        let kept = v.get("kept_up").and_then(|x| x.as_bool()).unwrap_or(false);
+        writeln!(
+            out,
+            "fleet of {n} vessels at 10 Hz: {:.0}/{:.0} headings answered, delay p50 {:.1} ms p99 {:.1} ms, {:.0} flood drops, RSS {:.0} MiB: {}",
+            g("excitations"), g("headings"), g("p50_ms"), g("p99_ms"), g("flood_drops"), g("rss_mib"),
+            if kept { "kept up" } else { "NOT kept up" }
+        )?;
+        if !kept {
+            break;
+        }
+        best = n;
+    }
+    Ok(best)
 }

@@ -1,0 +1,235 @@
+//! The command line's schema: every subcommand and its arguments (clap derive). The bodies
+//! are in [`super::offline`], [`super::service`] and [`super::estimator`].
+
+use crate::cli::estimator::{DEFAULT_EVAL_POINTS, DEFAULT_RESTARTS, DEFAULT_TRAIN_POINTS};
+use crate::core::model::SeaState;
+use crate::core::wire::Method;
+use clap::{Args, Parser, Subcommand};
+use std::path::PathBuf;
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "helmwatch",
+    version,
+    about = "Steering fault detection for ships: closed-loop frequency tests over Zenoh"
+)]
+pub(crate) struct Cli {
+    /// Configuration file (TOML); without it the embedded defaults are used.
+    #[arg(long, global = true, value_name = "FILE")]
+    pub(crate) config: Option<PathBuf>,
+    #[command(subcommand)]
+    pub(crate) command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub(crate) enum Command {
+    /// Record what a simulated ship publishes, as JSON lines {"key": .., "payload": ..}.
+    Simulate(SimulateArgs),
+    /// Run one test (HBT or CLFRT) on a simulated ship in virtual time and print its report.
+    Probe(ProbeArgs),
+    /// Check a configuration file and print it with every default filled in.
+    CheckConfig,
+    /// The daemon: monitor the configured vessels over Zenoh until SIGTERM or SIGINT.
+    Run(RunArgs),
+    /// The simulated ship as a Zenoh peer (lockstep with the daemon, or real time).
+    Ship(ShipPeerArgs),
+    /// Daemon and simulated ship in one process over Zenoh on loopback, accelerated time:
+    /// a few nominal tests, then a displacement fault; prints each decision as it arrives.
+    Demo(DemoArgs),
+    /// Run the monitor core over a recording (JSON lines, as `simulate` writes) and print
+    /// its reports.
+    Replay(ReplayArgs),
+    /// Print the daemon's benchmark figures (lockstep speed, vessels kept up with, memory).
+    Bench(BenchArgs),
+    /// Regenerate the training database and every estimator model (bit for bit per seed).
+    Train(TrainArgs),
+    /// Evaluate the models on a held-out database: accuracy tables, durations, drift.
+    Eval(EvalArgs),
+}
+
+#[derive(Debug, Args)]
+pub(crate) struct TrainArgs {
+    /// Seed of the database (design, simulations, split) and of the training restarts.
+    #[arg(long, default_value_t = 1)]
+    pub(crate) seed: u64,
+    /// Directory for the model files (Levenberg-Marquardt; Fletcher-Reeves in `traincgf/`).
+    #[arg(long, default_value = "models")]
+    pub(crate) out: PathBuf,
+    /// Latin-hypercube points per sea state.
+    #[arg(long, default_value_t = DEFAULT_TRAIN_POINTS)]
+    pub(crate) points: usize,
+    /// Seeded restarts per network and trainer.
+    #[arg(long, default_value_t = DEFAULT_RESTARTS)]
+    pub(crate) restarts: usize,
+    /// Worker threads (default: every core).
+    #[arg(long)]
+    pub(crate) threads: Option<usize>,
+}
+
+#[derive(Debug, Args)]
+pub(crate) struct EvalArgs {
+    /// Seed of the held-out database (drawn on other random streams than training's).
+    #[arg(long, default_value_t = 1)]
+    pub(crate) seed: u64,
+    /// Directory of the model files (Levenberg-Marquardt; Fletcher-Reeves in `traincgf/`).
+    #[arg(long, default_value = "models")]
+    pub(crate) models: PathBuf,
+    /// Held-out points per sea state.
+    #[arg(long, default_value_t = DEFAULT_EVAL_POINTS)]
+    pub(crate) points: usize,
+    /// Also run every held-out test with a heading drift of 1 deg/min and compare.
+    #[arg(long)]
+    pub(crate) drift: bool,
+    /// Run the fault-decision scenario suite instead (docs/fdi.md): false alarms, detection,
+    /// isolation, delay, per method and sea state, beside the equation-error baseline.
+    #[arg(long)]
+    pub(crate) fdi: bool,
+    /// With --fdi: runs per fault scenario.
+    #[arg(long, default_value_t = 60)]
+    pub(crate) runs: usize,
+    /// With --fdi: runs per nominal scenario (each of `--tests` tests).
+    #[arg(long, default_value_t = 60)]
+    pub(crate) nominal_runs: usize,
+    /// With --fdi: tests per run.
+    #[arg(long, default_value_t = 4)]
+    pub(crate) tests: usize,
+    /// With --fdi: only this method (default both).
+    #[arg(long)]
+    pub(crate) method: Option<Method>,
+    /// With --fdi: only this sea state (default calm and moderate).
+    #[arg(long)]
+    pub(crate) sea: Option<SeaState>,
+    /// Skip the accuracy-against-test-length table.
+    #[arg(long)]
+    pub(crate) no_lengths: bool,
+    /// Worker threads (default: every core).
+    #[arg(long)]
+    pub(crate) threads: Option<usize>,
+}
+
+#[derive(Debug, Args)]
+pub(crate) struct RunArgs {
+    /// Endpoint to listen on, e.g. tcp/127.0.0.1:7447 (repeatable; replaces `zenoh.listen`).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub(crate) listen: Vec<String>,
+    /// Endpoint to connect to (repeatable; replaces `zenoh.connect`).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub(crate) connect: Vec<String>,
+}
+
+#[derive(Debug, Args)]
+pub(crate) struct ShipPeerArgs {
+    #[command(flatten)]
+    pub(crate) ship: ShipArgs,
+    /// Vessel name in the keys (default: `simulation.vessel`).
+    #[arg(long)]
+    pub(crate) vessel: Option<String>,
+    /// Tick on a timer instead of waiting for the daemon's excitation (lockstep).
+    #[arg(long)]
+    pub(crate) real_time: bool,
+    /// Ship seconds per wall second on the timer (default: `ship-peer.speed-up`).
+    #[arg(long)]
+    pub(crate) speed_up: Option<f64>,
+    /// Stop after this much ship time [s] (default: run until SIGTERM or SIGINT).
+    #[arg(long)]
+    pub(crate) duration_s: Option<f64>,
+    /// Endpoint to listen on (repeatable; replaces `ship-peer.listen`).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub(crate) listen: Vec<String>,
+    /// Endpoint to connect to (repeatable; replaces `ship-peer.connect`).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub(crate) connect: Vec<String>,
+    /// Record every publication as JSON lines (the `simulate` format, input of `replay`).
+    #[arg(long, value_name = "FILE")]
+    pub(crate) record: Option<PathBuf>,
+}
+
+#[derive(Debug, Args)]
+pub(crate) struct DemoArgs {
+    /// Seed of the simulated ship.
+    #[arg(long, default_value_t = 1)]
+    pub(crate) seed: u64,
+    /// The fault, KIND:VALUE@ONSET_S.
+    #[arg(long, default_value = "displacement_pct:+25@5000")]
+    pub(crate) fault: String,
+    /// Reports of the faulty ship to wait for before stopping.
+    #[arg(long, default_value_t = 2)]
+    pub(crate) fault_reports: usize,
+}
+
+#[derive(Debug, Args)]
+pub(crate) struct ReplayArgs {
+    /// The recording (JSON lines {"key": .., "payload": ..}); `-` for standard input.
+    pub(crate) file: PathBuf,
+    /// Print each report as one JSON line (the `fdi/report` payload).
+    #[arg(long)]
+    pub(crate) json: bool,
+}
+
+#[derive(Debug, Args)]
+pub(crate) struct BenchArgs {
+    /// Ship time of the lockstep figure [s].
+    #[arg(long, default_value_t = 1800.0)]
+    pub(crate) lockstep_s: f64,
+    /// Fleet sizes tried, in order, until one is not kept up with.
+    #[arg(long, value_delimiter = ',', default_values_t = vec![100, 250, 500, 1000, 2000])]
+    pub(crate) fleet: Vec<usize>,
+    /// Measurement window of each fleet size [s of wall time].
+    #[arg(long, default_value_t = 5.0)]
+    pub(crate) window_s: f64,
+    /// Internal: measure one fleet size in this process and print it as JSON.
+    #[arg(long, hide = true)]
+    pub(crate) one_fleet: Option<usize>,
+}
+
+/// The simulated ship of one run.
+#[derive(Debug, Args)]
+pub(crate) struct ShipArgs {
+    /// True speed through water [m/s].
+    #[arg(long, default_value_t = 7.0)]
+    pub(crate) speed_mps: f64,
+    /// True displacement [t].
+    #[arg(long, default_value_t = 7000.0)]
+    pub(crate) displacement_t: f64,
+    /// Seed of every random draw (sensor noise, sea).
+    #[arg(long, default_value_t = 1)]
+    pub(crate) seed: u64,
+    /// A fault KIND:VALUE@ONSET_S, e.g. displacement_pct:+10@300 (repeatable). Kinds:
+    /// displacement_pct, speed_log_bias_mps, speed_log_scale, servo_rate_deg_s,
+    /// rudder_effectiveness, heading_drift_deg_per_min.
+    #[arg(long = "fault", value_name = "KIND:VALUE@ONSET_S")]
+    pub(crate) faults: Vec<String>,
+    /// Sea state: calm, moderate or rough (default: the configuration's, moderate).
+    #[arg(long)]
+    pub(crate) sea: Option<SeaState>,
+}
+
+#[derive(Debug, Args)]
+pub(crate) struct SimulateArgs {
+    #[command(flatten)]
+    pub(crate) ship: ShipArgs,
+    /// Simulated duration [s].
+    #[arg(long, default_value_t = 3600.0)]
+    pub(crate) duration_s: f64,
+    /// Vessel name in the keys.
+    #[arg(long, default_value = "self")]
+    pub(crate) vessel: String,
+    /// Output file (JSON lines); `-` for standard output.
+    #[arg(long)]
+    pub(crate) out: PathBuf,
+}
+
+#[derive(Debug, Args)]
+pub(crate) struct ProbeArgs {
+    #[command(flatten)]
+    pub(crate) ship: ShipArgs,
+    /// Directory of the estimator's model files (default: the models embedded in the binary).
+    #[arg(long, value_name = "DIR")]
+    pub(crate) models: Option<PathBuf>,
+    /// Test method.
+    #[arg(long, default_value = "clfrt")]
+    pub(crate) method: Method,
+    /// Print the report as JSON (the `fdi/report` payload).
+    #[arg(long)]
+    pub(crate) json: bool,
+}

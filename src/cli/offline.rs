@@ -1,0 +1,184 @@
+//! The offline subcommands: `simulate`, `probe`, `replay`, `check-config` and `eval --fdi`.
+//! Each parses nothing itself (see [`super::args`]), calls one floor below and prints.
+
+use super::args::{EvalArgs, ProbeArgs, ReplayArgs, ShipArgs, SimulateArgs};
+use super::print::{print_baseline, print_estimate, print_features};
+use super::{fail, Failure, EX_CONFIG, EX_DATAERR, EX_IOERR, EX_SOFTWARE, EX_USAGE};
+use crate::config::Config;
+use crate::core::estimator::Estimator;
+use crate::drivers::probe::{run_probe, ProbeOptions};
+use crate::sim::{Fault, Scenario};
+use std::sync::Arc;
+
+pub(crate) fn scenario(cfg: &Config, a: &ShipArgs) -> Result<Scenario, Failure> {
+    let faults = a
+        .faults
+        .iter()
+        .map(|f| {
+            f.parse::<Fault>()
+                .map_err(|e| anyhow::anyhow!("--fault {f}: {e}"))
+        })
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(fail(EX_USAGE))?;
+    Ok(Scenario {
+        speed_mps: a.speed_mps,
+        displacement_t: a.displacement_t,
+        sea: a.sea.unwrap_or(cfg.sea.state),
+        faults,
+        seed: a.seed,
+    })
+}
+
+pub(crate) fn simulate(cfg: &Config, a: SimulateArgs) -> Result<(), Failure> {
+    let sc = scenario(cfg, &a.ship)?;
+    if !(a.duration_s.is_finite() && a.duration_s > 0.0) {
+        return Err(fail(EX_USAGE)(anyhow::anyhow!(
+            "--duration-s must be a positive number of seconds"
+        )));
+    }
+    crate::core::config::check_vessel_name("--vessel", &a.vessel)
+        .map_err(|e| fail(EX_USAGE)(e.into()))?;
+    let lines = if a.out.as_os_str() == "-" {
+        let stdout = std::io::stdout();
+        crate::sim::record(&cfg.sim(), &sc, a.duration_s, &a.vessel, stdout.lock())
+    } else {
+        let file = std::fs::File::create(&a.out)
+            .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", a.out.display())))?;
+        crate::sim::record(
+            &cfg.sim(),
+            &sc,
+            a.duration_s,
+            &a.vessel,
+            std::io::BufWriter::new(file),
+        )
+    }
+    .map_err(|e| fail(EX_IOERR)(e.into()))?;
+    tracing::info!(lines, out = %a.out.display(), "recording written");
+    Ok(())
+}
+
+pub(crate) fn probe(cfg: &Config, a: ProbeArgs) -> Result<(), Failure> {
+    let sc = scenario(cfg, &a.ship)?;
+    let mut opts = ProbeOptions::new(&cfg.core(), a.method);
+    let loaded = match &a.models {
+        Some(dir) => Estimator::load_dir(dir, &cfg.core()),
+        None => Estimator::embedded(&cfg.core()),
+    };
+    match loaded {
+        Ok(e) => opts.estimator = Some(Arc::new(e)),
+        Err(e) => {
+            tracing::warn!("no estimate: {e}");
+            eprintln!("helmwatch: no estimate: {e}");
+        }
+    }
+    let result =
+        run_probe(&cfg.core(), &cfg.sim(), &sc, &opts).map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
+    let r = &result.report;
+    if a.json {
+        let text = serde_json::to_string_pretty(r).map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
+        println!("{text}");
+    } else {
+        println!(
+            "{} test {}: {:?} after {:.0} s of ship time",
+            r.method.name(),
+            r.test,
+            r.outcome,
+            r.t_end - r.t_start
+        );
+        if let Some(reason) = &r.reason {
+            println!("  reason: {reason}");
+        }
+        print_features(&r.features);
+        print_baseline(&r.features);
+        print_estimate(r);
+        println!("  decision: {:?}; {}", r.decision, r.message);
+    }
+    Ok(())
+}
+
+pub(crate) fn replay(cfg: &Config, a: ReplayArgs) -> Result<(), Failure> {
+    use crate::core::monitor::Output;
+    let reader: Box<dyn std::io::BufRead> = if a.file.as_os_str() == "-" {
+        Box::new(std::io::BufReader::new(std::io::stdin()))
+    } else {
+        let f = std::fs::File::open(&a.file)
+            .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", a.file.display())))?;
+        Box::new(std::io::BufReader::new(f))
+    };
+    let json = a.json;
+    let sum = crate::drivers::replay::replay(&cfg.core(), reader, |vessel, out| {
+        if let Output::Report(r) = out {
+            if json {
+                if let Ok(line) = serde_json::to_string(r) {
+                    println!("{line}");
+                }
+            } else {
+                println!(
+                    "{vessel}: {} test {} t = {:.1} .. {:.1} s: {:?}{}",
+                    r.method.name(),
+                    r.test,
+                    r.t_start,
+                    r.t_end,
+                    r.outcome,
+                    r.reason
+                        .as_ref()
+                        .map(|x| format!(" ({x})"))
+                        .unwrap_or_default()
+                );
+                print_features(&r.features);
+                println!("  decision: {:?}; {}", r.decision, r.message);
+            }
+        }
+    })
+    .map_err(|e| fail(EX_IOERR)(e.into()))?;
+    tracing::info!(
+        lines = sum.lines,
+        bad_lines = sum.bad_lines,
+        skipped = sum.skipped,
+        rejected = sum.rejected,
+        reports = sum.reports,
+        vessels = sum.vessels,
+        "replay done"
+    );
+    if sum.lines > 0 && sum.bad_lines == sum.lines {
+        return Err(fail(EX_DATAERR)(anyhow::anyhow!(
+            "{}: no line is a {{\"key\", \"payload\"}} object",
+            a.file.display()
+        )));
+    }
+    Ok(())
+}
+
+pub(crate) fn check_config(cfg: &Config) -> Result<(), Failure> {
+    let text = toml::to_string_pretty(cfg).map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
+    println!("{text}");
+    Ok(())
+}
+
+pub(crate) fn eval_fdi(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
+    use crate::tools::eval::fdi::{run_suite, FdiEvalOptions};
+    let t0 = std::time::Instant::now();
+    let est = crate::core::estimator::Estimator::load_dir(&a.models, &cfg.core())
+        .map_err(|e| fail(EX_CONFIG)(e.into()))?;
+    let mut o = FdiEvalOptions {
+        seed: a.seed,
+        runs: a.runs,
+        nominal_runs: a.nominal_runs,
+        tests: a.tests.max(1),
+        threads: a
+            .threads
+            .unwrap_or_else(crate::tools::training::database::default_threads)
+            .max(1),
+        ..FdiEvalOptions::default()
+    };
+    if let Some(m) = a.method {
+        o.methods = vec![m];
+    }
+    if let Some(s) = a.sea {
+        o.seas = vec![s];
+    }
+    run_suite(cfg, std::sync::Arc::new(est), &o);
+    println!();
+    println!("suite done in {:.1} s", t0.elapsed().as_secs_f64());
+    Ok(())
+}

@@ -1,0 +1,165 @@
+//! The subcommands that open a Zenoh session: `run` (the daemon), `ship` (the simulated ship
+//! as a peer), `demo` and `bench`.
+
+use super::args::{BenchArgs, DemoArgs, RunArgs, ShipPeerArgs};
+use super::offline::scenario;
+use super::{fail, Failure, EX_CONFIG, EX_IOERR, EX_OSERR, EX_SOFTWARE, EX_UNAVAILABLE, EX_USAGE};
+use crate::config::Config;
+use crate::sim::Fault;
+use std::path::Path;
+
+pub(crate) fn runtime() -> Result<tokio::runtime::Runtime, Failure> {
+    tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .map_err(|e| fail(EX_OSERR)(anyhow::anyhow!("cannot start the async runtime: {e}")))
+}
+
+pub(crate) fn check_endpoints(flag: &str, eps: &[String]) -> Result<(), Failure> {
+    for e in eps {
+        crate::shells::net::check_endpoint(flag, e).map_err(|e| fail(EX_USAGE)(e.into()))?;
+    }
+    Ok(())
+}
+
+pub(crate) fn run_daemon(cfg: &Config, a: RunArgs) -> Result<(), Failure> {
+    use crate::shells::daemon::{Daemon, DaemonError};
+    use crate::shells::systemd;
+    check_endpoints("--listen", &a.listen)?;
+    check_endpoints("--connect", &a.connect)?;
+    let zcfg = crate::shells::net::zenoh_config(&cfg.zenoh, &a.listen, &a.connect)
+        .map_err(|e| fail(EX_CONFIG)(e.into()))?;
+    let rt = runtime()?;
+    rt.block_on(async {
+        let daemon = Daemon::start(&cfg.core(), &cfg.daemon, zcfg)
+            .await
+            .map_err(|e| {
+                let code = match e {
+                    DaemonError::Config(_) | DaemonError::Estimator(_) => EX_CONFIG,
+                    DaemonError::Open(_) => EX_UNAVAILABLE,
+                    DaemonError::Declare { .. } => EX_SOFTWARE,
+                };
+                fail(code)(e.into())
+            })?;
+        let status = format!("monitoring {} vessel(s)", daemon.vessels().len());
+        systemd::ready(&status);
+        let watchdog = systemd::spawn_watchdog();
+        daemon
+            .run(async {
+                systemd::signals().await;
+                systemd::stopping();
+            })
+            .await;
+        if let Some(w) = watchdog {
+            w.abort();
+        }
+        Ok(())
+    })
+}
+
+pub(crate) fn ship(cfg: &Config, a: ShipPeerArgs) -> Result<(), Failure> {
+    use crate::shells::shipnode::{ShipNode, ShipNodeOptions};
+    let mut sc = scenario(cfg, &a.ship)?;
+    let mut faults = cfg
+        .ship_peer
+        .faults
+        .iter()
+        .map(|f| f.parse::<Fault>())
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| fail(EX_CONFIG)(e.into()))?;
+    faults.append(&mut sc.faults);
+    sc.faults = faults;
+    let mut opts = ShipNodeOptions::from_config(&cfg.ship_peer, &cfg.simulation.vessel);
+    if let Some(v) = a.vessel {
+        crate::core::config::check_vessel_name("--vessel", &v)
+            .map_err(|e| fail(EX_USAGE)(e.into()))?;
+        opts.vessel = v;
+    }
+    if a.real_time {
+        opts.lockstep = false;
+    }
+    if let Some(s) = a.speed_up {
+        crate::core::config::check_range_open_low("--speed-up", s, 0.0, 10000.0)
+            .map_err(|e| fail(EX_USAGE)(e.into()))?;
+        opts.speed_up = s;
+    }
+    if let Some(d) = a.duration_s {
+        crate::core::config::check_range_open_low("--duration-s", d, 0.0, 366.0 * 86400.0)
+            .map_err(|e| fail(EX_USAGE)(e.into()))?;
+        opts.duration_s = Some(d);
+    }
+    check_endpoints("--listen", &a.listen)?;
+    check_endpoints("--connect", &a.connect)?;
+    let zcfg = crate::shells::net::zenoh_config(&cfg.ship_peer.zenoh(), &a.listen, &a.connect)
+        .map_err(|e| fail(EX_CONFIG)(e.into()))?;
+    let mut node = ShipNode::new(&cfg.sim(), &sc, opts).map_err(|e| fail(EX_USAGE)(e.into()))?;
+    if let Some(path) = &a.record {
+        let file = std::fs::File::create(path)
+            .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", path.display())))?;
+        node = node.record_to(file);
+    }
+    let rt = runtime()?;
+    let summary = rt
+        .block_on(node.run(zcfg, crate::shells::systemd::signals()))
+        .map_err(|e| fail(EX_UNAVAILABLE)(e.into()))?;
+    println!(
+        "ship: {} ticks, t = {:.1} s, {} excitations received, {} lockstep timeouts",
+        summary.ticks, summary.t_end_s, summary.excitations, summary.excitation_timeouts
+    );
+    Ok(())
+}
+
+pub(crate) fn demo(cfg: &Config, a: DemoArgs) -> Result<(), Failure> {
+    let fault = a
+        .fault
+        .parse::<Fault>()
+        .map_err(|e| fail(EX_USAGE)(anyhow::anyhow!("--fault {}: {e}", a.fault)))?;
+    let opts = crate::tools::demo::DemoOptions {
+        seed: a.seed,
+        fault,
+        fault_reports: a.fault_reports,
+        ..crate::tools::demo::DemoOptions::default()
+    };
+    let rt = runtime()?;
+    let mut out = std::io::stdout();
+    rt.block_on(crate::tools::demo::run(cfg, &opts, &mut out))
+        .map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
+    Ok(())
+}
+
+pub(crate) fn bench(cfg: &Config, config: Option<&Path>, a: BenchArgs) -> Result<(), Failure> {
+    use crate::tools::bench;
+    let rt = runtime()?;
+    let window = std::time::Duration::from_secs_f64(a.window_s.clamp(1.0, 600.0));
+    if let Some(n) = a.one_fleet {
+        let f = rt
+            .block_on(bench::fleet(cfg, n, window))
+            .map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
+        println!("{}", bench::fleet_json(&f));
+        return Ok(());
+    }
+    let profile = if cfg!(debug_assertions) {
+        "an optimised build with debug assertions (profile ci) or a debug build"
+    } else {
+        "a release build"
+    };
+    println!(
+        "helmwatch bench ({profile}; {} CPUs)",
+        std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(1)
+    );
+    let l = rt
+        .block_on(bench::lockstep(cfg, a.lockstep_s))
+        .map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
+    println!(
+        "lockstep, one vessel over Zenoh at {} Hz: {:.0} ship s in {:.2} wall s = {:.0}x real time ({} lockstep timeouts)",
+        cfg.sensors.rate_hz, l.ship_s, l.wall_s, l.ratio, l.excitation_timeouts
+    );
+    drop(rt);
+    let exe = std::env::current_exe().map_err(|e| fail(EX_OSERR)(e.into()))?;
+    let best = bench::fleet_sizes(&exe, config, &a.fleet, a.window_s, &mut std::io::stdout())
+        .map_err(|e| fail(EX_OSERR)(e.into()))?;
+    println!("vessels kept up with at 10 Hz: {best} (largest size tried that passed)");
+    Ok(())
+}
