@@ -1,0 +1,189 @@
+//! Tests of [`super`] (`model.rs`), kept beside it so that the module reads in one screenful
+//! of code; they check it against independent answers.
+
+use super::*;
+use crate::core::estimator::trainer::LmOptions;
+
+/// A valid displacement model for the default CLFRT design (weights arbitrary).
+pub(crate) fn sample_model() -> Model {
+    let cfg = CoreConfig::default();
+    let inputs = features::displacement_inputs(Method::Clfrt, cfg.clfrt.harmonics.len());
+    let n_in = inputs.len();
+    let theta: Vec<f64> = (0..crate::core::estimator::nn::n_params(n_in))
+        .map(|k| ((k as f64) * 0.37).sin() * 0.5)
+        .collect();
+    let net = Mlp::from_params(n_in, &theta).unwrap();
+    let scaling = Scaling::new(
+        (0..n_in).map(|i| -(i as f64) - 1.0).collect(),
+        (0..n_in).map(|i| i as f64 + 1.0).collect(),
+        4000.0,
+        10000.0,
+    )
+    .unwrap();
+    Model::new(
+        Method::Clfrt,
+        Target::Displacement,
+        &inputs,
+        &net,
+        &scaling,
+        Metadata {
+            design: Design::from_config(&cfg, Method::Clfrt),
+            uncertainty: Uncertainty {
+                residual_mean: 1.0,
+                residual_std: 80.0,
+                by_sea: vec![SeaSpread {
+                    sea: SeaState::Calm,
+                    n: 10,
+                    residual_mean: 0.5,
+                    residual_std: 60.0,
+                    relative_mean: Some(1e-4),
+                    relative_std: Some(0.008),
+                }],
+            },
+            training: TrainingRecord {
+                database_seed: 1,
+                design_points_per_sea: 10,
+                sea_states: vec![SeaState::Calm],
+                database_size: 10,
+                database_failed: 0,
+                split: Split {
+                    train: 6,
+                    validation: 2,
+                    test: 2,
+                },
+                trainer: Trainer::Lm(LmOptions::default()),
+                restarts: 1,
+                best_restart: 0,
+                epochs: 3,
+                best_epoch: 3,
+                stop: StopReason::MaxEpochs,
+                mse_train: 0.1,
+                mse_validation: 0.2,
+                mse_test: 0.3,
+                rmse_test: 100.0,
+            },
+        },
+    )
+    .unwrap()
+}
+
+fn edit(f: impl FnOnce(&mut serde_json::Value)) -> Result<Model, ModelError> {
+    let mut v: serde_json::Value =
+        serde_json::from_str(&sample_model().to_json().unwrap()).unwrap();
+    f(&mut v);
+    Model::from_json(&v.to_string(), "edited.json")
+}
+
+#[test]
+fn round_trip_is_bit_exact() {
+    let m = sample_model();
+    let text = m.to_json().unwrap();
+    let back = Model::from_json(&text, "x.json").unwrap();
+    assert_eq!(back, m);
+    assert_eq!(back.to_json().unwrap(), text);
+    assert_eq!(m.file_name(), "clfrt_displacement.json");
+}
+
+#[test]
+fn loader_refuses_bad_files_with_a_clear_error() {
+    let cases: Vec<(&str, Box<dyn FnOnce(&mut serde_json::Value)>)> = vec![
+        ("format", Box::new(|v| v["format"] = "other".into())),
+        ("version", Box::new(|v| v["version"] = 2.into())),
+        (
+            "unknown feature name",
+            Box::new(|v| v["inputs"][0] = "ln_gain_x".into()),
+        ),
+        (
+            "not a hbt feature",
+            Box::new(|v| v["method"] = "hbt".into()),
+        ),
+        (
+            "speed log",
+            Box::new(|v| {
+                v["target"] = "speed".into();
+                v["unit"] = "m/s".into();
+            }),
+        ),
+        ("unit", Box::new(|v| v["unit"] = "kg".into())),
+        (
+            "architecture",
+            Box::new(|v| v["architecture"]["layers"][1] = 12.into()),
+        ),
+        (
+            "w1 must be 10 rows of 7",
+            Box::new(|v| {
+                v["weights"]["w1"][3].as_array_mut().unwrap().pop();
+            }),
+        ),
+        (
+            "b2 must have 10",
+            Box::new(|v| {
+                v["weights"]["b2"].as_array_mut().unwrap().push(1.0.into());
+            }),
+        ),
+        // serde_json writes NaN as null: it must not load.
+        (
+            "does not parse",
+            Box::new(|v| v["weights"]["w2"][0][0] = serde_json::Value::Null),
+        ),
+        (
+            "input ranges",
+            Box::new(|v| {
+                v["scaling"]["input_min"].as_array_mut().unwrap().pop();
+            }),
+        ),
+        (
+            "range 2 is empty",
+            Box::new(|v| v["scaling"]["input_max"][2] = (-5.0).into()),
+        ),
+        (
+            "uncertainty",
+            Box::new(|v| v["uncertainty"]["residual_std"] = 0.0.into()),
+        ),
+        (
+            "appears twice",
+            Box::new(|v| v["inputs"][1] = "ln_gain_1".into()),
+        ),
+        ("does not parse", Box::new(|v| v["extra"] = 1.into())),
+    ];
+    for (needle, f) in cases {
+        let e = edit(f).unwrap_err().to_string();
+        assert!(e.contains("edited.json"), "{e}");
+        assert!(e.contains(needle), "expected `{needle}` in: {e}");
+    }
+    // The unedited file loads.
+    edit(|_| {}).unwrap();
+}
+
+#[test]
+fn check_for_refuses_another_design_or_slot() {
+    let m = sample_model();
+    let cfg = CoreConfig::default();
+    m.check_for(&cfg, Method::Clfrt, Target::Displacement, "m")
+        .unwrap();
+    let e = m
+        .check_for(&cfg, Method::Clfrt, Target::Speed, "m")
+        .unwrap_err();
+    assert!(e.to_string().contains("expected clfrt speed"), "{e}");
+    let mut other = cfg.clone();
+    other.clfrt.amplitude_deg += 0.5;
+    let e = m
+        .check_for(&other, Method::Clfrt, Target::Displacement, "m")
+        .unwrap_err();
+    assert!(e.to_string().contains("another design"), "{e}");
+    let mut other = cfg.clone();
+    other.ship.length_m = 100.0;
+    assert!(m
+        .check_for(&other, Method::Clfrt, Target::Displacement, "m")
+        .is_err());
+    // Another nominal displacement (the parity reference) is the same design.
+    let mut loaded = cfg.clone();
+    loaded.ship.nominal_displacement_t = 8500.0;
+    m.check_for(&loaded, Method::Clfrt, Target::Displacement, "m")
+        .unwrap();
+    // A longer measurement is the same design.
+    let mut longer = cfg;
+    longer.clfrt.measure_windows += 1;
+    m.check_for(&longer, Method::Clfrt, Target::Displacement, "m")
+        .unwrap();
+}
