@@ -1,9 +1,8 @@
 //! Inference cost of the shipped estimator: one estimate (speed and displacement networks,
-//! features read from a report's `features` JSON) per method, with the caller's scratch
-//! reused (no allocation), and one network's forward pass alone.
+//! inputs read from a report's typed features) per method, with the caller's scratch reused
+//! (no allocation), and one network's forward pass alone.
 //!
-//! The features are those of a real test (probe on the nominal ship, moderate sea), so the
-//! cost includes the JSON look-ups the monitor pays once per test.
+//! The features are those of a real test (probe on the nominal ship, moderate sea).
 
 // `criterion_group!` generates an undocumented public function.
 #![allow(missing_docs)]
@@ -13,12 +12,12 @@ use helmwatch::config::Config;
 use helmwatch::core::estimator::model::Target;
 use helmwatch::core::estimator::nn::Scratch;
 use helmwatch::core::estimator::Estimator;
-use helmwatch::core::wire::Method;
+use helmwatch::core::wire::{Features, Method};
 use helmwatch::drivers::probe::{run_probe, ProbeOptions};
 use helmwatch::sim::Scenario;
 use std::hint::black_box;
 
-fn features(cfg: &Config, method: Method) -> Option<serde_json::Value> {
+fn features(cfg: &Config, method: Method) -> Option<Features> {
     let r = run_probe(
         &cfg.core(),
         &cfg.sim(),
@@ -67,7 +66,7 @@ fn bench(c: &mut Criterion) {
         }
         let ns = start.elapsed().as_secs_f64() / f64::from(n) * 1e9;
         println!(
-            "estimator: {ns:.0} ns per {} estimate (speed + displacement networks, features read from JSON)",
+            "estimator: {ns:.0} ns per {} estimate (speed + displacement networks, inputs read from the typed features)",
             method.name()
         );
     }

@@ -64,8 +64,8 @@ fn probe(
 }
 
 fn baseline_ab(r: &Report) -> Option<(f64, f64)> {
-    let b = r.features.get("baseline")?;
-    Some((b.get("a_per_s")?.as_f64()?, b.get("b_per_s2")?.as_f64()?))
+    let b = r.features.baseline()?;
+    Some((b.a_per_s, b.b_per_s2))
 }
 
 /// In a calm sea the baseline's a and b lie within relative bounds of the true values (the
@@ -108,7 +108,7 @@ fn calm_sea_baseline_matches_the_true_parameters() {
             r.reason
         );
         let (a0, b0) = cfg.ship.nomoto(u, d);
-        let (a, b) = baseline_ab(&r).unwrap_or_else(|| panic!("no baseline: {}", r.features));
+        let (a, b) = baseline_ab(&r).unwrap_or_else(|| panic!("no baseline: {:?}", r.features));
         let (ea, eb) = (a / a0 - 1.0, b / b0 - 1.0);
         println!(
             "{m:?} u {u} D {d}: a {:+.2} %, b {:+.2} %",
@@ -205,7 +205,7 @@ fn calibration_table() {
                         errs.push(None);
                         continue;
                     }
-                    let u_log = r.features["speed_log_mps"].as_f64().unwrap();
+                    let u_log = r.features.speed_log_mps().unwrap();
                     if let Some(e) = &r.estimate {
                         nu.push(e.speed_mps - u);
                         nd.push(e.displacement_t - d);
@@ -219,7 +219,7 @@ fn calibration_table() {
                         displacement_from_b(b, u_log, &cfg.ship) - d,
                     )));
                     let (a0, _) = cfg.ship.nomoto(*u, *d);
-                    let sd = r.features["baseline"]["a_std_per_s"].as_f64().unwrap();
+                    let sd = r.features.baseline().unwrap().a_std_per_s;
                     za.push((a - a0) / sd);
                 }
                 if onset_before.is_none() {

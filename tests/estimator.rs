@@ -114,7 +114,7 @@ fn probe_reports_carry_the_estimate_and_the_speed_log() {
                 .report;
             assert_eq!(r.outcome, Outcome::Completed, "{:?}", r.reason);
             let e = r.estimate.expect("an estimate");
-            let log = r.features["speed_log_mps"].as_f64().unwrap();
+            let log = r.features.speed_log_mps().unwrap();
             println!(
                 "{} u {u} D {d}: estimate {:.2} m/s {:.0} t, speed log {log:.3}",
                 method.name(),
@@ -171,7 +171,7 @@ fn a_speed_log_bias_reaches_only_the_displacement_network() {
     };
     let a = run(vec![]);
     let b = run(vec!["speed_log_bias_mps:0.5@0".parse().unwrap()]);
-    let log = |r: &helmwatch::core::wire::Report| r.features["speed_log_mps"].as_f64().unwrap();
+    let log = |r: &helmwatch::core::wire::Report| r.features.speed_log_mps().unwrap();
     assert!(
         (log(&b) - log(&a) - 0.5).abs() < 1e-3,
         "{} {}",

@@ -8,6 +8,7 @@
 use helmwatch::config::Config;
 use helmwatch::core::dsp::relay::limit_cycle_describing_function;
 use helmwatch::core::model::SeaState;
+use helmwatch::core::wire::features::HbtFeatures;
 use helmwatch::core::wire::Method;
 use helmwatch::core::wire::{Outcome, Report};
 use helmwatch::drivers::probe::{run_probe, ProbeOptions};
@@ -96,10 +97,11 @@ fn par_map<T: Clone + Sync, R: Send>(jobs: Vec<T>, f: impl Fn(T) -> R + Sync) ->
     helmwatch::tools::training::database::par_map(jobs.len(), 2, |i| f(jobs[i].clone()))
 }
 
-fn f64_at(v: &serde_json::Value, k: &str) -> f64 {
-    v.get(k)
-        .and_then(|x| x.as_f64())
-        .unwrap_or_else(|| panic!("missing {k} in {v}"))
+/// The HBT features of a completed report.
+fn hbt(r: &Report) -> &HbtFeatures {
+    r.features
+        .hbt()
+        .unwrap_or_else(|| panic!("not a completed HBT test: {r:?}"))
 }
 
 /// `(gain, phase_rad)` of b / (jw (jw + a)), phase in (-pi, 0].
@@ -119,16 +121,17 @@ struct Tone {
 }
 
 fn tones(r: &Report) -> Vec<Tone> {
-    r.features["tones"]
-        .as_array()
-        .unwrap()
+    r.features
+        .clfrt()
+        .unwrap_or_else(|| panic!("not a completed CLFRT test: {r:?}"))
+        .tones
         .iter()
         .map(|t| Tone {
-            omega: f64_at(t, "omega_rad_s"),
-            gain: f64_at(t, "gain"),
-            phase: f64_at(t, "phase_rad"),
-            gain_ci: f64_at(t, "gain_ci90_rel"),
-            phase_ci: f64_at(t, "phase_ci90_rad"),
+            omega: t.omega_rad_s,
+            gain: t.gain,
+            phase: t.phase_rad,
+            gain_ci: t.gain_ci90_rel,
+            phase_ci: t.phase_ci90_rad,
         })
         .collect()
 }
@@ -310,8 +313,8 @@ fn hbt_calm_matches_the_independent_answer() {
                 (2.0 * PI / w, amp)
             }
         };
-        let p = f64_at(&r.features, "period_s");
-        let amp = f64_at(&r.features, "amplitude_rad");
+        let p = hbt(&r).period_s;
+        let amp = hbt(&r).amplitude_rad;
         println!(
             "u {u} D {d}: period {p:.1} s vs {p_ref:.1}, amplitude {:.3} deg vs {:.3}",
             amp.to_degrees(),
@@ -325,15 +328,15 @@ fn hbt_calm_matches_the_independent_answer() {
             (amp / a_ref - 1.0).abs() < 0.05,
             "u {u} D {d}: amplitude {amp} vs {a_ref}"
         );
-        let w = f64_at(&r.features, "omega_u_rad_s");
+        let w = hbt(&r).omega_u_rad_s;
         assert!((w * p / (2.0 * PI) - 1.0).abs() < 1e-9);
         // Heading over the measured rudder at omega_u: the ship's own b / (jw (jw + a)),
         // whatever the relay and the servo did.
         let (a, b) = cfg.ship.nomoto(u, d);
         let g_ref = b / (w * (w * w + a * a).sqrt());
         let ph_ref = -PI / 2.0 - (w / a).atan();
-        let g = f64_at(&r.features, "response_gain");
-        let ph = f64_at(&r.features, "response_phase_rad");
+        let g = hbt(&r).response_gain.expect("response gain");
+        let ph = hbt(&r).response_phase_rad.expect("response phase");
         println!(
             "u {u} D {d}: response gain {g:.3} vs {g_ref:.3}, phase {:.2} deg vs {:.2}",
             ph.to_degrees(),
@@ -363,7 +366,7 @@ fn hbt_moderate_sea_does_not_chatter_and_completes() {
         )
     });
     for ((u, d), r) in runs {
-        let min_gap = f64_at(&r.features, "min_switch_interval_s");
+        let min_gap = hbt(&r).min_switch_interval_s;
         assert!(min_gap > 20.0, "u {u} D {d}: switches {min_gap:.1} s apart");
     }
 }
@@ -395,13 +398,28 @@ fn heading_drift_does_not_disturb_the_features() {
                 }
                 let a = probe(Method::Hbt, u, d, sea, seed, vec![]);
                 let b = probe(Method::Hbt, u, d, sea, seed, vec![drift.clone()]);
-                for k in ["period_s", "amplitude_rad", "response_gain"] {
-                    let e = (f64_at(&b.features, k) / f64_at(&a.features, k) - 1.0).abs();
+                let (fa, fb) = (hbt(&a), hbt(&b));
+                for (k, x, y) in [
+                    ("period_s", fa.period_s, fb.period_s),
+                    ("amplitude_rad", fa.amplitude_rad, fb.amplitude_rad),
+                    (
+                        "response_gain",
+                        fa.response_gain.unwrap_or(f64::NAN),
+                        fb.response_gain.unwrap_or(f64::NAN),
+                    ),
+                ] {
+                    let e = (y / x - 1.0).abs();
                     assert!(e < 0.01, "HBT {sea:?} u {u} D {d} {k}: {e}");
                 }
-                let k = "response_phase_rad";
-                let pe = dphase(f64_at(&b.features, k), f64_at(&a.features, k)).abs();
-                assert!(pe.to_degrees() < 1.0, "HBT {sea:?} u {u} D {d} {k}: {pe}");
+                let pe = dphase(
+                    fb.response_phase_rad.unwrap_or(f64::NAN),
+                    fa.response_phase_rad.unwrap_or(f64::NAN),
+                )
+                .abs();
+                assert!(
+                    pe.to_degrees() < 1.0,
+                    "HBT {sea:?} u {u} D {d} response_phase_rad: {pe}"
+                );
             }
         }
     }

@@ -83,25 +83,25 @@ struct Check {
 
 fn check(r: &Report) -> Check {
     assert_eq!(r.outcome, Outcome::Completed, "{:?}", r.reason);
-    let c = &r.features["servo_check"];
-    let f = |k: &str| {
-        c.get(k)
-            .and_then(|x| x.as_f64())
-            .unwrap_or_else(|| panic!("missing {k} in {c}"))
-    };
+    let c = r
+        .features
+        .clfrt()
+        .and_then(|c| c.servo_check.as_ref())
+        .unwrap_or_else(|| panic!("no servo check in {:?}", r.features));
+    let f = |k: &str, x: Option<f64>| x.unwrap_or_else(|| panic!("missing {k} in {c:?}"));
     Check {
-        omega: f("omega_rad_s"),
-        amplitude: f("amplitude_rad"),
-        ln_gain: f("ln_gain"),
-        phase: f("phase_rad"),
-        ln_gain_error: f("ln_gain_error"),
-        phase_error: f("phase_error_rad"),
-        h3: f("harmonic3_ratio"),
-        residual: f("residual_rms_rad"),
-        rate_p95: f("rudder_rate_p95_rad_s"),
-        rate_nominal: f("rudder_rate_nominal_rad_s"),
-        ratio_ln_gain: f("ratio_ln_gain"),
-        ratio_phase: f("ratio_phase_rad"),
+        omega: c.omega_rad_s,
+        amplitude: c.amplitude_rad,
+        ln_gain: f("ln_gain", c.ln_gain),
+        phase: f("phase_rad", c.phase_rad),
+        ln_gain_error: f("ln_gain_error", c.ln_gain_error),
+        phase_error: f("phase_error_rad", c.phase_error_rad),
+        h3: f("harmonic3_ratio", c.harmonic3_ratio),
+        residual: f("residual_rms_rad", c.residual_rms_rad),
+        rate_p95: f("rudder_rate_p95_rad_s", c.rudder_rate_p95_rad_s),
+        rate_nominal: f("rudder_rate_nominal_rad_s", c.rudder_rate_nominal_rad_s),
+        ratio_ln_gain: f("ratio_ln_gain", c.ratio_ln_gain),
+        ratio_phase: f("ratio_phase_rad", c.ratio_phase_rad),
     }
 }
 

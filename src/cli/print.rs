@@ -1,57 +1,64 @@
 //! How a report reads on a terminal: features, the estimate, the baseline.
 
-pub(crate) fn print_features(f: &serde_json::Value) {
-    if let Some(tones) = f.get("tones").and_then(|t| t.as_array()) {
-        println!("  tone  omega rad/s      gain   phase deg  +-gain %  +-phase deg  coherence");
-        for (i, t) in tones.iter().enumerate() {
-            let g = |k: &str| t.get(k).and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
+use crate::core::wire::{Features, Report};
+
+/// The tones (CLFRT) or the limit cycle (HBT).
+pub(crate) fn print_features(f: &Features) {
+    match f {
+        Features::Clfrt(c) => {
+            println!("  tone  omega rad/s      gain   phase deg  +-gain %  +-phase deg  coherence");
+            for (i, t) in c.tones.iter().enumerate() {
+                println!(
+                    "  {:>4}  {:>11.4}  {:>8.4}  {:>10.2}  {:>8.2}  {:>11.2}  {:>9.3}",
+                    i + 1,
+                    t.omega_rad_s,
+                    t.gain,
+                    t.phase_rad.to_degrees(),
+                    100.0 * t.gain_ci90_rel,
+                    t.phase_ci90_rad.to_degrees(),
+                    t.coherence,
+                );
+            }
+        }
+        Features::Hbt(h) => {
             println!(
-                "  {:>4}  {:>11.4}  {:>8.4}  {:>10.2}  {:>8.2}  {:>11.2}  {:>9.3}",
-                i + 1,
-                g("omega_rad_s"),
-                g("gain"),
-                g("phase_rad").to_degrees(),
-                100.0 * g("gain_ci90_rel"),
-                g("phase_ci90_rad").to_degrees(),
-                g("coherence"),
+                "  limit cycle: period {:.1} s (omega_u {:.4} rad/s), amplitude {:.3} deg, trim {:.2} deg, shortest switch interval {:.1} s",
+                h.period_s,
+                h.omega_u_rad_s,
+                h.amplitude_rad.to_degrees(),
+                h.trim_rad.to_degrees(),
+                h.min_switch_interval_s,
             );
         }
-    } else if let Some(p) = f.get("period_s").and_then(|v| v.as_f64()) {
-        let g = |k: &str| f.get(k).and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
-        println!(
-            "  limit cycle: period {:.1} s (omega_u {:.4} rad/s), amplitude {:.3} deg, trim {:.2} deg, shortest switch interval {:.1} s",
-            p,
-            g("omega_u_rad_s"),
-            g("amplitude_rad").to_degrees(),
-            g("trim_rad").to_degrees(),
-            g("min_switch_interval_s"),
-        );
+        Features::None => {}
     }
 }
 
-pub(crate) fn print_estimate(r: &crate::core::wire::Report) {
+/// The networks' estimate, beside the speed log.
+pub(crate) fn print_estimate(r: &Report) {
     if let Some(e) = &r.estimate {
         println!(
             "  estimate: speed {:.2} m/s, displacement {:.0} t (speed log {:.2} m/s)",
             e.speed_mps,
             e.displacement_t,
-            r.features
-                .get(crate::core::estimator::features::SPEED_LOG_FIELD)
-                .and_then(|v| v.as_f64())
-                .unwrap_or(f64::NAN)
+            r.features.speed_log_mps().unwrap_or(f64::NAN)
         );
     }
 }
 
-pub(crate) fn print_baseline(f: &serde_json::Value) {
-    let g = |k: &str| f["baseline"].get(k).and_then(|v| v.as_f64());
-    if let (Some(a), Some(b)) = (g("a_per_s"), g("b_per_s2")) {
+/// The time-domain baseline, or why there is none.
+pub(crate) fn print_baseline(f: &Features) {
+    let error = match f {
+        Features::Clfrt(c) => c.baseline_error.as_deref(),
+        Features::Hbt(h) => h.baseline_error.as_deref(),
+        Features::None => None,
+    };
+    if let Some(b) = f.baseline() {
         println!(
-            "  baseline (time domain): a {a:.5} 1/s, b {b:.3e} 1/s^2, speed {:.2} m/s, displacement {:.0} t",
-            g("speed_mps").unwrap_or(f64::NAN),
-            g("displacement_t").unwrap_or(f64::NAN),
+            "  baseline (time domain): a {:.5} 1/s, b {:.3e} 1/s^2, speed {:.2} m/s, displacement {:.0} t",
+            b.a_per_s, b.b_per_s2, b.speed_mps, b.displacement_t,
         );
-    } else if let Some(e) = f.get("baseline_error").and_then(|v| v.as_str()) {
+    } else if let Some(e) = error {
         println!("  baseline (time domain): none: {e}");
     }
 }

@@ -65,6 +65,7 @@
 pub mod config;
 
 use crate::core::model::{displacement_from_b, speed_from_a, ShipConfig};
+use crate::core::wire::features::BaselineFeatures;
 pub use config::BaselineConfig;
 use nalgebra::{Matrix2, Matrix3, Matrix4, Vector2};
 
@@ -434,37 +435,33 @@ pub fn estimate(
     })
 }
 
-/// Adds `"baseline"` to a report's `features` object: the estimate, or `null` and
-/// `"baseline_error"` with the reason.
-pub fn insert_json(
-    features: &mut serde_json::Map<String, serde_json::Value>,
+/// The report's `features.baseline` and `features.baseline_error`: the estimate, or none
+/// and the reason.
+pub fn to_features(
     baseline: &Result<BaselineEstimate, BaselineError>,
-) {
+) -> (Option<BaselineFeatures>, Option<String>) {
     match baseline {
         Ok(e) => {
             let f = &e.fit;
-            features.insert(
-                "baseline".into(),
-                serde_json::json!({
-                    "a_per_s": f.a_per_s,
-                    "b_per_s2": f.b_per_s2,
-                    "c_rad_s2": f.c_rad_s2,
-                    "a_std_per_s": f.a_std_per_s(),
-                    "b_std_per_s2": f.b_std_per_s2(),
-                    "ab_correlation": f.ab_correlation(),
-                    "residual_std_rad_s2": f.residual_std_rad_s2,
-                    "condition": f.condition,
-                    "n": f.n,
-                    "filter_rad_s": e.filter_rad_s,
-                    "speed_mps": e.speed_mps,
-                    "displacement_t": e.displacement_t,
+            (
+                Some(BaselineFeatures {
+                    a_per_s: f.a_per_s,
+                    b_per_s2: f.b_per_s2,
+                    c_rad_s2: f.c_rad_s2,
+                    a_std_per_s: f.a_std_per_s(),
+                    b_std_per_s2: f.b_std_per_s2(),
+                    ab_correlation: f.ab_correlation(),
+                    residual_std_rad_s2: f.residual_std_rad_s2,
+                    condition: f.condition,
+                    n: f.n,
+                    filter_rad_s: e.filter_rad_s,
+                    speed_mps: e.speed_mps,
+                    displacement_t: e.displacement_t,
                 }),
-            );
+                None,
+            )
         }
-        Err(err) => {
-            features.insert("baseline".into(), serde_json::Value::Null);
-            features.insert("baseline_error".into(), err.to_string().into());
-        }
+        Err(err) => (None, Some(err.to_string())),
     }
 }
 
@@ -707,22 +704,18 @@ mod tests {
     }
 
     #[test]
-    fn json_has_the_estimate_or_null_and_a_reason() {
+    fn features_have_the_estimate_or_none_and_a_reason() {
         let (a, b) = ShipConfig::default().nomoto(7.0, 7000.0);
         let (psi, delta) = exact_record(a, b, 0.0, 3000);
         let ship = ShipConfig::default();
-        let mut m = serde_json::Map::new();
-        insert_json(&mut m, &estimate(&psi, &delta, DT, &cfg(), &ship));
-        let v = &m["baseline"];
-        assert_relative_eq!(v["speed_mps"].as_f64().unwrap(), 7.0, max_relative = 1e-3);
-        assert!(v["a_per_s"].is_f64() && v["b_per_s2"].is_f64() && v["n"].is_u64());
-        assert!(!m.contains_key("baseline_error"));
-        let mut m = serde_json::Map::new();
-        insert_json(
-            &mut m,
-            &estimate(&psi[..10], &delta[..10], DT, &cfg(), &ship),
-        );
-        assert!(m["baseline"].is_null());
-        assert!(m["baseline_error"].as_str().unwrap().contains("too few"));
+        let (f, err) = to_features(&estimate(&psi, &delta, DT, &cfg(), &ship));
+        let f = f.unwrap();
+        assert_relative_eq!(f.speed_mps, 7.0, max_relative = 1e-3);
+        assert_relative_eq!(f.a_per_s, a, max_relative = 1e-3);
+        assert!(f.n > 2000, "{}", f.n);
+        assert!(err.is_none());
+        let (f, err) = to_features(&estimate(&psi[..10], &delta[..10], DT, &cfg(), &ship));
+        assert!(f.is_none());
+        assert!(err.unwrap().contains("too few"));
     }
 }

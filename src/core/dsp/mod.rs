@@ -23,7 +23,7 @@ pub mod spectrum;
 pub mod tones;
 
 pub use multisine::Multisine;
-pub use relay::{analyse_limit_cycle, limit_cycle_describing_function, HbtFeatures};
+pub use relay::{analyse_limit_cycle, limit_cycle_describing_function, LimitCycle};
 pub use spectrum::{band_rms, detrend_linear, detrend_linear_keep_bins, naive_dft, Spectrum};
 pub use tones::{analyse_tones, ToneAnalyser, ToneEstimate};
 

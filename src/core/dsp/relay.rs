@@ -63,7 +63,7 @@ const MAX_TREND_HARMONICS: usize = 15;
 
 /// Features of a relay limit cycle (HBT).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HbtFeatures {
+pub struct LimitCycle {
     /// Ultimate period P_u: mean interval between same-direction switches [s].
     pub period_s: f64,
     /// omega_u = 2 pi / P_u [rad/s].
@@ -91,7 +91,7 @@ pub fn analyse_limit_cycle(
     dt_s: f64,
     heading: &[f64],
     switch_times_s: &[f64],
-) -> Result<HbtFeatures, DspError> {
+) -> Result<LimitCycle, DspError> {
     check_positive("dt_s", dt_s)?;
     if !t0_s.is_finite() {
         return Err(DspError::InvalidParameter {
@@ -147,7 +147,7 @@ pub fn analyse_limit_cycle(
     };
     let omega = 2.0 * PI / period;
     let x1 = first_harmonic(t0_s, dt_s, heading, s0, sn, omega)?;
-    Ok(HbtFeatures {
+    Ok(LimitCycle {
         period_s: period,
         omega_u_rad_s: omega,
         amplitude_rad: x1.norm(),

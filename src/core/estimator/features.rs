@@ -1,4 +1,5 @@
-//! The networks' input vectors, read from a report's `features` JSON by stable names.
+//! The networks' input vectors, read from a report's typed [`Features`] and named by stable
+//! names (model files list their inputs by these names).
 //!
 //! ## Names and meaning
 //!
@@ -31,8 +32,7 @@
 //! the measured speed (`speed_log_mps`): speed from the features alone is poorly conditioned,
 //! displacement given speed is well conditioned (DOMAIN.md, "Estimator").
 
-use crate::core::wire::Method;
-use serde_json::Value;
+use crate::core::wire::{Features, Method};
 use std::fmt;
 
 /// A feature name that is unknown, or a report that lacks a feature.
@@ -143,33 +143,29 @@ impl Feature {
         }
     }
 
-    /// Reads the feature from a report's `features` object.
-    pub fn value(&self, features: &Value) -> Result<f64, FeatureError> {
+    /// Reads the feature from a report's `features`. A value the report lacks, or that is not
+    /// finite (the wire would carry it as `null`), is missing; a logarithm of a value that is
+    /// not positive is unusable.
+    pub fn value(&self, features: &Features) -> Result<f64, FeatureError> {
         let missing = || FeatureError::Missing(self.to_string());
-        let field = |obj: &Value, key: &str| obj.get(key).and_then(Value::as_f64);
-        let tone = |k: usize, key: &str| {
+        let known = |x: Option<f64>| x.filter(|v| v.is_finite()).ok_or_else(missing);
+        let tone = |k: usize| {
             features
-                .get("tones")
-                .and_then(Value::as_array)
-                .and_then(|t| t.get(k - 1))
-                .and_then(|t| field(t, key))
+                .clfrt()
+                .and_then(|c| c.tones.get(k.wrapping_sub(1)))
         };
+        let hbt = features.hbt();
         let (raw, log) = match *self {
-            Feature::LnGain(k) => (tone(k, "gain").ok_or_else(missing)?, true),
-            Feature::Phase(k) => (tone(k, "phase_rad").ok_or_else(missing)?, false),
-            Feature::LnOmegaU => (field(features, "omega_u_rad_s").ok_or_else(missing)?, true),
-            Feature::LnAmplitude => (field(features, "amplitude_rad").ok_or_else(missing)?, true),
-            Feature::SpeedLog => (field(features, SPEED_LOG_FIELD).ok_or_else(missing)?, false),
-            Feature::LnResponseGain => {
-                (field(features, "response_gain").ok_or_else(missing)?, true)
-            }
-            Feature::ResponsePhase => (
-                field(features, "response_phase_rad").ok_or_else(missing)?,
-                false,
-            ),
+            Feature::LnGain(k) => (known(tone(k).map(|t| t.gain))?, true),
+            Feature::Phase(k) => (known(tone(k).map(|t| t.phase_rad))?, false),
+            Feature::LnOmegaU => (known(hbt.map(|h| h.omega_u_rad_s))?, true),
+            Feature::LnAmplitude => (known(hbt.map(|h| h.amplitude_rad))?, true),
+            Feature::SpeedLog => (known(features.speed_log_mps())?, false),
+            Feature::LnResponseGain => (known(hbt.and_then(|h| h.response_gain))?, true),
+            Feature::ResponsePhase => (known(hbt.and_then(|h| h.response_phase_rad))?, false),
             Feature::PeriodCv => {
-                let p = field(features, "period_s").ok_or_else(missing)?;
-                let sd = field(features, "period_std_s").ok_or_else(missing)?;
+                let p = known(hbt.map(|h| h.period_s))?;
+                let sd = known(hbt.map(|h| h.period_std_s))?;
                 (sd / p, false)
             }
         };
@@ -240,7 +236,7 @@ pub fn displacement_inputs(method: Method, n_tones: usize) -> Vec<Feature> {
 /// allocation).
 pub fn extract_into(
     inputs: &[Feature],
-    features: &Value,
+    features: &Features,
     out: &mut Vec<f64>,
 ) -> Result<(), FeatureError> {
     out.clear();
@@ -253,17 +249,15 @@ pub fn extract_into(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use serde_json::json;
+    use crate::core::wire::features::sample;
 
-    fn clfrt() -> Value {
-        json!({
-            "tones": [
-                {"omega_rad_s": 0.02, "gain": 2.0, "phase_rad": -2.0},
-                {"omega_rad_s": 0.05, "gain": 0.5, "phase_rad": -2.8},
-            ],
-            "window_s": 600.0,
-            "speed_log_mps": 7.01,
-        })
+    fn clfrt() -> Features {
+        let mut c = sample::clfrt(vec![
+            sample::tone(0.02, 2.0, -2.0),
+            sample::tone(0.05, 0.5, -2.8),
+        ]);
+        c.speed_log_mps = Some(7.01);
+        Features::Clfrt(c)
     }
 
     #[test]
@@ -313,15 +307,15 @@ mod tests {
 
     #[test]
     fn hbt_values_are_read_by_name() {
-        let f = json!({
-            "omega_u_rad_s": 0.035,
-            "amplitude_rad": 0.05,
-            "period_s": 180.0,
-            "period_std_s": 3.6,
-            "response_gain": 0.9,
-            "response_phase_rad": -2.8,
-            "speed_log_mps": 7.0
-        });
+        let mut h = sample::hbt();
+        h.omega_u_rad_s = 0.035;
+        h.amplitude_rad = 0.05;
+        h.period_s = 180.0;
+        h.period_std_s = 3.6;
+        h.response_gain = Some(0.9);
+        h.response_phase_rad = Some(-2.8);
+        h.speed_log_mps = Some(7.0);
+        let f = Features::Hbt(h);
         let mut out = Vec::new();
         extract_into(&displacement_inputs(Method::Hbt, 0), &f, &mut out).unwrap();
         assert_eq!(
@@ -342,12 +336,12 @@ mod tests {
         let mut out = Vec::new();
         let e = extract_into(&speed_inputs(Method::Clfrt, 3), &clfrt(), &mut out).unwrap_err();
         assert_eq!(e, FeatureError::Missing("ln_gain_3".into()));
-        let bad = json!({"tones": [{"gain": 0.0, "phase_rad": -2.0}]});
+        let bad = Features::Clfrt(sample::clfrt(vec![sample::tone(0.02, 0.0, -2.0)]));
         assert!(matches!(
             Feature::LnGain(1).value(&bad),
             Err(FeatureError::Unusable { .. })
         ));
-        let e = extract_into(&[Feature::SpeedLog], &json!({}), &mut out).unwrap_err();
+        let e = extract_into(&[Feature::SpeedLog], &Features::None, &mut out).unwrap_err();
         assert_eq!(e, FeatureError::Missing("speed_log_mps".into()));
     }
 

@@ -39,8 +39,7 @@ pub mod nn;
 pub mod trainer;
 
 use crate::core::monitor::config::CoreConfig;
-use crate::core::wire::Estimate;
-use crate::core::wire::Method;
+use crate::core::wire::{Estimate, Features, Method};
 use features::{Feature, FeatureError};
 use model::{Model, ModelError, Target};
 use nn::Scratch;
@@ -199,11 +198,30 @@ impl Estimator {
         &self,
         method: Method,
         target: Target,
-        features: &serde_json::Value,
+        features: &Features,
         scratch: &mut EstimatorScratch,
     ) -> Result<f64, FeatureError> {
         let i = slot_index(method, target);
         self.models[i].predict_features(features, &mut scratch.x, &mut scratch.nets[i])
+    }
+
+    /// One parameter with the input `speed_log_mps` replaced by `speed_log_mps` (see
+    /// [`Model::predict_at_speed_log`]).
+    pub fn predict_at_speed_log(
+        &self,
+        method: Method,
+        target: Target,
+        features: &Features,
+        speed_log_mps: f64,
+        scratch: &mut EstimatorScratch,
+    ) -> Result<f64, FeatureError> {
+        let i = slot_index(method, target);
+        self.models[i].predict_at_speed_log(
+            features,
+            speed_log_mps,
+            &mut scratch.x,
+            &mut scratch.nets[i],
+        )
     }
 
     /// Speed and displacement from a completed test's `features` (which must hold
@@ -211,7 +229,7 @@ impl Estimator {
     pub fn estimate(
         &self,
         method: Method,
-        features: &serde_json::Value,
+        features: &Features,
         scratch: &mut EstimatorScratch,
     ) -> Result<Estimate, FeatureError> {
         Ok(Estimate {

@@ -32,6 +32,7 @@ use super::nn::{Mlp, NnError, Scaling, Scratch, HIDDEN};
 use super::trainer::{StopReason, Trainer};
 use crate::core::model::{SeaState, ServoConfig, ShipConfig};
 use crate::core::monitor::config::CoreConfig;
+use crate::core::wire::Features;
 use crate::core::wire::Method;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
@@ -484,11 +485,31 @@ impl Model {
     /// (`s` sized for this model's inputs); nothing is allocated once `x` has grown.
     pub fn predict_features(
         &self,
-        features: &serde_json::Value,
+        features: &Features,
         x: &mut Vec<f64>,
         s: &mut Scratch,
     ) -> Result<f64, FeatureError> {
         features::extract_into(&self.inputs, features, x)?;
+        Ok(self.net.predict(&self.scaling, x, s))
+    }
+
+    /// As [`Model::predict_features`], with the input `speed_log_mps` (when the model reads
+    /// it) replaced by `speed_log_mps`: the displacement network along the speed log, as the
+    /// FDI's sensitivity `dD/du_log` needs, without copying the features.
+    pub fn predict_at_speed_log(
+        &self,
+        features: &Features,
+        speed_log_mps: f64,
+        x: &mut Vec<f64>,
+        s: &mut Scratch,
+    ) -> Result<f64, FeatureError> {
+        x.clear();
+        for f in &self.inputs {
+            x.push(match f {
+                Feature::SpeedLog => speed_log_mps,
+                _ => f.value(features)?,
+            });
+        }
         Ok(self.net.predict(&self.scaling, x, s))
     }
 

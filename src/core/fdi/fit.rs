@@ -9,6 +9,7 @@
 use crate::core::angle::wrap_pi;
 use crate::core::fdi::config::FdiConfig;
 use crate::core::model::ShipConfig;
+use crate::core::wire::Features;
 use serde_json::{json, Value};
 use std::f64::consts::FRAC_PI_2;
 
@@ -52,22 +53,22 @@ struct Tone {
     s_p: f64,
 }
 
-fn tones(features: &Value, cfg: &FdiConfig) -> Option<Vec<Tone>> {
+fn tones(features: &Features, cfg: &FdiConfig) -> Option<Vec<Tone>> {
     let floor_p = cfg.model_fit_floor_phase_deg.to_radians();
+    let finite = |x: f64| x.is_finite().then_some(x);
     features
-        .get("tones")?
-        .as_array()?
+        .clfrt()?
+        .tones
         .iter()
         .map(|t| {
-            let f = |k: &str| t.get(k).and_then(Value::as_f64).filter(|x| x.is_finite());
-            let gain = f("gain")?;
+            let gain = finite(t.gain)?;
             (gain > 0.0).then_some(())?;
             Some(Tone {
-                w: f("omega_rad_s")?,
+                w: finite(t.omega_rad_s)?,
                 ln_g: gain.ln(),
-                phase: f("phase_rad")?,
-                s_g: (f("gain_ci90_rel")? * CI90_TO_SIGMA).max(cfg.model_fit_floor_ln_gain),
-                s_p: (f("phase_ci90_rad")? * CI90_TO_SIGMA).max(floor_p),
+                phase: finite(t.phase_rad)?,
+                s_g: (finite(t.gain_ci90_rel)? * CI90_TO_SIGMA).max(cfg.model_fit_floor_ln_gain),
+                s_p: (finite(t.phase_ci90_rad)? * CI90_TO_SIGMA).max(floor_p),
             })
         })
         .collect()
@@ -91,7 +92,7 @@ fn residuals(t: &[Tone], x: [f64; 2], e: &mut Vec<f64>, j: &mut Vec<[f64; 2]>) {
 }
 
 /// Fits the Nomoto model to the CLFRT tones of `features`; `None` without usable tones.
-pub fn model_fit(features: &Value, _ship: &ShipConfig, cfg: &FdiConfig) -> Option<ModelFit> {
+pub fn model_fit(features: &Features, _ship: &ShipConfig, cfg: &FdiConfig) -> Option<ModelFit> {
     let t = tones(features, cfg)?;
     if t.len() < 2 {
         return None;

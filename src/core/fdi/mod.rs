@@ -68,7 +68,6 @@
 pub mod config;
 mod fit;
 
-use crate::core::estimator::features::SPEED_LOG_FIELD;
 use crate::core::estimator::model::{Target, Uncertainty};
 use crate::core::estimator::{Estimator, EstimatorScratch};
 use crate::core::fdi::config::{DecisionRule, FdiConfig};
@@ -76,15 +75,8 @@ use crate::core::model::ShipConfig;
 pub use crate::core::model::{displacement_from_b, speed_from_a};
 use crate::core::monitor::config::CoreConfig;
 use crate::core::wire::Method;
-use crate::core::wire::{AlarmState, Decision, Estimate, Notification};
+use crate::core::wire::{AlarmState, Cause, Decision, Estimate, Features, Notification};
 use serde_json::{json, Value};
-
-/// Isolation: the speed log reads wrong.
-pub const SPEED_LOG: &str = "speed_log";
-/// Isolation: the ship is heavier or lighter, or the rudder lost effectiveness (both move b).
-pub const DISPLACEMENT_OR_RUDDER: &str = "displacement_or_rudder_effectiveness";
-/// Isolation: the steering actuator (servo) responds unlike the nominal one.
-pub const STEERING_ACTUATOR: &str = "steering_actuator";
 
 /// Speed step of the central difference for `dD/du_log` [m/s].
 const DU_MPS: f64 = 0.05;
@@ -117,6 +109,7 @@ impl ParamResiduals {
     /// displacement (or rudder effectiveness), and the actuator's signature (the speed
     /// estimate alone moves: a slower servo adds lag to the loop, which the features read as
     /// another speed, while the log and the displacement agree with each other).
+    /// In [`Cause::ALL`]'s order.
     fn directions(&self) -> [[f64; 2]; 3] {
         [
             [
@@ -143,7 +136,8 @@ impl ParamResiduals {
 }
 
 /// Alarm state of one track.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Default, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
 pub enum TrackState {
     /// Nothing exceeded lately.
     #[default]
@@ -197,7 +191,7 @@ pub struct TrackOutcome {
     /// The test's decision (from the state).
     pub decision: Decision,
     /// Suspected causes, most likely first (empty when normal).
-    pub isolation: Vec<String>,
+    pub isolation: Vec<Cause>,
     /// This test's parameter chi-square (NaN without parameter residuals).
     pub q_param: f64,
     /// This test's actuator chi-square, if there was a servo check.
@@ -216,7 +210,7 @@ impl TrackOutcome {
             "threshold": cfg.chi2_threshold,
             "exceeded": self.exceeded,
             "exceed_run": self.exceed_run,
-            "state": state_name(self.state),
+            "state": self.state,
         })
     }
 }
@@ -226,14 +220,6 @@ fn finite_or_null(x: f64) -> Value {
         json!(x)
     } else {
         Value::Null
-    }
-}
-
-fn state_name(s: TrackState) -> &'static str {
-    match s {
-        TrackState::Normal => "normal",
-        TrackState::Alert => "alert",
-        TrackState::Alarm => "alarm",
     }
 }
 
@@ -375,15 +361,15 @@ impl Track {
     }
 
     /// Suspected causes of the current episode, most likely first.
-    fn isolation(&self, cfg: &FdiConfig) -> Vec<String> {
+    fn isolation(&self, cfg: &FdiConfig) -> Vec<Cause> {
         let e = &self.episode;
         if self.state == TrackState::Normal || e.tests == 0 {
             return Vec::new();
         }
-        let mut causes: Vec<(f64, &str)> = Vec::new();
+        let mut causes: Vec<(f64, Cause)> = Vec::new();
         if e.param_exceeded > 0 {
-            let names = [SPEED_LOG, DISPLACEMENT_OR_RUDDER, STEERING_ACTUATOR];
-            let mut costs: Vec<(f64, &str)> = (0..3).map(|i| (e.cost[i], names[i])).collect();
+            // `Episode::cost` is indexed in `Cause::ALL`'s order.
+            let mut costs: Vec<(f64, Cause)> = (0..3).map(|i| (e.cost[i], Cause::ALL[i])).collect();
             costs.sort_by(|a, b| a.0.total_cmp(&b.0));
             let best = costs[0].0;
             for (j, name) in costs {
@@ -393,12 +379,12 @@ impl Track {
                 }
             }
         }
-        if e.actuator_exceeded > 0 && !causes.iter().any(|c| c.1 == STEERING_ACTUATOR) {
-            causes.push((e.q_act, STEERING_ACTUATOR));
+        if e.actuator_exceeded > 0 && !causes.iter().any(|c| c.1 == Cause::SteeringActuator) {
+            causes.push((e.q_act, Cause::SteeringActuator));
         }
         // Stable order by evidence, strongest first (the parameter pair keeps its order).
         causes.sort_by(|a, b| b.0.total_cmp(&a.0));
-        causes.into_iter().map(|c| c.1.to_string()).collect()
+        causes.into_iter().map(|c| c.1).collect()
     }
 }
 
@@ -410,7 +396,7 @@ pub struct Assessment {
     /// The report's `decision`.
     pub decision: Decision,
     /// The report's `isolation`.
-    pub isolation: Vec<String>,
+    pub isolation: Vec<Cause>,
     /// A sentence for the report's message.
     pub summary: String,
     /// The notification to publish, when the vessel's alarm state changed.
@@ -439,16 +425,12 @@ fn method_index(m: Method) -> usize {
 
 /// The sea index of a test's features (see the module doc): its wave yaw [deg], if it has
 /// one.
-pub fn sea_index(features: &Value) -> Option<f64> {
+pub fn sea_index(features: &Features) -> Option<f64> {
     features
-        .get(WAVE_YAW_FIELD)
-        .and_then(Value::as_f64)
+        .wave_yaw_rad()
         .map(f64::to_degrees)
         .filter(|x| x.is_finite() && *x >= 0.0)
 }
-
-/// The features' wave yaw: rms of the heading in `fdi.wave-band-rad-s` [rad].
-pub const WAVE_YAW_FIELD: &str = "wave_yaw_rad";
 
 /// Where `index` sits between the calm (0) and moderate (1) anchors, clamped to [0, 3].
 fn sea_fraction(anchors: [f64; 2], index: Option<f64>) -> f64 {
@@ -521,14 +503,14 @@ impl Fdi {
     fn nn_residuals(
         &self,
         method: Method,
-        features: &Value,
+        features: &Features,
         estimate: &Estimate,
         d_nom_t: f64,
         est: &Estimator,
         scratch: &mut EstimatorScratch,
         frac: f64,
     ) -> Option<ParamResiduals> {
-        let u_log = features.get(SPEED_LOG_FIELD)?.as_f64()?;
+        let u_log = features.speed_log_mps().filter(|u| u.is_finite())?;
         let rel = |on: bool, y: f64| on.then_some(y);
         let (mu, su) = spread(
             &est.model(method, Target::Speed).file.uncertainty,
@@ -541,10 +523,9 @@ impl Fdi {
             rel(self.cfg.relative_spread_displacement, d_nom_t),
         );
         // dD/du_log by a central difference through the displacement network.
-        let mut f = features.clone();
         let mut at = |u: f64| -> Option<f64> {
-            f.as_object_mut()?.insert(SPEED_LOG_FIELD.into(), json!(u));
-            est.predict(method, Target::Displacement, &f, scratch).ok()
+            est.predict_at_speed_log(method, Target::Displacement, features, u, scratch)
+                .ok()
         };
         let g = (at(u_log + DU_MPS)? - at(u_log - DU_MPS)?) / (2.0 * DU_MPS);
         let r = ParamResiduals {
@@ -561,14 +542,13 @@ impl Fdi {
     fn baseline_residuals(
         &self,
         method: Method,
-        features: &Value,
+        features: &Features,
         d_nom_t: f64,
         frac: f64,
     ) -> Option<ParamResiduals> {
-        let u_log = features.get(SPEED_LOG_FIELD)?.as_f64()?;
-        let bl = features.get("baseline")?;
-        let a = bl.get("a_per_s")?.as_f64()?;
-        let b = bl.get("b_per_s2")?.as_f64()?;
+        let u_log = features.speed_log_mps().filter(|u| u.is_finite())?;
+        let bl = features.baseline()?;
+        let (a, b) = (bl.a_per_s, bl.b_per_s2);
         if !(a > 0.0 && b > 0.0 && u_log > 0.0) {
             return None;
         }
@@ -593,15 +573,9 @@ impl Fdi {
     /// HBT: the relay's steps slew the servo at its rate limit twice a period;
     /// `features.servo_rate` holds the median of the periods' peak rudder rates, read the
     /// same way against the rate limit.
-    fn actuator_z(&self, method: Method, features: &Value) -> Option<[f64; 2]> {
-        let (group, key) = match method {
-            Method::Clfrt => ("servo_check", "rudder_rate_p95_rad_s"),
-            Method::Hbt => ("servo_rate", "rudder_rate_peak_rad_s"),
-        };
-        let sc = features.get(group)?;
-        let p95 = sc.get(key)?.as_f64()?;
-        let nominal = sc.get("rudder_rate_nominal_rad_s")?.as_f64()?;
-        if nominal.is_nan() || nominal <= 0.0 {
+    fn actuator_z(&self, features: &Features) -> Option<[f64; 2]> {
+        let (p95, nominal) = features.servo_rate_rad_s()?;
+        if !p95.is_finite() || !nominal.is_finite() || nominal <= 0.0 {
             return None;
         }
         let rho = p95 / nominal;
@@ -613,7 +587,7 @@ impl Fdi {
     pub fn assess(
         &mut self,
         method: Method,
-        features: &Value,
+        features: &Features,
         estimate: Option<(&Estimate, &Estimator, &mut EstimatorScratch)>,
         d_nom_t: f64,
     ) -> Assessment {
@@ -628,7 +602,7 @@ impl Fdi {
             Method::Clfrt => fit::model_fit(features, &self.ship, &self.cfg),
             Method::Hbt => None,
         };
-        let mut act = self.actuator_z(method, features);
+        let mut act = self.actuator_z(features);
         if self.cfg.model_fit_decides {
             // The fit's chi-square (4 dof) joins the actuator group, scaled to its threshold.
             if let Some(f) = &fit {
@@ -674,7 +648,7 @@ impl Fdi {
                 json!({
                     "parameters": bl_param.map(ParamResiduals::to_json),
                     "decision": bl.to_json(&self.cfg),
-                    "outcome": decision_name(bl.decision),
+                    "outcome": bl.decision,
                     "isolation": bl.isolation,
                 }),
             );
@@ -708,15 +682,6 @@ impl Fdi {
     }
 }
 
-/// Name of a decision on the wire.
-pub fn decision_name(d: Decision) -> &'static str {
-    match d {
-        Decision::Nominal => "nominal",
-        Decision::Fault => "fault",
-        Decision::Inconclusive => "inconclusive",
-    }
-}
-
 fn summary(o: &TrackOutcome, p: Option<&ParamResiduals>, enabled: bool) -> String {
     if !enabled {
         return "FDI disabled, no decision".into();
@@ -732,7 +697,8 @@ fn summary(o: &TrackOutcome, p: Option<&ParamResiduals>, enabled: bool) -> Strin
     let causes = if o.isolation.is_empty() {
         String::new()
     } else {
-        format!("; suspected: {}", o.isolation.join(", "))
+        let names: Vec<&str> = o.isolation.iter().map(|c| c.name()).collect();
+        format!("; suspected: {}", names.join(", "))
     };
     let detail = p.map_or(String::new(), |p| {
         format!(

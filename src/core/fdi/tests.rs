@@ -1,5 +1,6 @@
 use super::*;
 use crate::core::monitor::config::CoreConfig;
+use crate::core::wire::features::{sample, ClfrtFeatures, ServoRateFeatures};
 
 fn cfg() -> FdiConfig {
     FdiConfig::default()
@@ -41,7 +42,7 @@ fn chi_square_alarm_needs_persistence_and_clears_after_nominal_tests() {
     t.update(&c, Some(&p(0.0, 5.0, 0.0)), None);
     let o = t.update(&c, Some(&p(0.0, 5.0, 0.0)), None);
     assert_eq!((o.state, o.decision), (TrackState::Alarm, Decision::Fault));
-    assert_eq!(o.isolation, vec![DISPLACEMENT_OR_RUDDER.to_string()]);
+    assert_eq!(o.isolation, vec![Cause::DisplacementOrRudderEffectiveness]);
     // The alarm holds for clear-after - 1 nominal tests, then clears.
     for _ in 1..c.clear_after {
         let o = t.update(&c, Some(&p(0.0, 0.0, 0.0)), None);
@@ -78,12 +79,12 @@ fn isolation_follows_the_fault_directions() {
         t.update(&c, Some(&p(-3.0, 6.0, 2.0)), None);
     }
     let o = t.update(&c, Some(&p(-3.0, 6.0, 2.0)), None);
-    assert_eq!(o.isolation, vec![SPEED_LOG.to_string()]);
+    assert_eq!(o.isolation, vec![Cause::SpeedLog]);
     // The same r_disp with r_speed = 0 is a displacement change.
     let mut t = Track::default();
     t.update(&c, Some(&p(0.0, 6.0, 2.0)), None);
     let o = t.update(&c, Some(&p(0.0, 6.0, 2.0)), None);
-    assert_eq!(o.isolation, vec![DISPLACEMENT_OR_RUDDER.to_string()]);
+    assert_eq!(o.isolation, vec![Cause::DisplacementOrRudderEffectiveness]);
     // Half-way between the two: with a margin both are named, the nearer first.
     let wide = FdiConfig {
         isolation_margin: 100.0,
@@ -129,7 +130,7 @@ fn actuator_residuals_alone_name_the_steering_actuator() {
     t.update(&c, Some(&p(0.5, -0.5, 2.0)), Some([-6.0, -3.0]));
     let o = t.update(&c, Some(&p(0.2, 0.4, 2.0)), Some([-5.5, -2.0]));
     assert_eq!(o.decision, Decision::Fault);
-    assert_eq!(o.isolation, vec![STEERING_ACTUATOR.to_string()]);
+    assert_eq!(o.isolation, vec![Cause::SteeringActuator]);
 }
 
 #[test]
@@ -175,16 +176,16 @@ fn sea_fraction_interpolates_and_clamps() {
 
 #[test]
 fn sea_index_reads_the_wave_yaw_in_degrees() {
-    let f = serde_json::json!({ "wave_yaw_rad": 0.2f64.to_radians() });
-    assert!((sea_index(&f).unwrap() - 0.2).abs() < 1e-12);
-    assert_eq!(
-        sea_index(&serde_json::json!({ "wave_yaw_rad": null })),
-        None
-    );
-    assert_eq!(
-        sea_index(&serde_json::json!({ "wave_yaw_rad": -1.0 })),
-        None
-    );
+    let with = |w: Option<f64>| {
+        let mut h = sample::hbt();
+        h.wave_yaw_rad = w;
+        Features::Hbt(h)
+    };
+    assert!((sea_index(&with(Some(0.2f64.to_radians()))).unwrap() - 0.2).abs() < 1e-12);
+    assert_eq!(sea_index(&with(None)), None);
+    assert_eq!(sea_index(&with(Some(-1.0))), None);
+    assert_eq!(sea_index(&with(Some(f64::NAN))), None);
+    assert_eq!(sea_index(&Features::None), None);
 }
 
 /// Relative spreads scale with the reference; absolute ones (or files without relative
@@ -229,18 +230,17 @@ fn spreads_relative_and_absolute() {
     close(spread(&u(false), 1.0, Some(4000.0)), (10.0, 130.0));
 }
 
-/// Exact Nomoto tones for (a, b), with given CIs.
-fn tones_json(a: f64, b: f64, ws: &[f64]) -> serde_json::Value {
-    let tones: Vec<_> = ws
-        .iter()
-        .map(|&w| {
-            let gain = b / (w * (w * w + a * a).sqrt());
-            let phase = -std::f64::consts::FRAC_PI_2 - (w / a).atan();
-            json!({"omega_rad_s": w, "gain": gain, "phase_rad": phase,
-                   "gain_ci90_rel": 0.03, "phase_ci90_rad": 0.02})
-        })
-        .collect();
-    json!({ "tones": tones })
+/// Exact Nomoto tones for (a, b), with 90 % intervals of 3 % and 0.02 rad.
+fn nomoto_tones(a: f64, b: f64, ws: &[f64]) -> ClfrtFeatures {
+    sample::clfrt(
+        ws.iter()
+            .map(|&w| {
+                let gain = b / (w * (w * w + a * a).sqrt());
+                let phase = -std::f64::consts::FRAC_PI_2 - (w / a).atan();
+                sample::tone(w, gain, phase)
+            })
+            .collect(),
+    )
 }
 
 #[test]
@@ -249,7 +249,7 @@ fn model_fit_recovers_exact_nomoto_tones_and_flags_a_foreign_one() {
     let ship = CoreConfig::default().ship;
     let (a, b) = (0.0146, 5.98e-4);
     let ws = [0.032, 0.0745, 0.181];
-    let f = fit::model_fit(&tones_json(a, b, &ws), &ship, &c).unwrap();
+    let f = fit::model_fit(&Features::Clfrt(nomoto_tones(a, b, &ws)), &ship, &c).unwrap();
     approx::assert_relative_eq!(f.a_per_s, a, max_relative = 1e-6);
     approx::assert_relative_eq!(f.b_per_s2, b, max_relative = 1e-6);
     assert!(f.chi2 < 1e-12, "{}", f.chi2);
@@ -260,10 +260,9 @@ fn model_fit_recovers_exact_nomoto_tones_and_flags_a_foreign_one() {
     let d = j["displacement_t"].as_f64().unwrap();
     assert!((d - 7000.0).abs() < 30.0, "{d}");
     // Add a lag of 10 deg at the top tone (an unmodelled actuator lag): no (a, b) explains it.
-    let mut bad = tones_json(a, b, &ws);
-    let p = bad["tones"][2]["phase_rad"].as_f64().unwrap();
-    bad["tones"][2]["phase_rad"] = json!(p - 10f64.to_radians());
-    let f = fit::model_fit(&bad, &ship, &c).unwrap();
+    let mut bad = nomoto_tones(a, b, &ws);
+    bad.tones[2].phase_rad -= 10f64.to_radians();
+    let f = fit::model_fit(&Features::Clfrt(bad), &ship, &c).unwrap();
     assert!(f.chi2 > 100.0, "{}", f.chi2);
 }
 
@@ -272,7 +271,9 @@ fn notifications_follow_the_vessel_alarm_state() {
     let mut full = CoreConfig::default();
     full.fdi.persistence = 2;
     let mut fdi = Fdi::new(&full);
-    let features = json!({"speed_log_mps": 7.0});
+    let mut h = sample::hbt();
+    h.speed_log_mps = Some(7.0);
+    let features = Features::Hbt(h);
     // Without an estimate nothing happens and nothing is published.
     let a = fdi.assess(Method::Hbt, &features, None, 7000.0);
     assert_eq!(a.decision, Decision::Inconclusive);
@@ -291,15 +292,31 @@ fn notifications_follow_the_vessel_alarm_state() {
 fn actuator_z_reads_each_methods_servo_field() {
     let fdi = Fdi::new(&CoreConfig::default());
     let sigma = FdiConfig::default().actuator_rate_sigma;
-    let hbt = |peak: f64| json!({"servo_rate": {"rudder_rate_peak_rad_s": peak, "rudder_rate_nominal_rad_s": 0.07}});
-    let clfrt = |p95: f64| json!({"servo_check": {"rudder_rate_p95_rad_s": p95, "rudder_rate_nominal_rad_s": 0.07}});
-    let z = fdi.actuator_z(Method::Hbt, &hbt(0.035)).unwrap();
+    let hbt = |peak: f64| {
+        let mut h = sample::hbt();
+        h.servo_rate = Some(ServoRateFeatures {
+            rudder_rate_peak_rad_s: peak,
+            rudder_rate_nominal_rad_s: 0.07,
+        });
+        Features::Hbt(h)
+    };
+    let clfrt = |p95: f64| {
+        let mut c = sample::clfrt(vec![]);
+        c.servo_check = Some(sample::servo_check(p95, 0.07));
+        Features::Clfrt(c)
+    };
+    let z = fdi.actuator_z(&hbt(0.035)).unwrap();
     approx::assert_relative_eq!(z[0], 0.5 / sigma, max_relative = 1e-12);
-    assert_eq!(fdi.actuator_z(Method::Hbt, &hbt(0.0707)).unwrap()[0], 0.0);
-    let z = fdi.actuator_z(Method::Clfrt, &clfrt(0.063)).unwrap();
+    assert_eq!(fdi.actuator_z(&hbt(0.0707)).unwrap()[0], 0.0);
+    let z = fdi.actuator_z(&clfrt(0.063)).unwrap();
     approx::assert_relative_eq!(z[0], 0.1 / sigma, max_relative = 1e-9);
-    // Each method reads only its own field.
-    assert!(fdi.actuator_z(Method::Clfrt, &hbt(0.035)).is_none());
-    assert!(fdi.actuator_z(Method::Hbt, &clfrt(0.035)).is_none());
-    assert!(fdi.actuator_z(Method::Hbt, &json!({})).is_none());
+    // No servo field, or a failed check: no actuator residual.
+    assert!(fdi.actuator_z(&Features::Hbt(sample::hbt())).is_none());
+    assert!(fdi.actuator_z(&Features::None).is_none());
+    let mut failed = sample::servo_check(0.0, 0.07);
+    failed.rudder_rate_p95_rad_s = None;
+    failed.failed = Some("no rudder".into());
+    let mut c = sample::clfrt(vec![]);
+    c.servo_check = Some(failed);
+    assert!(fdi.actuator_z(&Features::Clfrt(c)).is_none());
 }

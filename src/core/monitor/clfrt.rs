@@ -56,7 +56,7 @@
 //! instead of the measured numbers, and the multisine test goes on.
 
 use super::record::{Record, RecordError};
-use super::{Features, Step};
+use super::{AbortReason, Measured, Step};
 use crate::core::baseline::config::BaselineConfig;
 use crate::core::baseline::{self, BaselineError, BaselineEstimate};
 use crate::core::dsp::multisine::Multisine;
@@ -64,6 +64,7 @@ use crate::core::dsp::spectrum::{band_rms, detrend_linear_keep_bins, naive_dft, 
 use crate::core::dsp::tones::{analyse_tones, ToneAnalyser, ToneEstimate};
 use crate::core::model::ShipConfig;
 use crate::core::monitor::config::CoreConfig;
+use crate::core::wire::features::{ClfrtFeatures, ServoCheckFeatures, ToneFeatures};
 use crate::core::wire::{ExcitationMode, MonitorState};
 use rustfft::num_complex::Complex64;
 use std::f64::consts::PI;
@@ -132,76 +133,56 @@ pub struct ServoCheckMeasurement {
 }
 
 impl ServoCheck {
-    fn to_json(&self) -> serde_json::Value {
-        let mut v = serde_json::json!({
-            "omega_rad_s": self.omega_rad_s,
-            "amplitude_rad": self.amplitude_rad,
-            "periods": self.periods,
-        });
-        if let Some(obj) = v.as_object_mut() {
-            match &self.result {
-                Ok(m) => {
-                    obj.insert("ln_gain".into(), m.ln_gain.into());
-                    obj.insert("phase_rad".into(), m.phase_rad.into());
-                    obj.insert("ln_gain_error".into(), m.ln_gain_error.into());
-                    obj.insert("phase_error_rad".into(), m.phase_error_rad.into());
-                    if let Some(h) = m.harmonic3_ratio {
-                        obj.insert("harmonic3_ratio".into(), h.into());
-                    }
-                    obj.insert("residual_rms_rad".into(), m.residual_rms_rad.into());
-                    obj.insert(
-                        "rudder_rate_p95_rad_s".into(),
-                        m.rudder_rate_p95_rad_s.into(),
-                    );
-                    obj.insert(
-                        "rudder_rate_nominal_rad_s".into(),
-                        m.rudder_rate_nominal_rad_s.into(),
-                    );
-                    obj.insert("ratio_ln_gain".into(), m.ratio_ln_gain.into());
-                    obj.insert("ratio_phase_rad".into(), m.ratio_phase_rad.into());
-                }
-                Err(reason) => {
-                    obj.insert("failed".into(), reason.clone().into());
-                }
-            }
+    /// The report's `features.servo_check`.
+    fn to_features(&self) -> ServoCheckFeatures {
+        let m = self.result.as_ref().ok();
+        ServoCheckFeatures {
+            omega_rad_s: self.omega_rad_s,
+            amplitude_rad: self.amplitude_rad,
+            periods: self.periods,
+            ln_gain: m.map(|m| m.ln_gain),
+            phase_rad: m.map(|m| m.phase_rad),
+            ln_gain_error: m.map(|m| m.ln_gain_error),
+            phase_error_rad: m.map(|m| m.phase_error_rad),
+            harmonic3_ratio: m.and_then(|m| m.harmonic3_ratio),
+            residual_rms_rad: m.map(|m| m.residual_rms_rad),
+            rudder_rate_p95_rad_s: m.map(|m| m.rudder_rate_p95_rad_s),
+            rudder_rate_nominal_rad_s: m.map(|m| m.rudder_rate_nominal_rad_s),
+            ratio_ln_gain: m.map(|m| m.ratio_ln_gain),
+            ratio_phase_rad: m.map(|m| m.ratio_phase_rad),
+            failed: self.result.as_ref().err().cloned(),
         }
-        v
     }
 }
 
 impl ClfrtReport {
-    /// JSON of the report's `features`.
-    pub fn to_json(&self) -> serde_json::Value {
-        let tones: Vec<serde_json::Value> = self
-            .tones
-            .iter()
-            .map(|t| {
-                serde_json::json!({
-                    "omega_rad_s": t.omega_rad_s,
-                    "gain": t.gain,
-                    "phase_rad": t.phase_rad,
-                    "coherence": t.coherence,
-                    "snr_db": t.snr_db,
-                    "gain_ci90_rel": t.gain_ci90_rel,
-                    "phase_ci90_rad": t.phase_ci90_rad,
+    /// The report's `features` (without `speed_log_mps`, which the monitor adds).
+    pub fn to_features(&self) -> ClfrtFeatures {
+        let (baseline, baseline_error) = baseline::to_features(&self.baseline);
+        ClfrtFeatures {
+            tones: self
+                .tones
+                .iter()
+                .map(|t| ToneFeatures {
+                    omega_rad_s: t.omega_rad_s,
+                    gain: t.gain,
+                    phase_rad: t.phase_rad,
+                    coherence: t.coherence,
+                    snr_db: t.snr_db,
+                    gain_ci90_rel: t.gain_ci90_rel,
+                    phase_ci90_rad: t.phase_ci90_rad,
                 })
-            })
-            .collect();
-        let mut v = serde_json::json!({
-            "tones": tones,
-            "window_s": self.window_s,
-            "windows": self.windows,
-            "amplitude_rad": self.amplitude_rad,
-            "crest_factor": self.crest_factor,
-        });
-        if let Some(obj) = v.as_object_mut() {
-            if let Some(sc) = &self.servo_check {
-                obj.insert("servo_check".into(), sc.to_json());
-            }
-            obj.insert("wave_yaw_rad".into(), self.wave_yaw_rad.into());
-            baseline::insert_json(obj, &self.baseline);
+                .collect(),
+            window_s: self.window_s,
+            windows: self.windows,
+            amplitude_rad: self.amplitude_rad,
+            crest_factor: self.crest_factor,
+            servo_check: self.servo_check.as_ref().map(ServoCheck::to_features),
+            wave_yaw_rad: self.wave_yaw_rad,
+            speed_log_mps: None,
+            baseline,
+            baseline_error,
         }
-        v
     }
 }
 
@@ -416,7 +397,7 @@ pub(crate) struct ClfrtRun {
     heading: Record,
     rudder: Record,
     /// Once measured: the features (or why not) and the excitation ramping to zero.
-    result: Option<Result<Features, String>>,
+    result: Option<Result<Measured, AbortReason>>,
     ramp: (f64, f64),
     analyser: ToneAnalyser,
     scratch: [Vec<f64>; 3],
@@ -561,7 +542,7 @@ impl ClfrtRun {
                     mode: ExcitationMode::None,
                     value: 0.0,
                     phase: None,
-                    done: Some(Err(e.to_string())),
+                    done: Some(Err(AbortReason::Record(e))),
                 };
             }
         }
@@ -600,16 +581,16 @@ impl ClfrtRun {
         }
     }
 
-    fn analyse(&mut self) -> Result<Features, String> {
+    fn analyse(&mut self) -> Result<Measured, AbortReason> {
         let n = self.window_samples * self.windows as usize;
         let [h, d, r] = &mut self.scratch;
         let t0 = self.measure_start_s;
         self.heading
             .resample(t0, self.dt_s, n, self.max_gap_s, h)
-            .map_err(|e| format!("analysis: heading: {e}"))?;
+            .map_err(|e| AbortReason::Analysis(format!("heading: {e}")))?;
         self.rudder
             .resample(t0, self.dt_s, n, self.max_gap_s, d)
-            .map_err(|e| format!("analysis: rudder: {e}"))?;
+            .map_err(|e| AbortReason::Analysis(format!("rudder: {e}")))?;
         r.clear();
         r.extend((0..n).map(|i| self.multisine.value(t0 + i as f64 * self.dt_s - self.t0_s)));
         let (band, spectrum, wscratch) = &mut self.wave;
@@ -623,10 +604,10 @@ impl ClfrtRun {
             self.window_samples,
             &self.harmonics,
         )
-        .map_err(|e| format!("analysis: {e}"))?;
+        .map_err(|e| AbortReason::Analysis(e.to_string()))?;
         let (bcfg, ship) = &self.baseline;
         let baseline = baseline::estimate(h, d, self.dt_s, bcfg, ship);
-        Ok(Features::Clfrt(ClfrtReport {
+        Ok(Measured::Clfrt(ClfrtReport {
             tones,
             window_s: self.window_s,
             windows: self.windows,

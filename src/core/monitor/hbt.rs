@@ -48,13 +48,14 @@
 //! swing after hand-back measured 7.7 deg at 7 m/s and 9-16 deg at 4 m/s (calm, moderate).
 
 use super::record::{Record, RecordError};
-use super::{Features, Step};
+use super::{AbortReason, Measured, Step};
 use crate::core::baseline::config::BaselineConfig;
 use crate::core::baseline::{self, BaselineError, BaselineEstimate};
-use crate::core::dsp::relay::{analyse_limit_cycle, first_harmonic, HbtFeatures};
+use crate::core::dsp::relay::{analyse_limit_cycle, first_harmonic, LimitCycle};
 use crate::core::dsp::spectrum::{band_rms, Spectrum};
 use crate::core::model::ShipConfig;
 use crate::core::monitor::config::CoreConfig;
+use crate::core::wire::features::{HbtFeatures, ServoRateFeatures};
 use crate::core::wire::{ExcitationMode, MonitorState};
 use rustfft::num_complex::Complex64;
 
@@ -62,7 +63,7 @@ use rustfft::num_complex::Complex64;
 #[derive(Debug, Clone, PartialEq)]
 pub struct HbtReport {
     /// Period, frequency and amplitude of the limit cycle.
-    pub cycle: HbtFeatures,
+    pub cycle: LimitCycle,
     /// Ultimate gain with hysteresis, `K_u = 4 h / (pi sqrt(a^2 - eps^2))` [1/rad * rad].
     pub ultimate_gain: f64,
     /// Relay height h [rad].
@@ -92,47 +93,43 @@ pub struct HbtReport {
 }
 
 impl HbtReport {
-    /// JSON of the report's `features`.
-    pub fn to_json(&self) -> serde_json::Value {
-        let mut v = serde_json::json!({
-            "period_s": self.cycle.period_s,
-            "omega_u_rad_s": self.cycle.omega_u_rad_s,
-            "amplitude_rad": self.cycle.amplitude_rad,
-            "periods": self.cycle.periods,
-            "period_std_s": self.cycle.period_std_s,
-            "ultimate_gain": self.ultimate_gain,
-            "relay_height_rad": self.relay_height_rad,
-            "hysteresis_rad": self.hysteresis_rad,
-            "trim_rad": self.trim_rad,
-            "initial_trim_rad": self.initial_trim_rad,
-            "min_switch_interval_s": self.min_switch_interval_s,
-            "switches": self.switches,
+    /// The report's `features` (without `speed_log_mps`, which the monitor adds).
+    pub fn to_features(&self) -> HbtFeatures {
+        let (baseline, baseline_error) = baseline::to_features(&self.baseline);
+        let response = self.response.map(|(x1, d1)| {
+            let g = x1 / d1;
+            // Phase in (-2 pi, 0] (the dsp convention: no wrap near -180 deg).
+            let mut phase = g.arg();
+            if phase > 0.0 {
+                phase -= 2.0 * std::f64::consts::PI;
+            }
+            (d1.norm(), g.norm(), phase)
         });
-        if let Some(obj) = v.as_object_mut() {
-            obj.insert("wave_yaw_rad".into(), self.wave_yaw_rad.into());
-            if let Some((x1, d1)) = self.response {
-                let g = x1 / d1;
-                // Phase in (-2 pi, 0] (the dsp convention: no wrap near -180 deg).
-                let mut phase = g.arg();
-                if phase > 0.0 {
-                    phase -= 2.0 * std::f64::consts::PI;
-                }
-                obj.insert("rudder_amplitude_rad".into(), d1.norm().into());
-                obj.insert("response_gain".into(), g.norm().into());
-                obj.insert("response_phase_rad".into(), phase.into());
-            }
-            if let Some((peak, nominal)) = self.servo_rate {
-                obj.insert(
-                    "servo_rate".into(),
-                    serde_json::json!({
-                        "rudder_rate_peak_rad_s": peak,
-                        "rudder_rate_nominal_rad_s": nominal,
-                    }),
-                );
-            }
-            baseline::insert_json(obj, &self.baseline);
+        HbtFeatures {
+            period_s: self.cycle.period_s,
+            omega_u_rad_s: self.cycle.omega_u_rad_s,
+            amplitude_rad: self.cycle.amplitude_rad,
+            periods: self.cycle.periods,
+            period_std_s: self.cycle.period_std_s,
+            ultimate_gain: self.ultimate_gain,
+            relay_height_rad: self.relay_height_rad,
+            hysteresis_rad: self.hysteresis_rad,
+            trim_rad: self.trim_rad,
+            initial_trim_rad: self.initial_trim_rad,
+            min_switch_interval_s: self.min_switch_interval_s,
+            switches: self.switches,
+            wave_yaw_rad: self.wave_yaw_rad,
+            rudder_amplitude_rad: response.map(|r| r.0),
+            response_gain: response.map(|r| r.1),
+            response_phase_rad: response.map(|r| r.2),
+            servo_rate: self.servo_rate.map(|(peak, nominal)| ServoRateFeatures {
+                rudder_rate_peak_rad_s: peak,
+                rudder_rate_nominal_rad_s: nominal,
+            }),
+            speed_log_mps: None,
+            baseline,
+            baseline_error,
         }
-        v
     }
 }
 
@@ -155,7 +152,7 @@ pub(crate) struct HbtRun {
     /// The last moment the relay may run (test-duration budget) [s].
     deadline_s: f64,
     /// Once measured: the features (or why not) and the hand-back instant [s].
-    result: Option<(Result<Features, String>, f64)>,
+    result: Option<(Result<Measured, AbortReason>, f64)>,
     /// Instant of the last switch to `-h` [s].
     last_down_s: Option<f64>,
     /// The trim measured before the relay started [rad].
@@ -278,7 +275,7 @@ impl HbtRun {
             None => {
                 if self.trim_n == 0 {
                     return Step {
-                        done: Some(Err("no rudder samples during the trim window".into())),
+                        done: Some(Err(AbortReason::NoTrimRudder)),
                         ..idle(None)
                     };
                 }
@@ -293,7 +290,7 @@ impl HbtRun {
         let relay_start = self.relay_start_s.unwrap_or(t);
         if let Err(e) = self.heading.push(t, continuous_rad) {
             return Step {
-                done: Some(Err(e.to_string())),
+                done: Some(Err(AbortReason::Record(e))),
                 ..idle(None)
             };
         }
@@ -321,11 +318,10 @@ impl HbtRun {
                 self.shortest_switch_s = self.shortest_switch_s.min(interval);
                 if interval < self.min_switch_interval_s {
                     return Step {
-                        done: Some(Err(format!(
-                            "relay chatter: switches {interval:.1} s apart (heading noise above \
-                             the {:.2} deg hysteresis?)",
-                            self.eps_rad.to_degrees()
-                        ))),
+                        done: Some(Err(AbortReason::RelayChatter {
+                            interval_s: interval,
+                            hysteresis_deg: self.eps_rad.to_degrees(),
+                        })),
                         ..idle(None)
                     };
                 }
@@ -365,7 +361,7 @@ impl HbtRun {
         if covered && self.result.is_none() {
             let features = self.analyse(t, self.trim_rad());
             let handback_s = match &features {
-                Ok(Features::Hbt(f)) if self.handback_lead_s > 0.0 => {
+                Ok(Measured::Hbt(f)) if self.handback_lead_s > 0.0 => {
                     let last_up = self.up_switches[needed - 1];
                     handback_instant(
                         last_up,
@@ -392,11 +388,10 @@ impl HbtRun {
             }
         } else if t - relay_start > self.timeout_s {
             return Step {
-                done: Some(Err(format!(
-                    "no limit cycle within {:.0} s ({} switches to +h)",
-                    self.timeout_s,
-                    self.up_switches.len()
-                ))),
+                done: Some(Err(AbortReason::NoLimitCycle {
+                    timeout_s: self.timeout_s,
+                    up_switches: self.up_switches.len(),
+                })),
                 ..idle(None)
             };
         }
@@ -408,7 +403,7 @@ impl HbtRun {
         }
     }
 
-    fn analyse(&mut self, t_now: f64, trim: f64) -> Result<Features, String> {
+    fn analyse(&mut self, t_now: f64, trim: f64) -> Result<Measured, AbortReason> {
         let needed = self.settle_periods + self.measure_periods + 1;
         let measured = &self.up_switches[self.settle_periods..needed];
         let first = measured.first().copied().unwrap_or(t_now);
@@ -417,9 +412,9 @@ impl HbtRun {
         let [h, d] = &mut self.scratch;
         self.heading
             .resample(t0, self.dt_s, n, self.max_gap_s, h)
-            .map_err(|e| format!("analysis: {e}"))?;
+            .map_err(|e| AbortReason::Analysis(e.to_string()))?;
         let cycle = analyse_limit_cycle(t0, self.dt_s, h, measured)
-            .map_err(|e| format!("analysis: {e}"))?;
+            .map_err(|e| AbortReason::Analysis(e.to_string()))?;
         let (band, spectrum, wscratch) = &mut self.wave;
         let wave_yaw_rad = band_rms(h, self.dt_s, *band, spectrum, wscratch).ok();
         // The baseline over the span both records cover (the rudder may lag the heading).
@@ -458,15 +453,14 @@ impl HbtRun {
         let a = cycle.amplitude_rad;
         if a <= self.eps_rad {
             // A limit cycle through the hysteresis band cannot be smaller than the band.
-            return Err(format!(
-                "implausible limit cycle: amplitude {:.2} deg within the {:.2} deg hysteresis",
-                a.to_degrees(),
-                self.eps_rad.to_degrees()
-            ));
+            return Err(AbortReason::ImplausibleLimitCycle {
+                amplitude_deg: a.to_degrees(),
+                hysteresis_deg: self.eps_rad.to_degrees(),
+            });
         }
         let ultimate_gain = 4.0 * self.h_rad
             / (std::f64::consts::PI * (a * a - self.eps_rad * self.eps_rad).sqrt());
-        Ok(Features::Hbt(HbtReport {
+        Ok(Measured::Hbt(HbtReport {
             cycle,
             ultimate_gain,
             relay_height_rad: self.h_rad,

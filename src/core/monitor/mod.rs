@@ -50,6 +50,7 @@
 //! around zero for `add`, around the trim for `replace`, and the servo's angle limit) and, for
 //! `add`, its rate (`safety.max-excitation-rate-deg-s`).
 
+pub mod abort;
 mod clfrt;
 pub mod config;
 mod hbt;
@@ -58,15 +59,15 @@ pub mod record;
 
 use crate::core::angle::wrap_pi;
 use crate::core::dsp::multisine::Multisine;
-use crate::core::estimator::features::SPEED_LOG_FIELD;
 use crate::core::estimator::{Estimator, EstimatorScratch};
 use crate::core::fdi::Fdi;
 use crate::core::monitor::config::CoreConfig;
 use crate::core::wire::Method;
 use crate::core::wire::{
-    Decision, Excitation, ExcitationMode, Input, MonitorState, Notification, Outcome, Report,
-    Status, Stream, TriggerReply,
+    Decision, Excitation, ExcitationMode, Features, Input, MonitorState, Notification, Outcome,
+    Report, Status, Stream, TriggerReply,
 };
+pub use abort::{AbortCounts, AbortReason};
 use input::{Counters, Latest, Limits, RejectReason, Rejection};
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -84,21 +85,22 @@ pub enum Output {
     Notification(Notification),
 }
 
-/// What a finished test measured, by method.
+/// What a finished test measured, by method: the analysis, from which the report's typed
+/// [`Features`] are drawn.
 #[derive(Debug, Clone, PartialEq)]
-pub enum Features {
-    /// Relay test features.
+pub enum Measured {
+    /// Relay test analysis.
     Hbt(hbt::HbtReport),
-    /// Multisine test features.
+    /// Multisine test analysis.
     Clfrt(clfrt::ClfrtReport),
 }
 
-impl Features {
-    /// The `features` object of the report.
-    pub fn to_json(&self) -> serde_json::Value {
+impl Measured {
+    /// The report's `features` (without `speed_log_mps`, which the monitor adds).
+    pub fn to_features(&self) -> Features {
         match self {
-            Features::Hbt(f) => f.to_json(),
-            Features::Clfrt(f) => f.to_json(),
+            Measured::Hbt(f) => Features::Hbt(f.to_features()),
+            Measured::Clfrt(f) => Features::Clfrt(f.to_features()),
         }
     }
 }
@@ -115,6 +117,8 @@ pub struct Stats {
     pub tests_completed: u64,
     /// Tests aborted.
     pub tests_aborted: u64,
+    /// Tests aborted, by reason.
+    pub aborts: AbortCounts,
     /// Excitation values the safety gate had to bound (should stay 0: a non-zero count means
     /// a generator asked for more than the limits allow).
     pub excitation_clamped: u64,
@@ -161,7 +165,7 @@ pub(crate) struct Step {
     /// New phase, if it changed.
     phase: Option<MonitorState>,
     /// The test is over: features or an abort reason.
-    done: Option<Result<Features, String>>,
+    done: Option<Result<Measured, AbortReason>>,
 }
 
 /// The monitor of one vessel. See the module documentation for the driving order.
@@ -371,7 +375,10 @@ impl Monitor {
         };
         let silent = now_s - last;
         if self.run.is_some() && silent > self.cfg.safety.stream_timeout_s {
-            let reason = format!("heading stream silent for {silent:.1} s");
+            let reason = AbortReason::StreamSilent {
+                stream: Stream::Heading,
+                silent_s: silent,
+            };
             self.finish(now_s, Err(reason));
         }
     }
@@ -413,7 +420,7 @@ impl Monitor {
             None => None,
         };
         if let Some(e) = full {
-            self.finish(t, Err(e.to_string()));
+            self.finish(t, Err(AbortReason::Record(e)));
         }
     }
 
@@ -592,31 +599,29 @@ impl Monitor {
         t: f64,
         heading_rad: f64,
         prev_heading_t: Option<f64>,
-    ) -> Result<(), String> {
+    ) -> Result<(), AbortReason> {
         let Some(run) = &self.run else { return Ok(()) };
         let s = &self.cfg.safety;
         if !matches!(self.latest.auto, Some((_, true))) {
-            return Err("autopilot left auto".into());
+            return Err(AbortReason::AutopilotLeftAuto);
         }
         let e = self.heading_error(run.target_rad, heading_rad);
         if e.abs() > s.max_heading_error_deg.to_radians() {
-            return Err(format!(
-                "heading error {:.1} deg over the limit {:.1} deg",
-                e.to_degrees(),
-                s.max_heading_error_deg
-            ));
+            return Err(AbortReason::HeadingError {
+                error_deg: e.to_degrees(),
+                limit_deg: s.max_heading_error_deg,
+            });
         }
         if let Some((_, rudder)) = self.latest.rudder {
             if rudder.abs() >= s.rudder_saturation_deg.to_radians() {
-                return Err(format!(
-                    "rudder saturated at {:.1} deg",
-                    rudder.to_degrees()
-                ));
+                return Err(AbortReason::RudderSaturated {
+                    rudder_deg: rudder.to_degrees(),
+                });
             }
         }
         if let Some((_, target)) = self.latest.target {
             if wrap_pi(target - run.target_rad).abs() > 1e-6 {
-                return Err("autopilot course changed".into());
+                return Err(AbortReason::CourseChanged);
             }
         }
         for stream in Stream::REQUIRED {
@@ -627,24 +632,25 @@ impl Monitor {
             };
             if let Some(ts) = last {
                 if t - ts > s.stream_timeout_s {
-                    return Err(format!(
-                        "{} stream silent for {:.1} s",
-                        stream.name(),
-                        t - ts
-                    ));
+                    return Err(AbortReason::StreamSilent {
+                        stream,
+                        silent_s: t - ts,
+                    });
                 }
             }
         }
         if let Some((speed, _)) = self.speed_smooth {
             if (speed - run.speed_start_mps).abs() > s.max_speed_change_mps {
-                return Err(format!(
-                    "speed changed from {:.2} to {:.2} m/s",
-                    run.speed_start_mps, speed
-                ));
+                return Err(AbortReason::SpeedChanged {
+                    from_mps: run.speed_start_mps,
+                    to_mps: speed,
+                });
             }
         }
         if t - run.t_start > s.max_test_duration_s {
-            return Err(format!("test longer than {:.0} s", s.max_test_duration_s));
+            return Err(AbortReason::TooLong {
+                limit_s: s.max_test_duration_s,
+            });
         }
         Ok(())
     }
@@ -688,7 +694,7 @@ impl Monitor {
     /// Ends the test in progress at `t`: `Ok(features)` completed, `Err(reason)` aborted.
     /// Queues, in order: the excitation `none` for this sample (when `t` is a heading sample
     /// time), the report, and the idle status.
-    fn finish(&mut self, t: f64, result: Result<Features, String>) {
+    fn finish(&mut self, t: f64, result: Result<Measured, AbortReason>) {
         let Some(run) = self.run.take() else { return };
         self.last_test_end = Some(t);
         let mut estimate = None;
@@ -696,12 +702,9 @@ impl Monitor {
         let (outcome, reason, features, message) = match result {
             Ok(f) => {
                 self.stats.tests_completed += 1;
-                let mut features = f.to_json();
+                let mut features = f.to_features();
                 if run.speed_n > 0 {
-                    if let Some(obj) = features.as_object_mut() {
-                        let mean = run.speed_sum_mps / run.speed_n as f64;
-                        obj.insert(SPEED_LOG_FIELD.into(), mean.into());
-                    }
+                    features.set_speed_log_mps(Some(run.speed_sum_mps / run.speed_n as f64));
                 }
                 let name = run.method.name().to_uppercase();
                 let d_nom_t = self.nominal_displacement_t();
@@ -739,17 +742,14 @@ impl Monitor {
             }
             Err(reason) => {
                 self.stats.tests_aborted += 1;
+                self.stats.aborts.add(&reason);
+                let reason = reason.to_string();
                 tracing::warn!(vessel = %self.vessel, test = %run.id, "test aborted: {reason}");
                 let msg = format!(
                     "{} test aborted: {reason}",
                     run.method.name().to_uppercase()
                 );
-                (
-                    Outcome::Aborted,
-                    Some(reason),
-                    serde_json::Value::Object(Default::default()),
-                    msg,
-                )
+                (Outcome::Aborted, Some(reason), Features::None, msg)
             }
         };
         // Stop the excitation first: at a heading sample, its excitation is `none`.
@@ -893,7 +893,7 @@ impl Monitor {
             })
             .unwrap_or(0.0);
         if self.run.is_some() {
-            self.finish(t, Err(reason.to_string()));
+            self.finish(t, Err(AbortReason::Shutdown(reason.to_string())));
         } else {
             self.emit_status_for(t, MonitorState::Idle, None, None, Some(reason.to_string()));
         }

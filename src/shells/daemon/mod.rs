@@ -629,6 +629,7 @@ impl VesselTask {
                 "started": s.tests_started,
                 "completed": s.tests_completed,
                 "aborted": s.tests_aborted,
+                "aborted_by_reason": s.aborts.to_json(),
             },
             "excitation_clamped": s.excitation_clamped,
             "publish_errors": self.publish_errors,

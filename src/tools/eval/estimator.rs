@@ -219,14 +219,14 @@ mod tests {
         // One displacement model, three tests with known features: MSE and RMSE by hand.
         let model = sample_model();
         let mk = |g: f64, sp: f64| {
-            serde_json::json!({
-                "tones": [
-                    {"gain": g, "phase_rad": -2.0},
-                    {"gain": g * 0.3, "phase_rad": -2.5},
-                    {"gain": g * 0.05, "phase_rad": -2.9},
-                ],
-                "speed_log_mps": sp,
-            })
+            use crate::core::wire::features::sample;
+            let mut c = sample::clfrt(vec![
+                sample::tone(0.03, g, -2.0),
+                sample::tone(0.07, g * 0.3, -2.5),
+                sample::tone(0.18, g * 0.05, -2.9),
+            ]);
+            c.speed_log_mps = Some(sp);
+            crate::core::wire::Features::Clfrt(c)
         };
         let feats = [mk(2.0, 6.0), mk(1.0, 7.0), mk(0.5, 8.0)];
         let truths = [5000.0, 7000.0, 9000.0];

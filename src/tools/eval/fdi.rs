@@ -26,11 +26,10 @@
 
 use crate::config::Config;
 use crate::core::estimator::Estimator;
-use crate::core::fdi::{DISPLACEMENT_OR_RUDDER, SPEED_LOG, STEERING_ACTUATOR};
 use crate::core::model::SeaState;
 use crate::core::monitor::{Monitor, Output};
 use crate::core::wire::Method;
-use crate::core::wire::{Decision, Outcome, Report};
+use crate::core::wire::{Cause, Decision, Outcome, Report};
 use crate::drivers::probe::Lockstep;
 use crate::sim::{Fault, Scenario};
 use crate::tools::training::database::par_map;
@@ -48,7 +47,7 @@ pub struct FdiScenario {
     /// A random heading drift of 0.25..1 deg/min (either sign) on every run.
     pub drift: bool,
     /// The cause the isolation must name (`None`: nominal, nothing to detect).
-    pub expected: Option<&'static str>,
+    pub expected: Option<Cause>,
     /// Range of u [m/s] and D [t] to draw from (`None`: the configured range).
     pub speed_mps: Option<[f64; 2]>,
     /// As above for D.
@@ -73,7 +72,7 @@ pub fn scenarios() -> Vec<FdiScenario> {
             "displacement +10 %",
             Some("displacement_pct:10@0"),
             false,
-            Some(DISPLACEMENT_OR_RUDDER),
+            Some(Cause::DisplacementOrRudderEffectiveness),
             None,
             d_pm20,
         ),
@@ -81,7 +80,7 @@ pub fn scenarios() -> Vec<FdiScenario> {
             "displacement -10 %",
             Some("displacement_pct:-10@0"),
             false,
-            Some(DISPLACEMENT_OR_RUDDER),
+            Some(Cause::DisplacementOrRudderEffectiveness),
             None,
             d_pm20,
         ),
@@ -89,7 +88,7 @@ pub fn scenarios() -> Vec<FdiScenario> {
             "displacement +20 %",
             Some("displacement_pct:20@0"),
             false,
-            Some(DISPLACEMENT_OR_RUDDER),
+            Some(Cause::DisplacementOrRudderEffectiveness),
             None,
             d_pm20,
         ),
@@ -97,7 +96,7 @@ pub fn scenarios() -> Vec<FdiScenario> {
             "displacement -20 %",
             Some("displacement_pct:-20@0"),
             false,
-            Some(DISPLACEMENT_OR_RUDDER),
+            Some(Cause::DisplacementOrRudderEffectiveness),
             None,
             d_pm20,
         ),
@@ -105,7 +104,7 @@ pub fn scenarios() -> Vec<FdiScenario> {
             "speed log +0.5 m/s",
             Some("speed_log_bias_mps:0.5@0"),
             false,
-            Some(SPEED_LOG),
+            Some(Cause::SpeedLog),
             Some([4.0, 9.5]),
             None,
         ),
@@ -113,7 +112,7 @@ pub fn scenarios() -> Vec<FdiScenario> {
             "servo rate 2 deg/s",
             Some("servo_rate_deg_s:2@0"),
             false,
-            Some(STEERING_ACTUATOR),
+            Some(Cause::SteeringActuator),
             None,
             None,
         ),
@@ -121,7 +120,7 @@ pub fn scenarios() -> Vec<FdiScenario> {
             "rudder effectiveness -30 %",
             Some("rudder_effectiveness:0.7@0"),
             false,
-            Some(DISPLACEMENT_OR_RUDDER),
+            Some(Cause::DisplacementOrRudderEffectiveness),
             None,
             Some([4000.0, 7000.0]),
         ),
@@ -175,11 +174,11 @@ pub struct TestOutcome {
     /// The method's decision.
     pub decision: Decision,
     /// The method's isolation.
-    pub isolation: Vec<String>,
+    pub isolation: Vec<Cause>,
     /// The baseline's decision (`residuals.baseline.outcome`).
     pub baseline_decision: Decision,
     /// The baseline's isolation.
-    pub baseline_isolation: Vec<String>,
+    pub baseline_isolation: Vec<Cause>,
     /// The method's parameter chi-square (NaN without residuals).
     pub q_param: f64,
     /// The test's sea index.
@@ -213,13 +212,8 @@ fn decision_of(v: Option<&serde_json::Value>) -> Decision {
     }
 }
 
-fn strings(v: Option<&serde_json::Value>) -> Vec<String> {
-    v.and_then(|v| v.as_array())
-        .map(|a| {
-            a.iter()
-                .filter_map(|s| s.as_str().map(String::from))
-                .collect()
-        })
+fn causes(v: Option<&serde_json::Value>) -> Vec<Cause> {
+    v.and_then(|v| serde_json::from_value(v.clone()).ok())
         .unwrap_or_default()
 }
 
@@ -248,7 +242,7 @@ fn outcome_of(r: &Report) -> TestOutcome {
         decision: r.decision,
         isolation: r.isolation.clone(),
         baseline_decision: decision_of(bl.and_then(|b| b.get("outcome"))),
-        baseline_isolation: strings(bl.and_then(|b| b.get("isolation"))),
+        baseline_isolation: causes(bl.and_then(|b| b.get("isolation"))),
         q_param: num(&r.residuals, &["decision", "chi2"]),
         sea_index: num(&r.residuals, &["sea_index"]),
         fit_chi2: num(&r.residuals, &["model_fit", "chi2"]),
@@ -405,7 +399,7 @@ pub struct Cell {
 }
 
 /// Scores the runs of one scenario for the method (`baseline = false`) or the baseline.
-pub fn score(runs: &[RunOutcome], expected: Option<&str>, within: usize, baseline: bool) -> Cell {
+pub fn score(runs: &[RunOutcome], expected: Option<Cause>, within: usize, baseline: bool) -> Cell {
     let mut c = Cell {
         runs: runs.len(),
         tests: 0,

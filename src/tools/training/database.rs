@@ -31,7 +31,7 @@ use crate::core::dsp::multisine::Multisine;
 use crate::core::model::SeaState;
 use crate::core::monitor::Monitor;
 use crate::core::wire::Method;
-use crate::core::wire::Outcome;
+use crate::core::wire::{Features, Outcome};
 use crate::drivers::probe::{run_probe, ProbeOptions};
 use crate::sim::{Fault, Scenario};
 use rand::seq::SliceRandom;
@@ -99,7 +99,7 @@ pub struct Point {
 pub struct TestRun {
     /// The report's `features` (with `speed_log_mps`) when the test completed, else the
     /// reason it did not.
-    pub features: Result<serde_json::Value, String>,
+    pub features: Result<Features, String>,
     /// Test duration, trigger to report [s of ship time] (NaN when no report came).
     pub duration_s: f64,
 }
@@ -261,7 +261,7 @@ impl Database {
     }
 
     /// Completed runs of `method`: `(point index, features)`, in point order.
-    pub fn completed(&self, method: Method) -> Vec<(usize, &serde_json::Value)> {
+    pub fn completed(&self, method: Method) -> Vec<(usize, &Features)> {
         self.runs_of(method)
             .iter()
             .enumerate()

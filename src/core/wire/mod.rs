@@ -23,6 +23,10 @@
 
 use serde::{Deserialize, Serialize};
 
+pub mod features;
+
+pub use features::Features;
+
 /// Key expressions of one vessel.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Keys {
@@ -266,6 +270,42 @@ pub enum Decision {
     Inconclusive,
 }
 
+/// A suspected cause in a report's `isolation` (and the FDI's notification).
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Hash)]
+#[serde(rename_all = "snake_case")]
+pub enum Cause {
+    /// The speed log reads wrong.
+    SpeedLog,
+    /// The ship is heavier or lighter, or the rudder lost effectiveness (both move b).
+    DisplacementOrRudderEffectiveness,
+    /// The steering actuator (servo) responds unlike the nominal one.
+    SteeringActuator,
+}
+
+impl Cause {
+    /// Every cause.
+    pub const ALL: [Cause; 3] = [
+        Cause::SpeedLog,
+        Cause::DisplacementOrRudderEffectiveness,
+        Cause::SteeringActuator,
+    ];
+
+    /// The wire name (serde's), for messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            Cause::SpeedLog => "speed_log",
+            Cause::DisplacementOrRudderEffectiveness => "displacement_or_rudder_effectiveness",
+            Cause::SteeringActuator => "steering_actuator",
+        }
+    }
+}
+
+impl std::fmt::Display for Cause {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 /// `estimate` of a report.
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
 pub struct Estimate {
@@ -290,8 +330,8 @@ pub struct Report {
     pub outcome: Outcome,
     /// Abort reason, or null.
     pub reason: Option<String>,
-    /// Method-specific features (documented in docs/contract.md).
-    pub features: serde_json::Value,
+    /// Method-specific features (documented in docs/contract.md; `{}` for an aborted test).
+    pub features: Features,
     /// Estimated parameters, null for an aborted test or when no estimator is loaded.
     pub estimate: Option<Estimate>,
     /// Residuals (documented in docs/contract.md).
@@ -299,7 +339,7 @@ pub struct Report {
     /// The decision.
     pub decision: Decision,
     /// Suspected causes.
-    pub isolation: Vec<String>,
+    pub isolation: Vec<Cause>,
     /// Human-readable summary.
     pub message: String,
 }
@@ -476,6 +516,15 @@ impl std::str::FromStr for Method {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The names in messages are serde's wire names, for every variant.
+    #[test]
+    fn cause_names_are_the_wire_names() {
+        for c in Cause::ALL {
+            assert_eq!(serde_json::to_value(c).unwrap(), c.name());
+            assert_eq!(serde_json::from_value::<Cause>(c.name().into()).unwrap(), c);
+        }
+    }
 
     #[test]
     fn keys_follow_contract() {
