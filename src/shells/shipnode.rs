@@ -221,7 +221,7 @@ impl ShipNode {
         let t0 = self.ship.time_s();
         let mut summary = ShipSummary::default();
         let mut inputs: Vec<Input> = Vec::with_capacity(8);
-        let mut last_exc_t = f64::NEG_INFINITY;
+        let mut last_exc_t: f64;
         let mut next = Instant::now();
         let mut source = CommandSource::Own;
         let mut daemon_seen = false;
@@ -239,7 +239,16 @@ impl ShipNode {
             }
             inputs.clear();
             self.ship.publish(&mut inputs);
-            let t = self.ship.time_s();
+            // The excitation to wait for carries the heading's `t` as published: the sensors'
+            // clock, which may have stepped (a clock fault) or be wild for one tick.
+            let t = inputs
+                .iter()
+                .rev()
+                .find(|i| i.stream() == Stream::Heading)
+                .map_or_else(|| self.ship.clock_s(), |i| i.t());
+            // Excitations of earlier ticks do not answer this one (a clock stepped back
+            // would otherwise leave an old, later `t` standing in for it).
+            last_exc_t = f64::NEG_INFINITY;
             for input in &inputs {
                 let payload = input.payload();
                 let i = input.stream().index();

@@ -40,17 +40,26 @@ pub enum FaultKind {
     RudderEffectiveness,
     /// Heading sensor drift [deg/min], a ramp from the onset.
     HeadingDriftDegPerMin,
+    /// The sensors' clock steps by VALUE [s] at the onset and stays stepped (a GNSS time fix,
+    /// a reboot to the epoch): every published `t` carries it, and so does the autopilot's
+    /// idea of now (it checks the excitation's validity against the clock it publishes).
+    ClockStepS,
+    /// The samples of the one tick at the onset carry a `t` off by VALUE [s] (a wild
+    /// timestamp); the ticks after are right again.
+    ClockOutlierS,
 }
 
 impl FaultKind {
     /// Every kind, in the order of the documentation.
-    pub const ALL: [FaultKind; 6] = [
+    pub const ALL: [FaultKind; 8] = [
         FaultKind::DisplacementPct,
         FaultKind::SpeedLogBiasMps,
         FaultKind::SpeedLogScale,
         FaultKind::ServoRateDegS,
         FaultKind::RudderEffectiveness,
         FaultKind::HeadingDriftDegPerMin,
+        FaultKind::ClockStepS,
+        FaultKind::ClockOutlierS,
     ];
 
     /// The name used in the `KIND:VALUE@ONSET_S` syntax.
@@ -62,6 +71,8 @@ impl FaultKind {
             FaultKind::ServoRateDegS => "servo_rate_deg_s",
             FaultKind::RudderEffectiveness => "rudder_effectiveness",
             FaultKind::HeadingDriftDegPerMin => "heading_drift_deg_per_min",
+            FaultKind::ClockStepS => "clock_step_s",
+            FaultKind::ClockOutlierS => "clock_outlier_s",
         }
     }
 
@@ -74,6 +85,7 @@ impl FaultKind {
             FaultKind::ServoRateDegS => (0.0, 20.0, true),
             FaultKind::RudderEffectiveness => (0.0, 1.5, true),
             FaultKind::HeadingDriftDegPerMin => (-10.0, 10.0, false),
+            FaultKind::ClockStepS | FaultKind::ClockOutlierS => (-1.0e10, 1.0e10, false),
         }
     }
 
@@ -244,6 +256,8 @@ pub(crate) struct Effects {
     pub rudder_effectiveness: f64,
     /// Added to the heading measurement [rad].
     pub heading_drift_rad: f64,
+    /// Added to every published `t` (a stepped sensor clock) [s].
+    pub clock_offset_s: f64,
 }
 
 impl Effects {
@@ -255,6 +269,7 @@ impl Effects {
         servo_rate_rad_s: None,
         rudder_effectiveness: 1.0,
         heading_drift_rad: 0.0,
+        clock_offset_s: 0.0,
     };
 
     /// The effect of `faults` at ship time `t_s`.
@@ -272,6 +287,9 @@ impl Effects {
                     let minutes = (t_s - f.onset_s).max(0.0) / 60.0;
                     fx.heading_drift_rad += crate::core::angle::deg(v * minutes);
                 }
+                FaultKind::ClockStepS => fx.clock_offset_s += v,
+                // One tick only: applied by the ship when it publishes that tick.
+                FaultKind::ClockOutlierS => {}
             }
         }
         fx

@@ -402,7 +402,7 @@ impl Ship {
     /// period); reuse `out` between calls.
     pub fn publish(&mut self, out: &mut Vec<Input>) {
         let m = self.measure();
-        let t = self.time_s();
+        let t = self.clock_s() + self.outlier_s();
         out.push(Input::Rudder(Scalar {
             t,
             value: m.rudder_rad,
@@ -411,8 +411,10 @@ impl Ship {
             t,
             value: m.speed_mps,
         }));
+        // Publications are due by ship time; only their stamps carry the sensors' clock.
+        let now = self.time_s();
         let next_due = self.start_s + self.status_count as f64 * self.status_period_s;
-        if self.status_dirty || t >= next_due - 1e-9 {
+        if self.status_dirty || now >= next_due - 1e-9 {
             out.push(Input::AutopilotState(StateValue {
                 t,
                 value: self.autopilot.state_name().to_string(),
@@ -422,7 +424,7 @@ impl Ship {
                 value: self.autopilot.target_rad(),
             }));
             self.status_dirty = false;
-            while self.start_s + self.status_count as f64 * self.status_period_s <= t + 1e-9 {
+            while self.start_s + self.status_count as f64 * self.status_period_s <= now + 1e-9 {
                 self.status_count += 1;
             }
         }
@@ -430,6 +432,25 @@ impl Ship {
             t,
             value: m.heading_rad,
         }));
+    }
+
+    /// The sensors' clock: ship time plus any stepped clock ([`FaultKind::ClockStepS`]) [s].
+    pub fn clock_s(&self) -> f64 {
+        let t = self.time_s();
+        t + Effects::at(&self.faults, t).clock_offset_s
+    }
+
+    /// The wild-timestamp offset of this tick ([`FaultKind::ClockOutlierS`]: the one tick at
+    /// or just after its onset) [s].
+    fn outlier_s(&self) -> f64 {
+        let t = self.time_s();
+        let dt = 1.0 / self.rate_hz;
+        self.faults
+            .iter()
+            .filter(|f| f.kind == FaultKind::ClockOutlierS)
+            .filter(|f| t >= f.onset_s - 1e-9 && t < f.onset_s + dt - 1e-9)
+            .map(|f| f.value)
+            .sum()
     }
 
     /// The autopilot side of the contract: store the latest excitation message.
@@ -450,7 +471,11 @@ impl Ship {
         let e = fx.rudder_effectiveness;
         self.servo
             .set_rate_rad_s(fx.servo_rate_rad_s.unwrap_or(self.servo_rate_rad_s));
-        let (cmd, source) = self.autopilot.command(t, m.heading_rad, self.override_rad);
+        // The autopilot lives on the sensors' clock: the excitation it holds carries that `t`.
+        let now = t + fx.clock_offset_s;
+        let (cmd, source) = self
+            .autopilot
+            .command(now, m.heading_rad, self.override_rad);
         let beta = self.bias.value_rad();
 
         let mut rate_limited = false;

@@ -71,13 +71,23 @@ pub enum AbortReason {
     },
     /// The analysis of the records failed (what failed, in words).
     Analysis(String),
+    /// A stream's clock stepped: it re-synchronised on a new timeline
+    /// ([`crate::core::monitor::input::Clocks`]), so the test's records no longer line up.
+    ClockStep {
+        /// The stream.
+        stream: Stream,
+        /// Its last `t` on the old timeline [s].
+        from_t: f64,
+        /// Its first `t` on the new one [s].
+        to_t: f64,
+    },
     /// The driver stopped (daemon shutdown), with its words.
     Shutdown(String),
 }
 
 impl AbortReason {
     /// Every code, in the order `fdi/stats` lists them.
-    pub const CODES: [&'static str; 14] = [
+    pub const CODES: [&'static str; 15] = [
         "autopilot_left_auto",
         "heading_error",
         "rudder_saturated",
@@ -92,6 +102,7 @@ impl AbortReason {
         "no_limit_cycle",
         "implausible_limit_cycle",
         "analysis",
+        "clock_step",
     ];
 
     /// A stable snake_case name per kind of reason (the key in `fdi/stats`); `shutdown` is
@@ -120,7 +131,8 @@ impl AbortReason {
             AbortReason::NoLimitCycle { .. } => 11,
             AbortReason::ImplausibleLimitCycle { .. } => 12,
             AbortReason::Analysis(_) => 13,
-            AbortReason::Shutdown(_) => 14,
+            AbortReason::ClockStep { .. } => 14,
+            AbortReason::Shutdown(_) => 15,
         }
     }
 }
@@ -173,6 +185,15 @@ impl fmt::Display for AbortReason {
                  {hysteresis_deg:.2} deg hysteresis"
             ),
             AbortReason::Analysis(what) => write!(f, "analysis: {what}"),
+            AbortReason::ClockStep {
+                stream,
+                from_t,
+                to_t,
+            } => write!(
+                f,
+                "clock step: the {} stream went from t = {from_t:.1} to {to_t:.1} s",
+                stream.name()
+            ),
             AbortReason::Shutdown(why) => f.write_str(why),
         }
     }

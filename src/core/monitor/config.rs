@@ -2,7 +2,7 @@
 //! [`CoreConfig`], everything one monitor core needs and nothing else.
 
 use crate::core::baseline::config::BaselineConfig;
-use crate::core::config::{check_range, check_range_open_low, fail, ConfigError};
+use crate::core::config::{check_count, check_range, check_range_open_low, fail, ConfigError};
 use crate::core::design::{ClfrtConfig, HbtConfig};
 use crate::core::estimator::config::EstimatorConfig;
 use crate::core::fdi::config::FdiConfig;
@@ -171,6 +171,13 @@ pub struct InputConfig {
     pub max_speed_mps: f64,
     /// Largest plausible |rudder angle| [deg]; above is rejected.
     pub max_rudder_deg: f64,
+    /// A sample later than its stream's last accepted one by more than this is a jump in
+    /// time (a clock step or a wild timestamp), not the next sample [s]. Above any outage
+    /// the streams recover from without notice; a longer gap costs `resync-samples` samples.
+    pub time_jump_s: f64,
+    /// Consecutive samples of a new timeline (after a jump ahead, or time going backwards)
+    /// that re-synchronise a stream on it; a lone outlier never gets there.
+    pub resync_samples: u32,
 }
 
 impl Default for InputConfig {
@@ -178,6 +185,8 @@ impl Default for InputConfig {
         Self {
             max_speed_mps: 30.0,
             max_rudder_deg: 45.0,
+            time_jump_s: 60.0,
+            resync_samples: 5,
         }
     }
 }
@@ -187,6 +196,8 @@ impl InputConfig {
     pub fn check(&self) -> Result<(), ConfigError> {
         check_range_open_low("input.max-speed-mps", self.max_speed_mps, 0.0, 100.0)?;
         check_range_open_low("input.max-rudder-deg", self.max_rudder_deg, 0.0, 90.0)?;
+        check_range_open_low("input.time-jump-s", self.time_jump_s, 0.0, 86400.0)?;
+        check_count("input.resync-samples", self.resync_samples, 2, 1000)?;
         Ok(())
     }
 }

@@ -1,7 +1,7 @@
 //! Input validation, rejection counters and the latest value of every stream.
 //!
-//! Every sample is checked before it touches any state: `t` finite and not older than the
-//! stream's last accepted sample (equal `t` is a duplicate), the value finite and physically
+//! Every sample is checked before it touches any state: `t` finite and in order on its stream
+//! ([`Clocks`]), the value finite and physically
 //! plausible (heading and target in [0, 2 pi), |rudder| below `input.max-rudder-deg`, speed in
 //! [-5, `input.max-speed-mps`], design displacement in (0, 1e9] kg). A rejected sample is counted by stream and reason, logged once
 //! per burst (the first, then at every power of two), and otherwise ignored: it never reaches
@@ -9,6 +9,22 @@
 //!
 //! Memory is fixed: counters are arrays indexed by stream and reason; the latest value of each
 //! stream is one slot.
+//!
+//! ## Clock steps
+//!
+//! Ship sensors step their clocks (a GNSS time fix, a reboot to the epoch), and a single
+//! sample can carry a wild time. Per stream, against its last accepted `t`:
+//! - `t` equal: a duplicate, rejected.
+//! - `t` later by at most `input.time-jump-s`: in order, accepted.
+//! - `t` later by more (a jump ahead) or earlier (time going backwards): rejected
+//!   (`time_jump` or `out_of_order`) and remembered as the start of a candidate timeline.
+//!   Samples that continue that candidate (increasing, each within `input.time-jump-s` of the
+//!   previous one) extend it; the `input.resync-samples`-th is accepted and the stream
+//!   *re-synchronises* on the new timeline (counted in `resyncs`). A lone outlier never gets
+//!   there: the next in-order sample drops the candidate.
+//!
+//! The monitor aborts a test under way on a re-synchronisation ("clock step") and moves its
+//! time-based state (scheduler interval, steady course) to the new timeline.
 
 use crate::core::wire::{Input, Stream};
 use std::f64::consts::PI;
@@ -29,16 +45,19 @@ pub enum RejectReason {
     OutOfOrder,
     /// `t` equals the stream's last accepted sample.
     Duplicate,
+    /// `t` is ahead of the stream's last accepted sample by more than `input.time-jump-s`.
+    TimeJump,
 }
 
 impl RejectReason {
     /// Every reason, in counter order.
-    pub const ALL: [RejectReason; 5] = [
+    pub const ALL: [RejectReason; 6] = [
         RejectReason::Malformed,
         RejectReason::NotFinite,
         RejectReason::OutOfRange,
         RejectReason::OutOfOrder,
         RejectReason::Duplicate,
+        RejectReason::TimeJump,
     ];
     /// Name for logs and the stats output.
     pub fn name(self) -> &'static str {
@@ -48,6 +67,7 @@ impl RejectReason {
             RejectReason::OutOfRange => "out_of_range",
             RejectReason::OutOfOrder => "out_of_order",
             RejectReason::Duplicate => "duplicate",
+            RejectReason::TimeJump => "time_jump",
         }
     }
     fn index(self) -> usize {
@@ -57,6 +77,7 @@ impl RejectReason {
             RejectReason::OutOfRange => 2,
             RejectReason::OutOfOrder => 3,
             RejectReason::Duplicate => 4,
+            RejectReason::TimeJump => 5,
         }
     }
 }
@@ -77,7 +98,8 @@ pub struct Rejection {
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct Counters {
     accepted: [u64; 6],
-    rejected: [[u64; 5]; 6],
+    rejected: [[u64; 6]; 6],
+    resyncs: [u64; 6],
 }
 
 impl Counters {
@@ -102,6 +124,13 @@ impl Counters {
     pub(crate) fn count_accepted(&mut self, stream: Stream) {
         self.accepted[stream.index()] += 1;
     }
+    /// Re-synchronisations of `stream` on a new timeline (clock steps).
+    pub fn resyncs(&self, stream: Stream) -> u64 {
+        self.resyncs[stream.index()]
+    }
+    pub(crate) fn count_resync(&mut self, stream: Stream) {
+        self.resyncs[stream.index()] += 1;
+    }
     /// As a JSON object `{stream: {"accepted": n, reason: n, ...}}` for stats and reports.
     pub fn to_json(&self) -> serde_json::Value {
         let mut m = serde_json::Map::new();
@@ -111,6 +140,7 @@ impl Counters {
             for r in RejectReason::ALL {
                 o.insert(r.name().into(), self.rejected(s, r).into());
             }
+            o.insert("resyncs".into(), self.resyncs(s).into());
             m.insert(s.name().into(), serde_json::Value::Object(o));
         }
         serde_json::Value::Object(m)
@@ -203,18 +233,92 @@ pub fn validate(input: &Input, latest: &Latest, limits: &Limits) -> Result<(), R
             );
         }
     }
-    if let Some(last) = latest.t(stream) {
-        if t < last {
-            return reject(
-                RejectReason::OutOfOrder,
-                format!("t = {t} before last accepted {last}"),
-            );
-        }
-        if t == last {
-            return reject(RejectReason::Duplicate, format!("t = {t} seen already"));
-        }
-    }
+    let _ = latest; // the order in time is the clocks' ([`Clocks::check`])
     Ok(())
+}
+
+/// A sample's place in its stream's time, when [`Clocks::check`] lets it in.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Order {
+    /// In order after the stream's last accepted sample (or the stream's first).
+    Next,
+    /// The stream re-synchronised on a new timeline: its last accepted sample was at `from_t`.
+    Resync {
+        /// The last accepted `t` of the old timeline [s].
+        from_t: f64,
+    },
+}
+
+/// A candidate timeline: samples rejected as out of order or ahead that follow each other.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Candidate {
+    last_t: f64,
+    samples: u32,
+}
+
+/// Per-stream clock-step detection (module documentation). Fixed size.
+#[derive(Debug, Clone, Default)]
+pub struct Clocks {
+    candidates: [Option<Candidate>; 6],
+}
+
+impl Clocks {
+    /// Places a sample of `stream` at `t` (finite) after the stream's last accepted `last`:
+    /// `jump_s` is `input.time-jump-s`, `resync` is `input.resync-samples`.
+    pub fn check(
+        &mut self,
+        stream: Stream,
+        t: f64,
+        last: Option<f64>,
+        jump_s: f64,
+        resync: u32,
+    ) -> Result<Order, Rejection> {
+        let slot = &mut self.candidates[stream.index()];
+        let Some(last) = last else {
+            *slot = None;
+            return Ok(Order::Next);
+        };
+        if t == last {
+            return Err(Rejection {
+                stream,
+                reason: RejectReason::Duplicate,
+                detail: format!("t = {t} seen already"),
+            });
+        }
+        if t > last && t - last <= jump_s {
+            *slot = None;
+            return Ok(Order::Next);
+        }
+        let continues = slot.is_some_and(|c| t > c.last_t && t - c.last_t <= jump_s);
+        let samples = if continues {
+            slot.map_or(1, |c| c.samples + 1)
+        } else {
+            1
+        };
+        if samples >= resync {
+            *slot = None;
+            return Ok(Order::Resync { from_t: last });
+        }
+        *slot = Some(Candidate { last_t: t, samples });
+        let (reason, detail) = if t < last {
+            (
+                RejectReason::OutOfOrder,
+                format!(
+                    "t = {t} before last accepted {last} ({samples} of {resync} to re-synchronise)"
+                ),
+            )
+        } else {
+            (
+                RejectReason::TimeJump,
+                format!("t = {t} is {:.1} s after last accepted {last} ({samples} of {resync} to re-synchronise)", t - last),
+            )
+        };
+        Err(Rejection {
+            stream,
+            reason,
+            detail,
+        })
+    }
 }
 
 /// Stores an accepted sample as the latest of its stream.
@@ -265,16 +369,86 @@ mod tests {
         assert_eq!(r(&st), Err(RejectReason::OutOfRange));
     }
 
+    /// Feeds `ts` to one stream's clock as a driver would (storing what is accepted) and
+    /// returns each verdict: `Ok(true)` a resync, `Ok(false)` in order, `Err(reason)`.
+    fn feed(ts: &[f64]) -> Vec<Result<bool, RejectReason>> {
+        let mut c = Clocks::default();
+        let mut last = None;
+        ts.iter()
+            .map(|&t| match c.check(Stream::Heading, t, last, 60.0, 3) {
+                Ok(o) => {
+                    last = Some(t);
+                    Ok(matches!(o, Order::Resync { .. }))
+                }
+                Err(r) => Err(r.reason),
+            })
+            .collect()
+    }
+
     #[test]
     fn rejects_time_going_backwards_and_duplicates() {
-        let mut l = Latest::default();
-        store(&h(10.0, 1.0), &mut l);
-        let r = |i: &Input| validate(i, &l, &LIM).map_err(|e| e.reason);
-        assert_eq!(r(&h(9.9, 1.0)), Err(RejectReason::OutOfOrder));
-        assert_eq!(r(&h(10.0, 1.0)), Err(RejectReason::Duplicate));
-        assert_eq!(r(&h(10.1, 1.0)), Ok(()));
+        use RejectReason::*;
+        assert_eq!(
+            feed(&[10.0, 9.9, 10.0, 10.1]),
+            vec![Ok(false), Err(OutOfOrder), Err(Duplicate), Ok(false)]
+        );
         // Other streams keep their own clocks.
-        assert_eq!(r(&Input::Rudder(Scalar { t: 5.0, value: 0.0 })), Ok(()));
+        let mut c = Clocks::default();
+        assert!(c.check(Stream::Heading, 10.0, Some(9.0), 60.0, 3).is_ok());
+        assert!(c.check(Stream::Rudder, 5.0, Some(4.9), 60.0, 3).is_ok());
+    }
+
+    #[test]
+    fn a_lone_future_sample_is_rejected_and_forgotten() {
+        use RejectReason::*;
+        assert_eq!(
+            feed(&[10.0, 1e9, 10.1, 1e9 + 0.1, 10.2, 10.3]),
+            vec![
+                Ok(false),
+                Err(TimeJump),
+                Ok(false),
+                Err(TimeJump),
+                Ok(false),
+                Ok(false)
+            ]
+        );
+    }
+
+    #[test]
+    fn a_clock_step_resynchronises_after_a_consistent_run() {
+        use RejectReason::*;
+        // An hour back: two rejected, the third of the new timeline accepted as a resync.
+        assert_eq!(
+            feed(&[3600.0, 3600.1, 0.2, 0.3, 0.4, 0.5]),
+            vec![
+                Ok(false),
+                Ok(false),
+                Err(OutOfOrder),
+                Err(OutOfOrder),
+                Ok(true),
+                Ok(false)
+            ]
+        );
+        // An hour ahead, the same.
+        assert_eq!(
+            feed(&[0.0, 3600.0, 3600.1, 3600.2, 3600.3]),
+            vec![Ok(false), Err(TimeJump), Err(TimeJump), Ok(true), Ok(false)]
+        );
+        // A run broken by an in-order sample starts again.
+        assert_eq!(
+            feed(&[0.0, 3600.0, 3600.1, 0.1, 3600.2, 3600.3, 3600.4]),
+            vec![
+                Ok(false),
+                Err(TimeJump),
+                Err(TimeJump),
+                Ok(false),
+                Err(TimeJump),
+                Err(TimeJump),
+                Ok(true)
+            ]
+        );
+        // A gap within the limit is no jump.
+        assert_eq!(feed(&[0.0, 59.0]), vec![Ok(false), Ok(false)]);
     }
 
     #[test]

@@ -48,7 +48,19 @@
 //! course changed; the test longer than `safety.max-test-duration-s`; a record full (flood).
 //! Every excitation passes a final gate that bounds its value (`safety.max-excitation-deg`
 //! around zero for `add`, around the trim for `replace`, and the servo's angle limit) and, for
-//! `add`, its rate (`safety.max-excitation-rate-deg-s`).
+//! `add`, its rate (`safety.max-excitation-rate-deg-s`). Every abort is an [`AbortReason`];
+//! [`Stats::aborts`] counts them by kind.
+//!
+//! ## Files
+//!
+//! | file | what |
+//! |---|---|
+//! | `mod.rs` | the state machine: inputs, the test's lifecycle, reports, statuses |
+//! | `safety.rs` | preconditions, steady course, the safety checks, the excitation gate |
+//! | `hbt.rs`, `clfrt.rs` | each method's run and analysis, and its typed features |
+//! | `input.rs`, `record.rs` | input validation and counters; bounded test records |
+//! | `abort.rs` | why a test stopped |
+//! | `config.rs` | the monitor's sections and [`CoreConfig`] |
 
 pub mod abort;
 mod clfrt;
@@ -56,6 +68,7 @@ pub mod config;
 mod hbt;
 pub mod input;
 pub mod record;
+mod safety;
 
 use crate::core::angle::wrap_pi;
 use crate::core::dsp::multisine::Multisine;
@@ -68,7 +81,7 @@ use crate::core::wire::{
     Report, Status, Stream, TriggerReply,
 };
 pub use abort::{AbortCounts, AbortReason};
-use input::{Counters, Latest, Limits, RejectReason, Rejection};
+use input::{Clocks, Counters, Latest, Limits, Order, RejectReason, Rejection};
 use std::collections::VecDeque;
 use std::sync::Arc;
 
@@ -177,6 +190,8 @@ pub struct Monitor {
     vessel: String,
     /// Plausibility limits derived from the configuration.
     limits: Limits,
+    /// Per-stream clock-step detection.
+    clocks: Clocks,
     /// The latest accepted sample of each stream (safety checks, steadiness).
     latest: Latest,
     /// Smoothed speed [m/s] and the time of its last update.
@@ -267,6 +282,7 @@ impl Monitor {
             cfg: cfg.clone(),
             vessel: vessel.to_string(),
             latest: Latest::default(),
+            clocks: Clocks::default(),
             speed_smooth: None,
             heading_unwrapped: None,
             counters: Counters::default(),
@@ -338,20 +354,37 @@ impl Monitor {
     /// Feeds one sample. A rejected sample is counted and returned as an error; it changes
     /// nothing else. An accepted heading sample queues exactly one excitation.
     pub fn handle_input(&mut self, input: Input) -> Result<(), Rejection> {
-        if let Err(r) = input::validate(&input, &self.latest, &self.limits) {
-            if self.counters.count_rejection(r.stream, r.reason) {
-                tracing::warn!(
-                    vessel = %self.vessel,
-                    stream = r.stream.name(),
-                    reason = r.reason.name(),
-                    count = self.counters.rejected(r.stream, r.reason),
-                    "{}",
-                    r.detail
-                );
+        let stream = input.stream();
+        let order = input::validate(&input, &self.latest, &self.limits).and_then(|()| {
+            let c = &self.cfg.input;
+            self.clocks.check(
+                stream,
+                input.t(),
+                self.latest.t(stream),
+                c.time_jump_s,
+                c.resync_samples,
+            )
+        });
+        let order = match order {
+            Ok(o) => o,
+            Err(r) => {
+                if self.counters.count_rejection(r.stream, r.reason) {
+                    tracing::warn!(
+                        vessel = %self.vessel,
+                        stream = r.stream.name(),
+                        reason = r.reason.name(),
+                        count = self.counters.rejected(r.stream, r.reason),
+                        "{}",
+                        r.detail
+                    );
+                }
+                return Err(r);
             }
-            return Err(r);
+        };
+        self.counters.count_accepted(stream);
+        if let Order::Resync { from_t } = order {
+            self.resync(stream, from_t, input.t());
         }
-        self.counters.count_accepted(input.stream());
         let prev_heading_t = self.last_heading_t();
         input::store(&input, &mut self.latest);
         match input {
@@ -380,6 +413,51 @@ impl Monitor {
                 silent_s: silent,
             };
             self.finish(now_s, Err(reason));
+        }
+    }
+
+    /// A stream re-synchronised on a new timeline (its clock stepped from `from_t` to `to_t`):
+    /// the test under way, whose records no longer line up, is aborted ("clock step"), and
+    /// state kept in ship time moves to the new timeline: the heading's (the scheduler's
+    /// interval and steady course, the heading's own latest time) or the speed's smoothing.
+    fn resync(&mut self, stream: Stream, from_t: f64, to_t: f64) {
+        self.counters.count_resync(stream);
+        tracing::warn!(
+            vessel = %self.vessel,
+            stream = stream.name(),
+            from_t,
+            to_t,
+            "clock step: the stream re-synchronised on a new timeline"
+        );
+        match stream {
+            Stream::Heading => {
+                let shift = to_t - from_t;
+                self.last_test_end = self.last_test_end.map(|e| e + shift);
+                self.steady = Steady::default();
+            }
+            Stream::Speed => self.speed_smooth = None,
+            _ => {}
+        }
+        if self.run.is_some() {
+            // Reported at the new timeline's time when the heading stepped, else the heading's.
+            let t = if stream == Stream::Heading {
+                to_t
+            } else {
+                self.last_heading_t().unwrap_or(to_t)
+            };
+            self.finish(
+                t,
+                Err(AbortReason::ClockStep {
+                    stream,
+                    from_t,
+                    to_t,
+                }),
+            );
+        }
+        if stream == Stream::Heading {
+            // The heading's last sample belongs to the old timeline: forget it, so the next
+            // step measures no interval across the jump.
+            self.latest.heading = None;
         }
     }
 
@@ -480,82 +558,6 @@ impl Monitor {
         wrap_pi(t_target - heading_rad)
     }
 
-    /// Conditions for starting any test at `t`: fresh streams, autopilot in auto, a target,
-    /// a heading error within the abort limit.
-    fn preconditions(&self, t: f64) -> Result<(), String> {
-        let timeout = self.cfg.safety.stream_timeout_s;
-        for s in Stream::REQUIRED {
-            match self.latest.t(s) {
-                None => return Err(format!("no {} received yet", s.name())),
-                Some(ts) if t - ts > timeout => {
-                    return Err(format!("{} stream silent for {:.1} s", s.name(), t - ts))
-                }
-                _ => {}
-            }
-        }
-        if !matches!(self.latest.auto, Some((_, true))) {
-            return Err("autopilot is not in auto".into());
-        }
-        if let (Some((_, h)), Some((_, target))) = (self.latest.heading, self.latest.target) {
-            let e = self.heading_error(target, h).abs();
-            if e > self.cfg.safety.max_heading_error_deg.to_radians() {
-                return Err(format!(
-                    "heading error {:.1} deg over the limit",
-                    e.to_degrees()
-                ));
-            }
-        }
-        Ok(())
-    }
-
-    fn update_steady(&mut self, t: f64, heading_rad: f64) {
-        let sc = &self.cfg.scheduler;
-        let ok = self.preconditions(t).is_ok()
-            && self.latest.target.is_some_and(|(_, target)| {
-                self.heading_error(target, heading_rad).abs()
-                    < sc.steady_heading_error_deg.to_radians()
-            });
-        let (Some((_, rudder)), Some((speed, _))) = (self.latest.rudder, self.speed_smooth) else {
-            self.steady.since = None;
-            return;
-        };
-        if !ok {
-            self.steady.since = None;
-            return;
-        }
-        let st = &mut self.steady;
-        match st.since {
-            None => {
-                st.since = Some(t);
-                st.rudder = (rudder, rudder);
-                st.speed = (speed, speed);
-            }
-            Some(_) => {
-                st.rudder = (st.rudder.0.min(rudder), st.rudder.1.max(rudder));
-                st.speed = (st.speed.0.min(speed), st.speed.1.max(speed));
-                if st.rudder.1 - st.rudder.0 > 2.0 * sc.steady_rudder_deg.to_radians()
-                    || st.speed.1 - st.speed.0 > 2.0 * sc.steady_speed_mps
-                {
-                    st.since = Some(t);
-                    st.rudder = (rudder, rudder);
-                    st.speed = (speed, speed);
-                }
-            }
-        }
-    }
-
-    fn scheduled_start_due(&self, t: f64) -> bool {
-        let sc = &self.cfg.scheduler;
-        sc.enabled
-            && self
-                .steady
-                .since
-                .is_some_and(|since| t - since >= sc.steady_time_s)
-            && self
-                .last_test_end
-                .is_none_or(|end| t - end >= sc.interval_s)
-    }
-
     /// Starts a test at `t` (preconditions already checked). Returns its id.
     fn start(&mut self, t: f64, method: Method, why: &str) -> Result<String, String> {
         let kind = match method {
@@ -591,68 +593,6 @@ impl Monitor {
         tracing::info!(vessel = %self.vessel, test = %id, method = method.name(), "test started ({why})");
         self.emit_status(t, MonitorState::Settling, Some(format!("started on {why}")));
         Ok(id)
-    }
-
-    /// The safety checks of a running test at heading sample `t`. `Err(reason)` aborts.
-    fn safety_check(
-        &self,
-        t: f64,
-        heading_rad: f64,
-        prev_heading_t: Option<f64>,
-    ) -> Result<(), AbortReason> {
-        let Some(run) = &self.run else { return Ok(()) };
-        let s = &self.cfg.safety;
-        if !matches!(self.latest.auto, Some((_, true))) {
-            return Err(AbortReason::AutopilotLeftAuto);
-        }
-        let e = self.heading_error(run.target_rad, heading_rad);
-        if e.abs() > s.max_heading_error_deg.to_radians() {
-            return Err(AbortReason::HeadingError {
-                error_deg: e.to_degrees(),
-                limit_deg: s.max_heading_error_deg,
-            });
-        }
-        if let Some((_, rudder)) = self.latest.rudder {
-            if rudder.abs() >= s.rudder_saturation_deg.to_radians() {
-                return Err(AbortReason::RudderSaturated {
-                    rudder_deg: rudder.to_degrees(),
-                });
-            }
-        }
-        if let Some((_, target)) = self.latest.target {
-            if wrap_pi(target - run.target_rad).abs() > 1e-6 {
-                return Err(AbortReason::CourseChanged);
-            }
-        }
-        for stream in Stream::REQUIRED {
-            let last = if stream == Stream::Heading {
-                prev_heading_t
-            } else {
-                self.latest.t(stream)
-            };
-            if let Some(ts) = last {
-                if t - ts > s.stream_timeout_s {
-                    return Err(AbortReason::StreamSilent {
-                        stream,
-                        silent_s: t - ts,
-                    });
-                }
-            }
-        }
-        if let Some((speed, _)) = self.speed_smooth {
-            if (speed - run.speed_start_mps).abs() > s.max_speed_change_mps {
-                return Err(AbortReason::SpeedChanged {
-                    from_mps: run.speed_start_mps,
-                    to_mps: speed,
-                });
-            }
-        }
-        if t - run.t_start > s.max_test_duration_s {
-            return Err(AbortReason::TooLong {
-                limit_s: s.max_test_duration_s,
-            });
-        }
-        Ok(())
     }
 }
 
@@ -786,48 +726,6 @@ impl Monitor {
             Outcome::Aborted => reason.map(|r| format!("aborted: {r}")),
         };
         self.emit_status_for(t, MonitorState::Idle, None, None, status_reason);
-    }
-
-    /// Publishes the excitation of a running test after the safety gate: the value is bounded
-    /// to `center +- max-excitation` and the servo's angle limit; in `add` mode its change from
-    /// the previous `add` value is bounded by the rate limit.
-    fn emit_gated(
-        &mut self,
-        t: f64,
-        mode: ExcitationMode,
-        value: f64,
-        center: f64,
-        test: Option<String>,
-    ) {
-        let s = &self.cfg.safety;
-        let max_exc = s.max_excitation_deg.to_radians();
-        let servo_max = self.cfg.servo.max_angle_rad();
-        let mut v = if value.is_finite() { value } else { 0.0 };
-        let (lo, hi) = match mode {
-            ExcitationMode::None => (0.0, 0.0),
-            ExcitationMode::Add => (-max_exc, max_exc),
-            ExcitationMode::Replace => (
-                (center - max_exc).max(-servo_max),
-                (center + max_exc).min(servo_max),
-            ),
-        };
-        v = v.clamp(lo, hi);
-        if mode == ExcitationMode::Add {
-            let (prev_v, dt) = match self.last_excitation {
-                Some((tp, ExcitationMode::Add, vp)) => (vp, t - tp),
-                Some((tp, _, _)) => (0.0, t - tp),
-                None => (0.0, 1.0 / self.cfg.sensors.rate_hz),
-            };
-            let dmax = s.max_excitation_rate_deg_s.to_radians() * dt.max(0.0);
-            v = v.clamp(prev_v - dmax, prev_v + dmax);
-        }
-        if v != value {
-            self.stats.excitation_clamped += 1;
-            if self.stats.excitation_clamped.is_power_of_two() {
-                tracing::warn!(vessel = %self.vessel, asked = value, sent = v, "excitation bounded by the safety gate");
-            }
-        }
-        self.push_excitation(t, mode, v, test);
     }
 
     fn emit_excitation(&mut self, t: f64, mode: ExcitationMode, value: f64) {
