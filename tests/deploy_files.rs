@@ -43,7 +43,8 @@ fn unit_is_notify_with_watchdog_and_config_dir() {
         "User=helmwatch",
         "ConfigurationDirectory=helmwatch",
         "RestartPreventExitStatus=78",
-        "ExecStart=/usr/local/bin/helmwatch --config /etc/helmwatch/helmwatch.toml run",
+        "StateDirectory=helmwatch",
+        "ExecStart=/usr/local/bin/helmwatch --config /etc/helmwatch/helmwatch.toml run --state-dir /var/lib/helmwatch",
     ] {
         assert!(unit.lines().any(|l| l.starts_with(line)), "missing {line}");
     }

@@ -41,6 +41,7 @@ const FLOORS: &[&str] = &[
     // Shells: the world.
     "shells::net",
     "shells::systemd",
+    "shells::state",
     "shells::daemon",
     "shells::shipnode",
     "shells",

@@ -115,6 +115,10 @@ pub(crate) struct RunArgs {
     /// Endpoint to connect to (repeatable; replaces `zenoh.connect`).
     #[arg(long, value_name = "ENDPOINT")]
     pub(crate) connect: Vec<String>,
+    /// State directory: alarm tracks and scheduler saved after every decision, restored at
+    /// start (replaces `daemon.state-dir`; systemd: /var/lib/helmwatch).
+    #[arg(long, value_name = "DIR")]
+    pub(crate) state_dir: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]

@@ -3,7 +3,8 @@
 //! clap parses the whole command line first ([`args`]); logging starts next, with a default
 //! filter chosen by the subcommand, before the configuration is loaded, so configuration
 //! errors are logged. Exit codes follow sysexits: 0 success, 64 usage, 65 bad input data,
-//! 69 Zenoh session unavailable, 70 internal error, 71 OS error, 74 I/O error,
+//! 69 Zenoh session unavailable, 70 internal error, 71 OS error, 73 the state directory
+//! cannot be created, 74 I/O error,
 //! 78 configuration error.
 //!
 //! | file | subcommands |
@@ -38,6 +39,8 @@ pub const EX_UNAVAILABLE: i32 = 69;
 pub const EX_SOFTWARE: i32 = 70;
 /// Exit code: operating system error (no runtime).
 pub const EX_OSERR: i32 = 71;
+/// Exit code: an output file (the state directory) cannot be created.
+pub const EX_CANTCREAT: i32 = 73;
 /// Exit code: I/O error.
 pub const EX_IOERR: i32 = 74;
 /// Exit code: configuration error.

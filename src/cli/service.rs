@@ -3,7 +3,10 @@
 
 use super::args::{BenchArgs, DemoArgs, RunArgs, ShipPeerArgs};
 use super::offline::scenario;
-use super::{fail, Failure, EX_CONFIG, EX_IOERR, EX_OSERR, EX_SOFTWARE, EX_UNAVAILABLE, EX_USAGE};
+use super::{
+    fail, Failure, EX_CANTCREAT, EX_CONFIG, EX_IOERR, EX_OSERR, EX_SOFTWARE, EX_UNAVAILABLE,
+    EX_USAGE,
+};
 use crate::config::Config;
 use crate::sim::Fault;
 use std::path::Path;
@@ -29,18 +32,21 @@ pub(crate) fn run_daemon(cfg: &Config, a: RunArgs) -> Result<(), Failure> {
     check_endpoints("--connect", &a.connect)?;
     let zcfg = crate::shells::net::zenoh_config(&cfg.zenoh, &a.listen, &a.connect)
         .map_err(|e| fail(EX_CONFIG)(e.into()))?;
+    let mut dcfg = cfg.daemon.clone();
+    if let Some(d) = &a.state_dir {
+        dcfg.state_dir = Some(d.display().to_string());
+    }
     let rt = runtime()?;
     rt.block_on(async {
-        let daemon = Daemon::start(&cfg.core(), &cfg.daemon, zcfg)
-            .await
-            .map_err(|e| {
-                let code = match e {
-                    DaemonError::Config(_) | DaemonError::Estimator(_) => EX_CONFIG,
-                    DaemonError::Open(_) => EX_UNAVAILABLE,
-                    DaemonError::Declare { .. } => EX_SOFTWARE,
-                };
-                fail(code)(e.into())
-            })?;
+        let daemon = Daemon::start(&cfg.core(), &dcfg, zcfg).await.map_err(|e| {
+            let code = match e {
+                DaemonError::Config(_) | DaemonError::Estimator(_) => EX_CONFIG,
+                DaemonError::Open(_) => EX_UNAVAILABLE,
+                DaemonError::Declare { .. } => EX_SOFTWARE,
+                DaemonError::State(_) => EX_CANTCREAT,
+            };
+            fail(code)(e.into())
+        })?;
         let status = format!("monitoring {} vessel(s)", daemon.vessels().len());
         systemd::ready(&status);
         let watchdog = systemd::spawn_watchdog();

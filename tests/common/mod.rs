@@ -35,9 +35,27 @@ impl Observer {
     /// Connects to `endpoint` and subscribes to status, report, notification, stats, and the
     /// excitation when `excitation` (it is 10 samples per ship second).
     pub async fn new(endpoint: &str, vessel: &str, excitation: bool) -> Observer {
-        let session = zenoh::open(loopback_peer(&[], &[endpoint.to_string()]).unwrap())
-            .await
-            .unwrap();
+        Self::with(
+            loopback_peer(&[], &[endpoint.to_string()]).unwrap(),
+            vessel,
+            excitation,
+        )
+        .await
+    }
+
+    /// As [`Observer::new`], listening on `endpoint` for the daemon to connect (a daemon
+    /// that restarts connects again by itself).
+    pub async fn listening(endpoint: &str, vessel: &str, excitation: bool) -> Observer {
+        Self::with(
+            loopback_peer(&[endpoint.to_string()], &[]).unwrap(),
+            vessel,
+            excitation,
+        )
+        .await
+    }
+
+    async fn with(zcfg: zenoh::Config, vessel: &str, excitation: bool) -> Observer {
+        let session = zenoh::open(zcfg).await.unwrap();
         let keys = Keys::new(vessel);
         let seen: Arc<Mutex<Vec<(String, Value)>>> = Arc::default();
         let mut names = vec![

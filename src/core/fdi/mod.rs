@@ -136,7 +136,18 @@ impl ParamResiduals {
 }
 
 /// Alarm state of one track.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Default, serde::Serialize)]
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Eq,
+    PartialOrd,
+    Ord,
+    Default,
+    serde::Serialize,
+    serde::Deserialize,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum TrackState {
     /// Nothing exceeded lately.
@@ -168,7 +179,7 @@ impl TrackState {
 }
 
 /// Sums over the tests of an episode (O(1) memory).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 struct Episode {
     tests: u32,
     /// Per parameter cause (speed log, displacement, actuator): the sum over the episode's
@@ -224,7 +235,7 @@ fn finite_or_null(x: f64) -> Value {
 }
 
 /// The decision state of one residual stream: one method, ours or the baseline's.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Track {
     state: TrackState,
     exceed_run: u32,
@@ -414,6 +425,23 @@ pub struct Fdi {
     baseline: [Track; 2],
     /// The vessel's alarm state as last published.
     published: AlarmState,
+    /// The last notification published (republished after a restart).
+    last_notification: Option<Notification>,
+}
+
+/// What a vessel's FDI remembers between tests (its tracks: states, runs, CUSUM sums,
+/// episodes, sea memory; the alarm state published and its notification): saved after every
+/// decision and restored after a restart, so an alarm stays an alarm.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FdiState {
+    /// Per method (CLFRT, HBT), ours.
+    pub tracks: [Track; 2],
+    /// Per method, the baseline's.
+    pub baseline: [Track; 2],
+    /// The vessel's alarm state as last published.
+    pub published: AlarmState,
+    /// The last notification published.
+    pub last_notification: Option<Notification>,
 }
 
 fn method_index(m: Method) -> usize {
@@ -482,7 +510,31 @@ impl Fdi {
             tracks: Default::default(),
             baseline: Default::default(),
             published: AlarmState::Normal,
+            last_notification: None,
         }
+    }
+
+    /// What to save: see [`FdiState`].
+    pub fn state(&self) -> FdiState {
+        FdiState {
+            tracks: self.tracks.clone(),
+            baseline: self.baseline.clone(),
+            published: self.published,
+            last_notification: self.last_notification.clone(),
+        }
+    }
+
+    /// Takes up a saved state.
+    pub fn restore(&mut self, s: FdiState) {
+        self.tracks = s.tracks;
+        self.baseline = s.baseline;
+        self.published = s.published;
+        self.last_notification = s.last_notification;
+    }
+
+    /// The last notification published (after a restore: the one to publish again at once).
+    pub fn last_notification(&self) -> Option<&Notification> {
+        self.last_notification.as_ref()
     }
 
     /// The vessel's alarm state (the worst of the methods' tracks).
@@ -672,6 +724,9 @@ impl Fdi {
                 message: format!("Steering FDI ({}): {summary}", method.name().to_uppercase()),
             }
         });
+        if let Some(n) = &notification {
+            self.last_notification = Some(n.clone());
+        }
         Assessment {
             residuals,
             decision: ours.decision,

@@ -286,6 +286,40 @@ fn notifications_follow_the_vessel_alarm_state() {
     assert_eq!(fdi.alarm_state(), AlarmState::Alarm);
 }
 
+/// A saved state, through JSON and back into a fresh FDI, is the same state: the alarm, the
+/// runs and sums that decide the next test, the last notification.
+#[test]
+fn the_state_survives_a_round_trip_through_json() {
+    let mut full = CoreConfig::default();
+    full.fdi.persistence = 2;
+    let mut fdi = Fdi::new(&full);
+    let c = full.fdi.clone();
+    fdi.tracks[1].update(&c, Some(&p(0.3, 9.0, 0.0)), None);
+    fdi.tracks[1].update(&c, Some(&p(0.1, 8.0, 0.0)), None);
+    fdi.tracks[0].sea_index(Some(0.17), 0.5);
+    fdi.last_notification = Some(Notification {
+        state: AlarmState::Alarm,
+        method: vec!["visual".into(), "sound".into()],
+        message: "Steering FDI (HBT): fault".into(),
+    });
+    let saved = fdi.state();
+    let text = serde_json::to_string(&saved).unwrap();
+    let mut fresh = Fdi::new(&full);
+    assert_eq!(fresh.alarm_state(), AlarmState::Normal);
+    fresh.restore(serde_json::from_str(&text).unwrap());
+    assert_eq!(fresh.state(), saved);
+    assert_eq!(fresh.alarm_state(), AlarmState::Alarm);
+    assert_eq!(
+        fresh.last_notification().map(|n| n.state),
+        Some(AlarmState::Alarm)
+    );
+    // The next test moves both the same way.
+    let a = fdi.tracks[1].update(&c, Some(&p(0.0, 0.5, 0.0)), None);
+    let b = fresh.tracks[1].update(&c, Some(&p(0.0, 0.5, 0.0)), None);
+    assert_eq!(a, b);
+    assert_eq!(fdi.state(), fresh.state());
+}
+
 /// The servo check reads each method's own field: CLFRT the burst's p95 rate, HBT the relay
 /// slews' peak rate; one-sided, and `(1 - rho) / sigma` by hand.
 #[test]

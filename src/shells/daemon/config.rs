@@ -23,6 +23,11 @@ pub struct DaemonConfig {
     pub publish_stats: bool,
     /// Longest wait for the final publications (`mode: none`, status) at shutdown [s].
     pub shutdown_timeout_s: f64,
+    /// The state directory: each vessel's alarm tracks, CUSUM, sea memory and scheduler are
+    /// saved there after every decision and restored at start (`helmwatch run --state-dir`
+    /// overrides it; systemd's `StateDirectory=helmwatch` is `/var/lib/helmwatch`). Absent:
+    /// nothing is kept across a restart.
+    pub state_dir: Option<String>,
 }
 
 impl Default for DaemonConfig {
@@ -34,6 +39,7 @@ impl Default for DaemonConfig {
             stats_period_s: 60.0,
             publish_stats: true,
             shutdown_timeout_s: 5.0,
+            state_dir: None,
         }
     }
 }

@@ -33,6 +33,7 @@ use crate::core::monitor::config::CoreConfig;
 use crate::core::monitor::{Monitor, Output};
 use crate::core::wire::Method;
 use crate::core::wire::{self, Input, Keys, Stream, TriggerReply};
+use crate::shells::state::{Loaded, StateDir};
 use config::DaemonConfig;
 use std::collections::HashMap;
 use std::future::Future;
@@ -54,6 +55,9 @@ pub enum DaemonError {
     /// The configuration breaks a limit.
     #[error(transparent)]
     Config(#[from] ConfigError),
+    /// The state directory cannot be used.
+    #[error(transparent)]
+    State(#[from] crate::shells::state::StateError),
     /// The estimator's model files are missing, invalid, or not for this configuration.
     #[error(transparent)]
     Estimator(#[from] crate::core::estimator::model::ModelError),
@@ -206,6 +210,10 @@ impl Daemon {
         cfg.check()?;
         let estimator = crate::core::estimator::Estimator::from_config(core)?;
         let multisine = Monitor::design_multisine(core).ok();
+        let state = match &cfg.state_dir {
+            Some(dir) => Some(StateDir::open(std::path::Path::new(dir))?),
+            None => None,
+        };
         let session = zenoh::open(zcfg)
             .await
             .map_err(|e| DaemonError::Open(e.to_string()))?;
@@ -225,9 +233,15 @@ impl Daemon {
             let sh = Arc::new(Shared::default());
             let trigger_key = KeyExpr::try_from(keys.trigger())
                 .map_err(DaemonError::declare("trigger key", name))?;
+            let mut monitor = Monitor::with_parts(core, name, multisine.clone(), estimator.clone());
+            let restored = state
+                .as_ref()
+                .and_then(|dir| restore(dir, name, &mut monitor));
             let task = VesselTask {
-                monitor: Monitor::with_parts(core, name, multisine.clone(), estimator.clone()),
+                monitor,
                 name: name.clone(),
+                state: state.clone(),
+                restored,
                 rx,
                 pubs,
                 shared: sh.clone(),
@@ -486,6 +500,10 @@ pub fn stats_key(keys: &Keys) -> String {
 struct VesselTask {
     monitor: Monitor,
     name: String,
+    /// Where the vessel's state is saved after every decision.
+    state: Option<StateDir>,
+    /// The alarm notification restored from the state directory, published at start.
+    restored: Option<crate::core::wire::Notification>,
     rx: mpsc::Receiver<Msg>,
     pubs: Publishers,
     shared: Arc<Shared>,
@@ -500,6 +518,23 @@ struct VesselTask {
 
 impl VesselTask {
     async fn run(mut self, cancel: CancellationToken) -> VesselSummary {
+        if let Some(n) = self.restored.take() {
+            // An alarm stays an alarm across a restart: publish it again as soon as someone
+            // listens (at most a couple of seconds' wait; published regardless after that).
+            crate::shells::net::wait_matching(&self.pubs.notification, Duration::from_secs(2))
+                .await;
+            tracing::warn!(vessel = %self.name, state = ?n.state, "restored notification: {}", n.message);
+            match serde_json::to_vec(&n) {
+                Ok(b) => {
+                    if let Err(e) = self.pubs.notification.put(b).await {
+                        tracing::warn!(vessel = %self.name, "publishing the restored notification: {e}");
+                    }
+                }
+                Err(e) => {
+                    tracing::warn!(vessel = %self.name, "encoding the restored notification: {e}")
+                }
+            }
+        }
         let mut tick = tokio::time::interval(self.tick);
         tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
         let mut stats = self.stats_period.map(|p| {
@@ -577,16 +612,32 @@ impl VesselTask {
         }
     }
 
+    /// Saves the vessel's state (atomically) when there is a state directory.
+    fn save_state(&self) {
+        if let Some(dir) = &self.state {
+            let s = self.monitor.saved_state();
+            if let Err(e) = tokio::task::block_in_place(|| dir.save(&s)) {
+                tracing::error!(vessel = %self.name, "saving the state: {e}");
+            }
+        }
+    }
+
     /// Drains the core and publishes every output on its key, in order.
     async fn publish_outputs(&mut self) {
         while let Some(out) = self.monitor.poll_output() {
             let (publisher, bytes) = match &out {
                 Output::Excitation(e) => (&self.pubs.excitation, serde_json::to_vec(e)),
                 Output::Status(s) => {
+                    if s.state == wire::MonitorState::Settling {
+                        // A test started: its id is taken, even if the daemon dies before it ends.
+                        self.save_state();
+                    }
                     tracing::info!(vessel = %self.name, t = s.t, state = ?s.state, test = ?s.test, reason = ?s.reason, "status");
                     (&self.pubs.status, serde_json::to_vec(s))
                 }
                 Output::Report(r) => {
+                    // The decision is on disk before anyone hears of it.
+                    self.save_state();
                     tracing::info!(
                         vessel = %self.name,
                         test = %r.test,
@@ -723,6 +774,41 @@ async fn ask_vessel(fleet: &Fleet, i: usize, method: Method) -> TriggerReply {
     match tokio::time::timeout(Duration::from_secs(5), rx).await {
         Ok(Ok(r)) => r,
         _ => refusal("the vessel's monitor did not answer".into()),
+    }
+}
+
+/// Restores `vessel`'s saved state into `monitor`; returns the notification to publish again
+/// (the vessel's alarm state as it was). A corrupt or foreign file is logged and set aside.
+fn restore(
+    dir: &StateDir,
+    vessel: &str,
+    monitor: &mut Monitor,
+) -> Option<crate::core::wire::Notification> {
+    match dir.load(vessel) {
+        Loaded::Fresh => {
+            tracing::info!(vessel, "no saved state: starting fresh");
+            None
+        }
+        Loaded::State(s) => match monitor.restore(*s) {
+            Ok(()) => {
+                let n = monitor.last_notification().cloned();
+                tracing::info!(
+                    vessel,
+                    alarm = ?monitor.alarm_state(),
+                    file = %dir.vessel_file(vessel).display(),
+                    "state restored"
+                );
+                n
+            }
+            Err(e) => {
+                tracing::error!(vessel, file = %dir.vessel_file(vessel).display(), "saved state refused: {e}; starting fresh");
+                None
+            }
+        },
+        Loaded::Corrupt(msg) => {
+            tracing::error!(vessel, "{msg}");
+            None
+        }
     }
 }
 

@@ -1,0 +1,176 @@
+//! A restart loses nothing: `helmwatch run --state-dir` killed with SIGKILL during an alarm
+//! and started again on the same state directory publishes the alarm again within a second of
+//! telling systemd it is ready (`READY=1`, received here on our own `NOTIFY_SOCKET`), and
+//! its test ids go on from where they were.
+
+mod common;
+
+use common::{endpoint, Observer};
+use std::os::unix::net::UnixDatagram;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+const LIMIT: Duration = Duration::from_secs(180);
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("helmwatch-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// `helmwatch --config <dir>/<name>.toml <args>`, standard error to `<dir>/<name>.log`,
+/// `NOTIFY_SOCKET` pointed at `notify` when given.
+fn spawn(dir: &Path, name: &str, toml: &str, args: &[&str], notify: Option<&Path>) -> Child {
+    let cfg = dir.join(format!("{name}.toml"));
+    std::fs::write(&cfg, toml).unwrap();
+    let log = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(dir.join(format!("{name}.log")))
+        .unwrap();
+    let mut c = Command::new(env!("CARGO_BIN_EXE_helmwatch"));
+    c.arg("--config")
+        .arg(&cfg)
+        .args(args)
+        .env("RUST_LOG", "info,zenoh=warn")
+        .env_remove("NOTIFY_SOCKET")
+        .stdout(Stdio::null())
+        .stderr(log);
+    if let Some(n) = notify {
+        c.env("NOTIFY_SOCKET", n);
+    }
+    c.spawn().unwrap()
+}
+
+fn log(dir: &Path, name: &str) -> String {
+    std::fs::read_to_string(dir.join(format!("{name}.log"))).unwrap_or_default()
+}
+
+/// Waits (bounded) for `READY=1` on the notify socket; returns when it came.
+async fn ready(sock: &UnixDatagram) -> Instant {
+    let deadline = Instant::now() + LIMIT;
+    let mut buf = [0u8; 4096];
+    loop {
+        match sock.recv(&mut buf) {
+            Ok(n) if String::from_utf8_lossy(&buf[..n]).contains("READY=1") => {
+                return Instant::now()
+            }
+            Ok(_) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
+                assert!(Instant::now() < deadline, "no READY=1 within {LIMIT:?}");
+                tokio::time::sleep(Duration::from_millis(5)).await;
+            }
+            Err(e) => panic!("notify socket: {e}"),
+        }
+    }
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn an_alarm_survives_sigkill_and_is_published_within_a_second_of_ready() {
+    let dir = temp_dir("restart");
+    let state = dir.join("state");
+    let obs_ep = endpoint();
+    let daemon_ep = endpoint();
+    // HBT tests only, back to back: two faulty tests in a row raise the alarm.
+    let daemon_toml = format!(
+        "[daemon]\nvessels = [\"self\"]\ntick-s = 0.1\n\n[zenoh]\nmode = \"peer\"\nlisten = [\"{daemon_ep}\"]\nconnect = [\"{obs_ep}\"]\nmulticast-scouting = false\n\n[scheduler]\nmethods = [\"hbt\"]\ninterval-s = 30.0\nsteady-time-s = 60.0\n"
+    );
+    let ship_toml = format!(
+        "[ship-peer]\nlockstep = true\nmode = \"peer\"\nlisten = []\nconnect = [\"{daemon_ep}\"]\nmulticast-scouting = false\n"
+    );
+    let notify_path = dir.join("notify.sock");
+    let notify = UnixDatagram::bind(&notify_path).unwrap();
+    notify.set_nonblocking(true).unwrap();
+    let obs = Observer::listening(&obs_ep, "self", false).await;
+
+    let state_arg = state.to_str().unwrap();
+    let mut daemon = spawn(
+        &dir,
+        "daemon",
+        &daemon_toml,
+        &["run", "--state-dir", state_arg],
+        Some(&notify_path),
+    );
+    ready(&notify).await;
+    let mut ship = spawn(
+        &dir,
+        "ship",
+        &ship_toml,
+        &["ship", "--fault", "displacement_pct:30@0"],
+        None,
+    );
+    let alarm = obs
+        .wait_for("notifications/steering/fdi", LIMIT, |n| {
+            n["state"] == "alarm"
+        })
+        .await;
+    let file = state.join("vessels/self.json");
+    assert!(
+        file.exists(),
+        "no state file; daemon log:\n{}",
+        log(&dir, "daemon")
+    );
+
+    // SIGKILL: no shutdown, no final words.
+    daemon.kill().unwrap();
+    daemon.wait().unwrap();
+    let n_before = obs.on("notifications/steering/fdi").len();
+    let seq = |id: &str| id.rsplit('-').next().unwrap().parse::<u64>().unwrap();
+    let seen_ids: Vec<String> = obs
+        .on("fdi/status")
+        .iter()
+        .filter_map(|s| s["test"].as_str().map(String::from))
+        .collect();
+    let last_seq = seen_ids.iter().map(|id| seq(id)).max().unwrap();
+
+    let mut daemon = spawn(
+        &dir,
+        "daemon",
+        &daemon_toml,
+        &["run", "--state-dir", state_arg],
+        Some(&notify_path),
+    );
+    let t_ready = ready(&notify).await;
+    let deadline = t_ready + Duration::from_secs(1);
+    let republished = loop {
+        let ns = obs.on("notifications/steering/fdi");
+        if ns.len() > n_before {
+            break (ns[n_before].clone(), Instant::now());
+        }
+        assert!(
+            Instant::now() < deadline,
+            "no notification within 1 s of READY; daemon log:\n{}",
+            log(&dir, "daemon")
+        );
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    };
+    assert_eq!(republished.0["state"], "alarm", "{}", republished.0);
+    assert_eq!(
+        republished.0, alarm,
+        "the same notification as before the kill"
+    );
+    assert!(republished.1 <= deadline);
+
+    // Test ids go on after the last one started before the kill: none repeats.
+    let next = obs
+        .wait_for("fdi/status", LIMIT, |s| {
+            s["test"]
+                .as_str()
+                .is_some_and(|t| !seen_ids.iter().any(|x| x == t))
+        })
+        .await;
+    assert!(
+        seq(next["test"].as_str().unwrap()) > last_seq,
+        "{next} after {last_seq}; daemon log:\n{}",
+        log(&dir, "daemon")
+    );
+
+    let _ = ship.kill();
+    let _ = ship.wait();
+    let _ = daemon.kill();
+    let _ = daemon.wait();
+    obs.close().await;
+    let _ = std::fs::remove_dir_all(&dir);
+}
