@@ -1,7 +1,8 @@
 //! A restart loses nothing: `helmwatch run --state-dir` killed with SIGKILL during an alarm
 //! and started again on the same state directory publishes the alarm again within a second of
-//! telling systemd it is ready (`READY=1`, received here on our own `NOTIFY_SOCKET`), and
-//! its test ids go on from where they were.
+//! telling systemd it is ready (`READY=1`, received here on our own `NOTIFY_SOCKET`), its
+//! test ids go on from where they were, and its history (`fdi/history`) holds every report a
+//! subscriber saw, before and after the kill.
 
 mod common;
 
@@ -165,6 +166,66 @@ async fn an_alarm_survives_sigkill_and_is_published_within_a_second_of_ready() {
         seq(next["test"].as_str().unwrap()) > last_seq,
         "{next} after {last_seq}; daemon log:\n{}",
         log(&dir, "daemon")
+    );
+
+    // No report is lost: the history holds every report the subscriber saw, across the kill,
+    // and the notifications.
+    let seen: Vec<serde_json::Value> = obs.on("fdi/report");
+    let replies = obs
+        .session
+        .get("vessels/self/fdi/history?limit=10000")
+        .await
+        .unwrap();
+    let reply = replies.recv_async().await.unwrap();
+    let body: serde_json::Value =
+        serde_json::from_slice(&reply.result().unwrap().payload().to_bytes()).unwrap();
+    assert_eq!(body["vessel"], "self");
+    let records = body["records"].as_array().unwrap();
+    let reports: Vec<&serde_json::Value> = records
+        .iter()
+        .filter(|r| r["kind"] == "report")
+        .map(|r| &r["payload"])
+        .collect();
+    assert!(!seen.is_empty());
+    for r in &seen {
+        assert!(
+            reports.contains(&r),
+            "report {} seen by the subscriber is not in the history",
+            r["test"]
+        );
+    }
+    assert!(records
+        .iter()
+        .any(|r| r["kind"] == "notification" && r["payload"] == alarm));
+    // A time range: only the records of the range, oldest first.
+    let t_mid = reports[reports.len() / 2]["t_end"].as_f64().unwrap();
+    let replies = obs
+        .session
+        .get(format!("vessels/self/fdi/history?from={t_mid}"))
+        .await
+        .unwrap();
+    let reply = replies.recv_async().await.unwrap();
+    let body: serde_json::Value =
+        serde_json::from_slice(&reply.result().unwrap().payload().to_bytes()).unwrap();
+    let ts: Vec<f64> = body["records"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["t"].as_f64().unwrap())
+        .collect();
+    assert!(!ts.is_empty() && ts.iter().all(|&t| t >= t_mid), "{ts:?}");
+    assert!(ts.windows(2).all(|w| w[0] <= w[1]), "{ts:?}");
+    // A bad parameter is an error reply naming it.
+    let replies = obs
+        .session
+        .get("vessels/self/fdi/history?limit=0")
+        .await
+        .unwrap();
+    let reply = replies.recv_async().await.unwrap();
+    let err = reply.result().unwrap_err();
+    assert!(
+        String::from_utf8_lossy(&err.payload().to_bytes()).contains("limit"),
+        "{err:?}"
     );
 
     let _ = ship.kill();

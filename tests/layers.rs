@@ -42,6 +42,7 @@ const FLOORS: &[&str] = &[
     "shells::net",
     "shells::systemd",
     "shells::state",
+    "shells::history",
     "shells::daemon",
     "shells::shipnode",
     "shells",

@@ -1,8 +1,9 @@
 //! Shells: the core meets the world. The Zenoh session settings ([`net`]), the daemon
-//! ([`daemon`]) and its state directory ([`state`]), the simulated ship as a Zenoh peer
+//! ([`daemon`]) with its state directory ([`state`]) and report history ([`history`]), the simulated ship as a Zenoh peer
 //! ([`shipnode`]) and the service manager ([`systemd`]).
 
 pub mod daemon;
+pub mod history;
 pub mod net;
 pub mod shipnode;
 pub mod state;

@@ -151,6 +151,10 @@ impl Keys {
     pub fn trigger(&self) -> String {
         format!("{}/fdi/trigger", self.prefix)
     }
+    /// `fdi/history` (queryable: the report history).
+    pub fn history(&self) -> String {
+        format!("{}/fdi/history", self.prefix)
+    }
     /// `fdi/alive` (liveliness token).
     pub fn alive(&self) -> String {
         format!("{}/fdi/alive", self.prefix)

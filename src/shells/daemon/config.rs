@@ -28,6 +28,11 @@ pub struct DaemonConfig {
     /// overrides it; systemd's `StateDirectory=helmwatch` is `/var/lib/helmwatch`). Absent:
     /// nothing is kept across a restart.
     pub state_dir: Option<String>,
+    /// Report history in the state directory (`history.sqlite`): records older than this are
+    /// dropped [days].
+    pub history_days: f64,
+    /// Report history: at most this many records, the oldest dropped first.
+    pub history_max_records: u64,
 }
 
 impl Default for DaemonConfig {
@@ -40,6 +45,8 @@ impl Default for DaemonConfig {
             publish_stats: true,
             shutdown_timeout_s: 5.0,
             state_dir: None,
+            history_days: 365.0,
+            history_max_records: 1_000_000,
         }
     }
 }
@@ -63,6 +70,14 @@ impl DaemonConfig {
             }
         }
         check_count("daemon.queue-capacity", self.queue_capacity, 16, 1_000_000)?;
+        check_range_open_low("daemon.history-days", self.history_days, 0.0, 36500.0)?;
+        if !(1..=100_000_000).contains(&self.history_max_records) {
+            return Err(fail(
+                "daemon.history-max-records",
+                self.history_max_records,
+                "integer in [1, 100000000]",
+            ));
+        }
         check_range_open_low("daemon.tick-s", self.tick_s, 0.0, 10.0)?;
         check_range("daemon.stats-period-s", self.stats_period_s, 0.0, 86400.0)?;
         check_range_open_low(

@@ -27,26 +27,28 @@
 //! aborted), undeclares the tokens and closes the session.
 
 pub mod config;
+mod vessel;
 
 use crate::core::config::ConfigError;
 use crate::core::monitor::config::CoreConfig;
-use crate::core::monitor::{Monitor, Output};
+use crate::core::monitor::Monitor;
 use crate::core::wire::Method;
-use crate::core::wire::{self, Input, Keys, Stream, TriggerReply};
-use crate::shells::state::{Loaded, StateDir};
+use crate::core::wire::{Keys, Stream, TriggerReply};
+use crate::shells::history::History;
+use crate::shells::state::StateDir;
 use config::DaemonConfig;
 use std::collections::HashMap;
 use std::future::Future;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 use tokio::sync::{mpsc, oneshot};
 use tokio_util::sync::CancellationToken;
+use vessel::{restore, Publishers, VesselTask};
 use zenoh::bytes::Encoding;
 use zenoh::key_expr::KeyExpr;
 use zenoh::liveliness::LivelinessToken;
-use zenoh::pubsub::{Publisher, Subscriber};
-use zenoh::qos::{CongestionControl, Priority};
+use zenoh::pubsub::Subscriber;
 use zenoh::query::{Query, Queryable};
 
 /// Why the daemon could not start.
@@ -58,6 +60,9 @@ pub enum DaemonError {
     /// The state directory cannot be used.
     #[error(transparent)]
     State(#[from] crate::shells::state::StateError),
+    /// The history database cannot be opened, even afresh.
+    #[error(transparent)]
+    History(#[from] crate::shells::history::HistoryError),
     /// The estimator's model files are missing, invalid, or not for this configuration.
     #[error(transparent)]
     Estimator(#[from] crate::core::estimator::model::ModelError),
@@ -173,6 +178,8 @@ pub struct Daemon {
     cancel: CancellationToken,
     vessel_tasks: Vec<tokio::task::JoinHandle<VesselSummary>>,
     trigger_task: tokio::task::JoinHandle<()>,
+    /// The history queryable and its task, when a history is kept.
+    history_queryable: Option<(Queryable<()>, tokio::task::JoinHandle<()>)>,
     subscribers: Vec<Subscriber<()>>,
     queryable: Queryable<()>,
     tokens: Vec<LivelinessToken>,
@@ -214,6 +221,20 @@ impl Daemon {
             Some(dir) => Some(StateDir::open(std::path::Path::new(dir))?),
             None => None,
         };
+        let history = match &cfg.state_dir {
+            Some(dir) => {
+                let (h, note) = History::open(
+                    std::path::Path::new(dir),
+                    cfg.history_days,
+                    cfg.history_max_records,
+                )?;
+                if let Some(n) = note {
+                    tracing::error!("{n}");
+                }
+                Some(Arc::new(h))
+            }
+            None => None,
+        };
         let session = zenoh::open(zcfg)
             .await
             .map_err(|e| DaemonError::Open(e.to_string()))?;
@@ -241,6 +262,8 @@ impl Daemon {
                 monitor,
                 name: name.clone(),
                 state: state.clone(),
+                history: history.clone(),
+                last_report_t: f64::NAN,
                 restored,
                 rx,
                 pubs,
@@ -314,6 +337,29 @@ impl Daemon {
             .map_err(DaemonError::declare("queryable", &trigger_key))?;
         let trigger_task = tokio::spawn(serve_triggers(fleet.clone(), qrx, cancel.clone()));
 
+        // The history queryable, when a history is kept.
+        let mut history_queryable = None;
+        if let Some(h) = &history {
+            let key = match &single {
+                Some(k) => k.history(),
+                None => "vessels/*/fdi/history".to_string(),
+            };
+            let (htx, hrx) = mpsc::channel::<Query>(64);
+            let f = fleet.clone();
+            let q = session
+                .declare_queryable(key.clone())
+                .callback(move |query| {
+                    if htx.try_send(query).is_err() {
+                        f.queries_dropped.fetch_add(1, Ordering::Relaxed);
+                    }
+                })
+                .await
+                .map_err(DaemonError::declare("queryable", &key))?;
+            let served =
+                crate::shells::history::serve(h.clone(), names.clone(), hrx, cancel.clone());
+            history_queryable = Some((q, tokio::spawn(served)));
+        }
+
         // Liveliness last: it tells the world the vessels are monitored.
         let mut tokens = Vec::with_capacity(names.len());
         for name in &names {
@@ -339,6 +385,7 @@ impl Daemon {
             trigger_task,
             subscribers,
             queryable,
+            history_queryable,
             tokens,
         })
     }
@@ -381,6 +428,15 @@ impl Daemon {
         if let Err(e) = self.queryable.undeclare().await {
             tracing::warn!("undeclaring the trigger queryable: {e}");
         }
+        let history_task = match self.history_queryable {
+            Some((q, task)) => {
+                if let Err(e) = q.undeclare().await {
+                    tracing::warn!("undeclaring the history queryable: {e}");
+                }
+                Some(task)
+            }
+            None => None,
+        };
         self.cancel.cancel();
         let limit = Duration::from_secs_f64(self.cfg.shutdown_timeout_s + 1.0);
         let mut summaries = Vec::with_capacity(self.vessel_tasks.len());
@@ -396,6 +452,9 @@ impl Daemon {
             }
         }
         let _ = tokio::time::timeout(limit, self.trigger_task).await;
+        if let Some(task) = history_task {
+            let _ = tokio::time::timeout(limit, task).await;
+        }
         for token in self.tokens {
             if let Err(e) = token.undeclare().await {
                 tracing::warn!("undeclaring a liveliness token: {e}");
@@ -415,288 +474,6 @@ impl Daemon {
         }
         tracing::info!("daemon stopped");
         summaries
-    }
-}
-
-/// The publishers of one vessel, declared once.
-struct Publishers {
-    excitation: Publisher<'static>,
-    status: Publisher<'static>,
-    report: Publisher<'static>,
-    notification: Publisher<'static>,
-    stats: Option<Publisher<'static>>,
-}
-
-impl Publishers {
-    async fn declare(
-        session: &zenoh::Session,
-        keys: &Keys,
-        stats: bool,
-    ) -> Result<Self, DaemonError> {
-        let json = || Encoding::APPLICATION_JSON;
-        // Declared key expressions travel as numeric ids and let the receivers cache routes.
-        let excitation_key = keys.excitation();
-        let ke = session
-            .declare_keyexpr(excitation_key.clone())
-            .await
-            .map_err(DaemonError::declare("key expression", &excitation_key))?;
-        let excitation = session
-            .declare_publisher(ke)
-            .encoding(json())
-            .congestion_control(CongestionControl::Block)
-            .priority(Priority::RealTime)
-            .express(true)
-            .await
-            .map_err(DaemonError::declare("publisher", &excitation_key))?;
-        let reliable = |key: String, priority: Priority| {
-            session
-                .declare_publisher(key)
-                .encoding(json())
-                .congestion_control(CongestionControl::Block)
-                .priority(priority)
-        };
-        let k = keys.status();
-        let status = reliable(k.clone(), Priority::Data)
-            .await
-            .map_err(DaemonError::declare("publisher", &k))?;
-        let k = keys.report();
-        let report = reliable(k.clone(), Priority::Data)
-            .await
-            .map_err(DaemonError::declare("publisher", &k))?;
-        let k = keys.notification();
-        let notification = reliable(k.clone(), Priority::DataHigh)
-            .await
-            .map_err(DaemonError::declare("publisher", &k))?;
-        let stats = if stats {
-            let k = stats_key(keys);
-            Some(
-                session
-                    .declare_publisher(k.clone())
-                    .encoding(json())
-                    .congestion_control(CongestionControl::Drop)
-                    .priority(Priority::DataLow)
-                    .await
-                    .map_err(DaemonError::declare("publisher", &k))?,
-            )
-        } else {
-            None
-        };
-        Ok(Self {
-            excitation,
-            status,
-            report,
-            notification,
-            stats,
-        })
-    }
-}
-
-/// `vessels/<v>/fdi/stats`: the daemon's counters for one vessel (an addition to the contract).
-pub fn stats_key(keys: &Keys) -> String {
-    format!("{}/fdi/stats", keys.prefix)
-}
-
-/// The task that owns one vessel's monitor core.
-struct VesselTask {
-    monitor: Monitor,
-    name: String,
-    /// Where the vessel's state is saved after every decision.
-    state: Option<StateDir>,
-    /// The alarm notification restored from the state directory, published at start.
-    restored: Option<crate::core::wire::Notification>,
-    rx: mpsc::Receiver<Msg>,
-    pubs: Publishers,
-    shared: Arc<Shared>,
-    /// Last accepted heading: its ship time and when it arrived (silence check).
-    last_heading: Option<(f64, Instant)>,
-    tick: Duration,
-    stats_period: Option<Duration>,
-    shutdown_timeout: Duration,
-    /// Failed publications (logged once per burst).
-    publish_errors: u64,
-}
-
-impl VesselTask {
-    async fn run(mut self, cancel: CancellationToken) -> VesselSummary {
-        if let Some(n) = self.restored.take() {
-            // An alarm stays an alarm across a restart: publish it again as soon as someone
-            // listens (at most a couple of seconds' wait; published regardless after that).
-            crate::shells::net::wait_matching(&self.pubs.notification, Duration::from_secs(2))
-                .await;
-            tracing::warn!(vessel = %self.name, state = ?n.state, "restored notification: {}", n.message);
-            match serde_json::to_vec(&n) {
-                Ok(b) => {
-                    if let Err(e) = self.pubs.notification.put(b).await {
-                        tracing::warn!(vessel = %self.name, "publishing the restored notification: {e}");
-                    }
-                }
-                Err(e) => {
-                    tracing::warn!(vessel = %self.name, "encoding the restored notification: {e}")
-                }
-            }
-        }
-        let mut tick = tokio::time::interval(self.tick);
-        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-        let mut stats = self.stats_period.map(|p| {
-            let mut i = tokio::time::interval_at(tokio::time::Instant::now() + p, p);
-            i.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-            i
-        });
-        loop {
-            tokio::select! {
-                biased;
-                _ = cancel.cancelled() => break,
-                _ = tick.tick() => {
-                    if let Some((t, at)) = self.last_heading {
-                        self.monitor.handle_timeout(t + at.elapsed().as_secs_f64());
-                        self.publish_outputs().await;
-                    }
-                }
-                _ = next_tick(stats.as_mut()) => self.publish_stats().await,
-                msg = self.rx.recv() => match msg {
-                    Some(m) => self.handle(m).await,
-                    None => break,
-                },
-            }
-        }
-        self.rx.close();
-        self.monitor.shutdown("daemon stopping");
-        let limit = self.shutdown_timeout;
-        if tokio::time::timeout(limit, self.publish_outputs())
-            .await
-            .is_err()
-        {
-            tracing::warn!(vessel = %self.name, "final publications timed out");
-        }
-        let stats = self.stats_json();
-        tracing::info!(vessel = %self.name, stats = %stats, "vessel statistics");
-        VesselSummary {
-            vessel: self.name,
-            stats,
-        }
-    }
-
-    async fn handle(&mut self, msg: Msg) {
-        match msg {
-            Msg::Sample { stream, payload } => {
-                match wire::decode(stream, &payload) {
-                    Err(e) => {
-                        if self.monitor.count_malformed(stream) {
-                            let n = self.monitor.counters().rejected(
-                                stream,
-                                crate::core::monitor::input::RejectReason::Malformed,
-                            );
-                            tracing::warn!(vessel = %self.name, stream = stream.name(), count = n, "{e}");
-                        }
-                    }
-                    Ok(input) => {
-                        let heading_t = match &input {
-                            Input::Heading(s) => Some(s.t),
-                            _ => None,
-                        };
-                        if self.monitor.handle_input(input).is_ok() {
-                            if let Some(t) = heading_t {
-                                self.last_heading = Some((t, Instant::now()));
-                            }
-                        }
-                    }
-                }
-                self.publish_outputs().await;
-            }
-            Msg::Trigger { method, reply } => {
-                let r = self.monitor.trigger(method);
-                tracing::info!(vessel = %self.name, method = method.name(), accepted = r.accepted, test = ?r.test, reason = ?r.reason, "trigger");
-                let _ = reply.send(r);
-                self.publish_outputs().await;
-            }
-        }
-    }
-
-    /// Saves the vessel's state (atomically) when there is a state directory.
-    fn save_state(&self) {
-        if let Some(dir) = &self.state {
-            let s = self.monitor.saved_state();
-            if let Err(e) = tokio::task::block_in_place(|| dir.save(&s)) {
-                tracing::error!(vessel = %self.name, "saving the state: {e}");
-            }
-        }
-    }
-
-    /// Drains the core and publishes every output on its key, in order.
-    async fn publish_outputs(&mut self) {
-        while let Some(out) = self.monitor.poll_output() {
-            let (publisher, bytes) = match &out {
-                Output::Excitation(e) => (&self.pubs.excitation, serde_json::to_vec(e)),
-                Output::Status(s) => {
-                    if s.state == wire::MonitorState::Settling {
-                        // A test started: its id is taken, even if the daemon dies before it ends.
-                        self.save_state();
-                    }
-                    tracing::info!(vessel = %self.name, t = s.t, state = ?s.state, test = ?s.test, reason = ?s.reason, "status");
-                    (&self.pubs.status, serde_json::to_vec(s))
-                }
-                Output::Report(r) => {
-                    // The decision is on disk before anyone hears of it.
-                    self.save_state();
-                    tracing::info!(
-                        vessel = %self.name,
-                        test = %r.test,
-                        outcome = ?r.outcome,
-                        decision = ?r.decision,
-                        reason = ?r.reason,
-                        "report"
-                    );
-                    (&self.pubs.report, serde_json::to_vec(r))
-                }
-                Output::Notification(n) => {
-                    tracing::warn!(vessel = %self.name, state = ?n.state, "notification: {}", n.message);
-                    (&self.pubs.notification, serde_json::to_vec(n))
-                }
-            };
-            let result = match bytes {
-                Ok(b) => publisher.put(b).await.map_err(|e| e.to_string()),
-                Err(e) => Err(e.to_string()),
-            };
-            if let Err(e) = result {
-                self.publish_errors += 1;
-                if self.publish_errors.is_power_of_two() {
-                    tracing::warn!(vessel = %self.name, count = self.publish_errors, "publication failed: {e}");
-                }
-            }
-        }
-    }
-
-    fn stats_json(&self) -> serde_json::Value {
-        let s = self.monitor.stats();
-        serde_json::json!({
-            "t": self.monitor.last_heading_t(),
-            "state": self.monitor.state(),
-            "inputs": self.monitor.counters().to_json(),
-            "dropped": {
-                "flood": self.shared.flood.load(Ordering::Relaxed),
-                "triggers": self.shared.triggers_dropped.load(Ordering::Relaxed),
-            },
-            "tests": {
-                "started": s.tests_started,
-                "completed": s.tests_completed,
-                "aborted": s.tests_aborted,
-                "aborted_by_reason": s.aborts.to_json(),
-            },
-            "excitation_clamped": s.excitation_clamped,
-            "publish_errors": self.publish_errors,
-        })
-    }
-
-    async fn publish_stats(&mut self) {
-        let stats = self.stats_json();
-        tracing::debug!(vessel = %self.name, stats = %stats, "vessel statistics");
-        if let Some(p) = &self.pubs.stats {
-            if let Ok(b) = serde_json::to_vec(&stats) {
-                if let Err(e) = p.put(b).await {
-                    tracing::debug!(vessel = %self.name, "stats publication failed: {e}");
-                }
-            }
-        }
     }
 }
 
@@ -742,16 +519,6 @@ async fn serve_triggers(
     }
 }
 
-/// The next tick of `interval`, or never.
-async fn next_tick(interval: Option<&mut tokio::time::Interval>) {
-    match interval {
-        Some(i) => {
-            i.tick().await;
-        }
-        None => std::future::pending().await,
-    }
-}
-
 fn refusal(reason: String) -> TriggerReply {
     TriggerReply {
         accepted: false,
@@ -774,41 +541,6 @@ async fn ask_vessel(fleet: &Fleet, i: usize, method: Method) -> TriggerReply {
     match tokio::time::timeout(Duration::from_secs(5), rx).await {
         Ok(Ok(r)) => r,
         _ => refusal("the vessel's monitor did not answer".into()),
-    }
-}
-
-/// Restores `vessel`'s saved state into `monitor`; returns the notification to publish again
-/// (the vessel's alarm state as it was). A corrupt or foreign file is logged and set aside.
-fn restore(
-    dir: &StateDir,
-    vessel: &str,
-    monitor: &mut Monitor,
-) -> Option<crate::core::wire::Notification> {
-    match dir.load(vessel) {
-        Loaded::Fresh => {
-            tracing::info!(vessel, "no saved state: starting fresh");
-            None
-        }
-        Loaded::State(s) => match monitor.restore(*s) {
-            Ok(()) => {
-                let n = monitor.last_notification().cloned();
-                tracing::info!(
-                    vessel,
-                    alarm = ?monitor.alarm_state(),
-                    file = %dir.vessel_file(vessel).display(),
-                    "state restored"
-                );
-                n
-            }
-            Err(e) => {
-                tracing::error!(vessel, file = %dir.vessel_file(vessel).display(), "saved state refused: {e}; starting fresh");
-                None
-            }
-        },
-        Loaded::Corrupt(msg) => {
-            tracing::error!(vessel, "{msg}");
-            None
-        }
     }
 }
 

@@ -1,0 +1,362 @@
+//! One vessel's task: the only owner of its [`Monitor`] core. It decodes the samples its
+//! queue brings, feeds the core, publishes every output at once and in order (saving the state
+//! and the history first, when they are kept), checks silence and publishes statistics; and
+//! at start it takes up the vessel's saved state.
+
+use super::DaemonError;
+use super::{Msg, Shared, VesselSummary};
+use crate::core::monitor::{Monitor, Output};
+use crate::core::wire::{self, Input, Keys};
+use crate::shells::history::{History, Kind};
+use crate::shells::state::{Loaded, StateDir};
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use tokio::sync::mpsc;
+use tokio_util::sync::CancellationToken;
+use zenoh::bytes::Encoding;
+use zenoh::pubsub::Publisher;
+use zenoh::qos::{CongestionControl, Priority};
+
+/// The publishers of one vessel, declared once.
+pub(super) struct Publishers {
+    excitation: Publisher<'static>,
+    status: Publisher<'static>,
+    report: Publisher<'static>,
+    notification: Publisher<'static>,
+    stats: Option<Publisher<'static>>,
+}
+
+impl Publishers {
+    pub(super) async fn declare(
+        session: &zenoh::Session,
+        keys: &Keys,
+        stats: bool,
+    ) -> Result<Self, DaemonError> {
+        let json = || Encoding::APPLICATION_JSON;
+        // Declared key expressions travel as numeric ids and let the receivers cache routes.
+        let excitation_key = keys.excitation();
+        let ke = session
+            .declare_keyexpr(excitation_key.clone())
+            .await
+            .map_err(DaemonError::declare("key expression", &excitation_key))?;
+        let excitation = session
+            .declare_publisher(ke)
+            .encoding(json())
+            .congestion_control(CongestionControl::Block)
+            .priority(Priority::RealTime)
+            .express(true)
+            .await
+            .map_err(DaemonError::declare("publisher", &excitation_key))?;
+        let reliable = |key: String, priority: Priority| {
+            session
+                .declare_publisher(key)
+                .encoding(json())
+                .congestion_control(CongestionControl::Block)
+                .priority(priority)
+        };
+        let k = keys.status();
+        let status = reliable(k.clone(), Priority::Data)
+            .await
+            .map_err(DaemonError::declare("publisher", &k))?;
+        let k = keys.report();
+        let report = reliable(k.clone(), Priority::Data)
+            .await
+            .map_err(DaemonError::declare("publisher", &k))?;
+        let k = keys.notification();
+        let notification = reliable(k.clone(), Priority::DataHigh)
+            .await
+            .map_err(DaemonError::declare("publisher", &k))?;
+        let stats = if stats {
+            let k = stats_key(keys);
+            Some(
+                session
+                    .declare_publisher(k.clone())
+                    .encoding(json())
+                    .congestion_control(CongestionControl::Drop)
+                    .priority(Priority::DataLow)
+                    .await
+                    .map_err(DaemonError::declare("publisher", &k))?,
+            )
+        } else {
+            None
+        };
+        Ok(Self {
+            excitation,
+            status,
+            report,
+            notification,
+            stats,
+        })
+    }
+}
+
+/// `vessels/<v>/fdi/stats`: the daemon's counters for one vessel (an addition to the contract).
+pub fn stats_key(keys: &Keys) -> String {
+    format!("{}/fdi/stats", keys.prefix)
+}
+
+/// The task that owns one vessel's monitor core.
+pub(super) struct VesselTask {
+    pub(super) monitor: Monitor,
+    pub(super) name: String,
+    /// Where the vessel's state is saved after every decision.
+    pub(super) state: Option<StateDir>,
+    /// The report history, written before a report or notification is published.
+    pub(super) history: Option<Arc<History>>,
+    /// Ship time of the last report (a notification's time in the history) [s].
+    pub(super) last_report_t: f64,
+    /// The alarm notification restored from the state directory, published at start.
+    pub(super) restored: Option<crate::core::wire::Notification>,
+    pub(super) rx: mpsc::Receiver<Msg>,
+    pub(super) pubs: Publishers,
+    pub(super) shared: Arc<Shared>,
+    /// Last accepted heading: its ship time and when it arrived (silence check).
+    pub(super) last_heading: Option<(f64, Instant)>,
+    pub(super) tick: Duration,
+    pub(super) stats_period: Option<Duration>,
+    pub(super) shutdown_timeout: Duration,
+    /// Failed publications (logged once per burst).
+    pub(super) publish_errors: u64,
+}
+
+impl VesselTask {
+    pub(super) async fn run(mut self, cancel: CancellationToken) -> VesselSummary {
+        if let Some(n) = self.restored.take() {
+            // An alarm stays an alarm across a restart: publish it again as soon as someone
+            // listens (at most a couple of seconds' wait; published regardless after that).
+            crate::shells::net::wait_matching(&self.pubs.notification, Duration::from_secs(2))
+                .await;
+            tracing::warn!(vessel = %self.name, state = ?n.state, "restored notification: {}", n.message);
+            match serde_json::to_vec(&n) {
+                Ok(b) => {
+                    if let Err(e) = self.pubs.notification.put(b).await {
+                        tracing::warn!(vessel = %self.name, "publishing the restored notification: {e}");
+                    }
+                }
+                Err(e) => {
+                    tracing::warn!(vessel = %self.name, "encoding the restored notification: {e}")
+                }
+            }
+        }
+        let mut tick = tokio::time::interval(self.tick);
+        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+        let mut stats = self.stats_period.map(|p| {
+            let mut i = tokio::time::interval_at(tokio::time::Instant::now() + p, p);
+            i.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+            i
+        });
+        loop {
+            tokio::select! {
+                biased;
+                _ = cancel.cancelled() => break,
+                _ = tick.tick() => {
+                    if let Some((t, at)) = self.last_heading {
+                        self.monitor.handle_timeout(t + at.elapsed().as_secs_f64());
+                        self.publish_outputs().await;
+                    }
+                }
+                _ = next_tick(stats.as_mut()) => self.publish_stats().await,
+                msg = self.rx.recv() => match msg {
+                    Some(m) => self.handle(m).await,
+                    None => break,
+                },
+            }
+        }
+        self.rx.close();
+        self.monitor.shutdown("daemon stopping");
+        let limit = self.shutdown_timeout;
+        if tokio::time::timeout(limit, self.publish_outputs())
+            .await
+            .is_err()
+        {
+            tracing::warn!(vessel = %self.name, "final publications timed out");
+        }
+        let stats = self.stats_json();
+        tracing::info!(vessel = %self.name, stats = %stats, "vessel statistics");
+        VesselSummary {
+            vessel: self.name,
+            stats,
+        }
+    }
+
+    async fn handle(&mut self, msg: Msg) {
+        match msg {
+            Msg::Sample { stream, payload } => {
+                match wire::decode(stream, &payload) {
+                    Err(e) => {
+                        if self.monitor.count_malformed(stream) {
+                            let n = self.monitor.counters().rejected(
+                                stream,
+                                crate::core::monitor::input::RejectReason::Malformed,
+                            );
+                            tracing::warn!(vessel = %self.name, stream = stream.name(), count = n, "{e}");
+                        }
+                    }
+                    Ok(input) => {
+                        let heading_t = match &input {
+                            Input::Heading(s) => Some(s.t),
+                            _ => None,
+                        };
+                        if self.monitor.handle_input(input).is_ok() {
+                            if let Some(t) = heading_t {
+                                self.last_heading = Some((t, Instant::now()));
+                            }
+                        }
+                    }
+                }
+                self.publish_outputs().await;
+            }
+            Msg::Trigger { method, reply } => {
+                let r = self.monitor.trigger(method);
+                tracing::info!(vessel = %self.name, method = method.name(), accepted = r.accepted, test = ?r.test, reason = ?r.reason, "trigger");
+                let _ = reply.send(r);
+                self.publish_outputs().await;
+            }
+        }
+    }
+
+    /// Adds a report or notification to the history, if kept (durable when this returns).
+    fn record(&self, kind: Kind, t: f64, payload: &impl serde::Serialize) {
+        if let Some(h) = &self.history {
+            if let Err(e) = tokio::task::block_in_place(|| h.add(&self.name, kind, t, payload)) {
+                tracing::error!(vessel = %self.name, "history: {e}");
+            }
+        }
+    }
+
+    /// Saves the vessel's state (atomically) when there is a state directory.
+    fn save_state(&self) {
+        if let Some(dir) = &self.state {
+            let s = self.monitor.saved_state();
+            if let Err(e) = tokio::task::block_in_place(|| dir.save(&s)) {
+                tracing::error!(vessel = %self.name, "saving the state: {e}");
+            }
+        }
+    }
+
+    /// Drains the core and publishes every output on its key, in order.
+    async fn publish_outputs(&mut self) {
+        while let Some(out) = self.monitor.poll_output() {
+            let (publisher, bytes) = match &out {
+                Output::Excitation(e) => (&self.pubs.excitation, serde_json::to_vec(e)),
+                Output::Status(s) => {
+                    if s.state == wire::MonitorState::Settling {
+                        // A test started: its id is taken, even if the daemon dies before it ends.
+                        self.save_state();
+                    }
+                    tracing::info!(vessel = %self.name, t = s.t, state = ?s.state, test = ?s.test, reason = ?s.reason, "status");
+                    (&self.pubs.status, serde_json::to_vec(s))
+                }
+                Output::Report(r) => {
+                    // The decision is on disk before anyone hears of it.
+                    self.save_state();
+                    self.last_report_t = r.t_end;
+                    self.record(Kind::Report, r.t_end, r);
+                    tracing::info!(
+                        vessel = %self.name,
+                        test = %r.test,
+                        outcome = ?r.outcome,
+                        decision = ?r.decision,
+                        reason = ?r.reason,
+                        "report"
+                    );
+                    (&self.pubs.report, serde_json::to_vec(r))
+                }
+                Output::Notification(n) => {
+                    self.record(Kind::Notification, self.last_report_t, n);
+                    tracing::warn!(vessel = %self.name, state = ?n.state, "notification: {}", n.message);
+                    (&self.pubs.notification, serde_json::to_vec(n))
+                }
+            };
+            let result = match bytes {
+                Ok(b) => publisher.put(b).await.map_err(|e| e.to_string()),
+                Err(e) => Err(e.to_string()),
+            };
+            if let Err(e) = result {
+                self.publish_errors += 1;
+                if self.publish_errors.is_power_of_two() {
+                    tracing::warn!(vessel = %self.name, count = self.publish_errors, "publication failed: {e}");
+                }
+            }
+        }
+    }
+
+    fn stats_json(&self) -> serde_json::Value {
+        let s = self.monitor.stats();
+        serde_json::json!({
+            "t": self.monitor.last_heading_t(),
+            "state": self.monitor.state(),
+            "inputs": self.monitor.counters().to_json(),
+            "dropped": {
+                "flood": self.shared.flood.load(Ordering::Relaxed),
+                "triggers": self.shared.triggers_dropped.load(Ordering::Relaxed),
+            },
+            "tests": {
+                "started": s.tests_started,
+                "completed": s.tests_completed,
+                "aborted": s.tests_aborted,
+                "aborted_by_reason": s.aborts.to_json(),
+            },
+            "excitation_clamped": s.excitation_clamped,
+            "publish_errors": self.publish_errors,
+        })
+    }
+
+    async fn publish_stats(&mut self) {
+        let stats = self.stats_json();
+        tracing::debug!(vessel = %self.name, stats = %stats, "vessel statistics");
+        if let Some(p) = &self.pubs.stats {
+            if let Ok(b) = serde_json::to_vec(&stats) {
+                if let Err(e) = p.put(b).await {
+                    tracing::debug!(vessel = %self.name, "stats publication failed: {e}");
+                }
+            }
+        }
+    }
+}
+
+/// The next tick of `interval`, or never.
+async fn next_tick(interval: Option<&mut tokio::time::Interval>) {
+    match interval {
+        Some(i) => {
+            i.tick().await;
+        }
+        None => std::future::pending().await,
+    }
+}
+
+/// Restores `vessel`'s saved state into `monitor`; returns the notification to publish again
+/// (the vessel's alarm state as it was). A corrupt or foreign file is logged and set aside.
+pub(super) fn restore(
+    dir: &StateDir,
+    vessel: &str,
+    monitor: &mut Monitor,
+) -> Option<crate::core::wire::Notification> {
+    match dir.load(vessel) {
+        Loaded::Fresh => {
+            tracing::info!(vessel, "no saved state: starting fresh");
+            None
+        }
+        Loaded::State(s) => match monitor.restore(*s) {
+            Ok(()) => {
+                let n = monitor.last_notification().cloned();
+                tracing::info!(
+                    vessel,
+                    alarm = ?monitor.alarm_state(),
+                    file = %dir.vessel_file(vessel).display(),
+                    "state restored"
+                );
+                n
+            }
+            Err(e) => {
+                tracing::error!(vessel, file = %dir.vessel_file(vessel).display(), "saved state refused: {e}; starting fresh");
+                None
+            }
+        },
+        Loaded::Corrupt(msg) => {
+            tracing::error!(vessel, "{msg}");
+            None
+        }
+    }
+}
