@@ -228,6 +228,43 @@ async fn an_alarm_survives_sigkill_and_is_published_within_a_second_of_ready() {
         "{err:?}"
     );
 
+    // The same through the command-line clients.
+    let client = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_helmwatch"))
+            .args(args)
+            .args(["--connect", &daemon_ep, "--vessel", "self"])
+            .output()
+            .unwrap();
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stdout).to_string(),
+        )
+    };
+    let (code, out) = client(&["status", "--json"]);
+    assert_eq!(code, Some(0), "{out}");
+    let st: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(st["alive"], true, "{st}");
+    assert_eq!(st["alarm"], "alarm", "{st}");
+    let (code, out) = client(&["history", "--limit", "3"]);
+    assert_eq!(code, Some(0), "{out}");
+    assert_eq!(out.lines().count(), 4, "a header and three records:\n{out}");
+    let (code, out) = client(&["trigger", "--method", "clfrt"]);
+    assert_eq!(code, Some(0), "{out}");
+    assert!(out.starts_with("self: "), "{out}");
+    let out = Command::new(env!("CARGO_BIN_EXE_helmwatch"))
+        .args([
+            "status",
+            "--connect",
+            &daemon_ep,
+            "--vessel",
+            "nobody",
+            "--timeout-s",
+            "1",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(69), "no daemon monitors `nobody`");
+
     let _ = ship.kill();
     let _ = ship.wait();
     let _ = daemon.kill();

@@ -45,6 +45,53 @@ pub(crate) enum Command {
     Train(TrainArgs),
     /// Evaluate the models on a held-out database: accuracy tables, durations, drift.
     Eval(EvalArgs),
+    /// Client: is a vessel's daemon alive, its alarm state and its last decisions.
+    Status(ClientArgs),
+    /// Client: ask a vessel's daemon for a test now.
+    Trigger(TriggerArgs),
+    /// Client: a vessel's report history (`fdi/history`).
+    History(HistoryArgs),
+}
+
+/// How a client reaches a daemon.
+#[derive(Debug, Args)]
+pub(crate) struct ClientArgs {
+    /// Endpoint of the daemon or of a router that reaches it (repeatable).
+    #[arg(long, value_name = "ENDPOINT", default_value = "tcp/127.0.0.1:7447")]
+    pub(crate) connect: Vec<String>,
+    /// The vessel (default: the first of `daemon.vessels`).
+    #[arg(long)]
+    pub(crate) vessel: Option<String>,
+    /// Print JSON (the payloads as published) instead of tables.
+    #[arg(long)]
+    pub(crate) json: bool,
+    /// Longest wait for the daemon's answer [s].
+    #[arg(long, default_value_t = 10.0)]
+    pub(crate) timeout_s: f64,
+}
+
+#[derive(Debug, Args)]
+pub(crate) struct TriggerArgs {
+    #[command(flatten)]
+    pub(crate) client: ClientArgs,
+    /// Test method.
+    #[arg(long, default_value = "hbt")]
+    pub(crate) method: Method,
+}
+
+#[derive(Debug, Args)]
+pub(crate) struct HistoryArgs {
+    #[command(flatten)]
+    pub(crate) client: ClientArgs,
+    /// From this ship time [s].
+    #[arg(long)]
+    pub(crate) from: Option<f64>,
+    /// Up to this ship time [s].
+    #[arg(long)]
+    pub(crate) to: Option<f64>,
+    /// The latest this many records.
+    #[arg(long, default_value_t = 20)]
+    pub(crate) limit: usize,
 }
 
 #[derive(Debug, Args)]

@@ -13,9 +13,11 @@
 //! | [`offline`] | `simulate`, `probe`, `replay`, `check-config`, `eval --fdi` |
 //! | [`service`] | `run`, `ship`, `demo`, `bench` |
 //! | [`estimator`] | `train`, `eval` |
+//! | [`client`] | `status`, `trigger`, `history`: a daemon's client over Zenoh |
 //! | [`print`] | reports on a terminal |
 
 mod args;
+mod client;
 pub mod estimator;
 mod offline;
 mod print;
@@ -75,6 +77,9 @@ pub fn main() -> i32 {
         Command::Ship(a) => service::ship(&cfg, a),
         Command::Demo(a) => service::demo(&cfg, a),
         Command::Bench(a) => service::bench(&cfg, cli.config.as_deref(), a),
+        Command::Status(a) => client::status(&cfg, a),
+        Command::Trigger(a) => client::trigger(&cfg, a),
+        Command::History(a) => client::history(&cfg, a),
         Command::Train(a) => estimator::train(&cfg, &a.into()),
         Command::Eval(a) => estimator::eval(&cfg, &a.into()),
     };
@@ -104,7 +109,9 @@ fn init_logging(command: &Command) {
     // `train` and `eval` run thousands of tests: the core's per-test lines would drown their
     // tables.
     let default = match command {
-        Command::Demo(_) => "error",
+        Command::Demo(_) | Command::Status(_) | Command::Trigger(_) | Command::History(_) => {
+            "error"
+        }
         Command::Train(_) | Command::Eval(_) => "warn,helmwatch::core::monitor=error",
         _ => "info,zenoh=warn",
     };

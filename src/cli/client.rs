@@ -1,0 +1,225 @@
+//! The daemon's clients over Zenoh: `status`, `trigger`, `history`. Each opens a peer session
+//! (multicast off) to `--connect`, asks, prints a table (or the JSON with `--json`) and closes
+//! the session. Exit codes: 0 answered (a refused trigger included: the refusal is the
+//! answer), 64 bad arguments, 69 no answer within `--timeout-s` (no daemon for the vessel).
+
+use super::args::{ClientArgs, HistoryArgs, TriggerArgs};
+use super::service::runtime;
+use super::{fail, Failure, EX_UNAVAILABLE, EX_USAGE};
+use crate::config::Config;
+use crate::core::wire::{Keys, TriggerReply};
+use crate::shells::history::{HistoryReply, Kind};
+use std::time::Duration;
+
+fn vessel(cfg: &Config, a: &ClientArgs) -> Result<String, Failure> {
+    let v = a
+        .vessel
+        .clone()
+        .or_else(|| cfg.daemon.vessels.first().cloned())
+        .unwrap_or_else(|| "self".to_string());
+    crate::core::config::check_vessel_name("--vessel", &v).map_err(|e| fail(EX_USAGE)(e.into()))?;
+    Ok(v)
+}
+
+async fn session(a: &ClientArgs) -> Result<zenoh::Session, Failure> {
+    for e in &a.connect {
+        crate::shells::net::check_endpoint("--connect", e).map_err(|e| fail(EX_USAGE)(e.into()))?;
+    }
+    let zcfg =
+        crate::shells::net::loopback_peer(&[], &a.connect).map_err(|e| fail(EX_USAGE)(e.into()))?;
+    zenoh::open(zcfg)
+        .await
+        .map_err(|e| fail(EX_UNAVAILABLE)(anyhow::anyhow!("zenoh session: {e}")))
+}
+
+fn timeout(a: &ClientArgs) -> Result<Duration, Failure> {
+    if a.timeout_s.is_finite() && a.timeout_s > 0.0 && a.timeout_s <= 3600.0 {
+        Ok(Duration::from_secs_f64(a.timeout_s))
+    } else {
+        Err(fail(EX_USAGE)(anyhow::anyhow!(
+            "--timeout-s: (0, 3600] seconds"
+        )))
+    }
+}
+
+/// One reply's payload for `selector`, or why there is none.
+async fn get_one(s: &zenoh::Session, selector: &str, limit: Duration) -> Result<Vec<u8>, Failure> {
+    let replies = s
+        .get(selector)
+        .timeout(limit)
+        .await
+        .map_err(|e| fail(EX_UNAVAILABLE)(anyhow::anyhow!("{selector}: {e}")))?;
+    match replies.recv_async().await {
+        Ok(reply) => match reply.result() {
+            Ok(sample) => Ok(sample.payload().to_bytes().into_owned()),
+            Err(e) => Err(fail(EX_USAGE)(anyhow::anyhow!(
+                "{selector}: {}",
+                String::from_utf8_lossy(&e.payload().to_bytes())
+            ))),
+        },
+        Err(_) => Err(fail(EX_UNAVAILABLE)(anyhow::anyhow!(
+            "{selector}: no answer within {limit:?} (is a daemon monitoring the vessel, with a state directory for the history?)"
+        ))),
+    }
+}
+
+fn block<T>(f: impl std::future::Future<Output = Result<T, Failure>>) -> Result<T, Failure> {
+    runtime()?.block_on(f)
+}
+
+/// `helmwatch trigger`.
+pub(crate) fn trigger(cfg: &Config, a: TriggerArgs) -> Result<(), Failure> {
+    let v = vessel(cfg, &a.client)?;
+    let limit = timeout(&a.client)?;
+    block(async {
+        let s = session(&a.client).await?;
+        let sel = format!("{}?method={}", Keys::new(&v).trigger(), a.method.name());
+        let bytes = get_one(&s, &sel, limit).await;
+        let _ = s.close().await;
+        let bytes = bytes?;
+        if a.client.json {
+            println!("{}", String::from_utf8_lossy(&bytes));
+            return Ok(());
+        }
+        let r: TriggerReply = serde_json::from_slice(&bytes)
+            .map_err(|e| fail(EX_UNAVAILABLE)(anyhow::anyhow!("trigger reply: {e}")))?;
+        match (r.accepted, r.test, r.reason) {
+            (true, Some(t), _) => println!("{v}: test {t} started"),
+            (_, _, reason) => println!("{v}: refused: {}", reason.unwrap_or_default()),
+        }
+        Ok(())
+    })
+}
+
+/// `helmwatch history`.
+pub(crate) fn history(cfg: &Config, a: HistoryArgs) -> Result<(), Failure> {
+    let v = vessel(cfg, &a.client)?;
+    let limit = timeout(&a.client)?;
+    let mut params = vec![format!("limit={}", a.limit)];
+    if let Some(f) = a.from {
+        params.push(format!("from={f}"));
+    }
+    if let Some(t) = a.to {
+        params.push(format!("to={t}"));
+    }
+    block(async {
+        let s = session(&a.client).await?;
+        let sel = format!("{}?{}", Keys::new(&v).history(), params.join(";"));
+        let bytes = get_one(&s, &sel, limit).await;
+        let _ = s.close().await;
+        let bytes = bytes?;
+        if a.client.json {
+            println!("{}", String::from_utf8_lossy(&bytes));
+            return Ok(());
+        }
+        let h: HistoryReply = serde_json::from_slice(&bytes)
+            .map_err(|e| fail(EX_UNAVAILABLE)(anyhow::anyhow!("history reply: {e}")))?;
+        print_records(&h);
+        Ok(())
+    })
+}
+
+fn print_records(h: &HistoryReply) {
+    println!(
+        "{:>10}  {:<12}  {:<26}  {:<9}  {:<12}  message",
+        "t [s]", "kind", "test", "outcome", "decision"
+    );
+    for r in &h.records {
+        let p = &r.payload;
+        let s = |k: &str| p[k].as_str().unwrap_or("-").to_string();
+        match r.kind {
+            Kind::Report => println!(
+                "{:>10.1}  {:<12}  {:<26}  {:<9}  {:<12}  {}",
+                r.t,
+                "report",
+                s("test"),
+                s("outcome"),
+                s("decision"),
+                s("message")
+            ),
+            Kind::Notification => println!(
+                "{:>10.1}  {:<12}  {:<26}  {:<9}  {:<12}  {}",
+                r.t,
+                "notification",
+                "-",
+                "-",
+                s("state"),
+                s("message")
+            ),
+        }
+    }
+}
+
+/// `helmwatch status`.
+pub(crate) fn status(cfg: &Config, a: ClientArgs) -> Result<(), Failure> {
+    let v = vessel(cfg, &a)?;
+    let limit = timeout(&a)?;
+    block(async {
+        let s = session(&a).await?;
+        let keys = Keys::new(&v);
+        let alive = match s.liveliness().get(keys.alive()).timeout(limit).await {
+            Ok(replies) => replies.recv_async().await.is_ok(),
+            Err(_) => false,
+        };
+        let hist = if alive {
+            get_one(&s, &format!("{}?limit=50", keys.history()), limit)
+                .await
+                .ok()
+                .and_then(|b| serde_json::from_slice::<HistoryReply>(&b).ok())
+        } else {
+            None
+        };
+        let _ = s.close().await;
+        let last = |kind: Kind| {
+            hist.as_ref()
+                .and_then(|h| h.records.iter().rev().find(|r| r.kind == kind))
+                .map(|r| r.payload.clone())
+        };
+        let (report, notification) = (last(Kind::Report), last(Kind::Notification));
+        if a.json {
+            println!(
+                "{}",
+                serde_json::json!({
+                    "vessel": v, "alive": alive,
+                    "alarm": notification.as_ref().map_or(serde_json::Value::Null, |n| n["state"].clone()),
+                    "last_report": report, "last_notification": notification,
+                })
+            );
+        } else {
+            println!("vessel        {v}");
+            println!(
+                "daemon        {}",
+                if alive {
+                    "alive"
+                } else {
+                    "NOT alive (no fdi/alive token)"
+                }
+            );
+            match &notification {
+                Some(n) => println!(
+                    "alarm state   {} ({})",
+                    n["state"].as_str().unwrap_or("?"),
+                    n["message"].as_str().unwrap_or("")
+                ),
+                None => println!("alarm state   normal (no notification in the history)"),
+            }
+            match &report {
+                Some(r) => println!(
+                    "last test     {} {} at t = {:.0} s: {}",
+                    r["test"].as_str().unwrap_or("?"),
+                    r["outcome"].as_str().unwrap_or("?"),
+                    r["t_end"].as_f64().unwrap_or(f64::NAN),
+                    r["message"].as_str().unwrap_or("")
+                ),
+                None => println!("last test     none in the history"),
+            }
+        }
+        if alive {
+            Ok(())
+        } else {
+            Err(fail(EX_UNAVAILABLE)(anyhow::anyhow!(
+                "no daemon monitors vessel {v}"
+            )))
+        }
+    })
+}
