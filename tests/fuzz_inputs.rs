@@ -8,21 +8,10 @@
 use helmwatch::config::Config;
 use helmwatch::core::monitor::{Monitor, Output};
 use helmwatch::core::wire::{self, Stream};
+use helmwatch::tools::bench::rss_mib;
 use proptest::prelude::*;
 use proptest::test_runner::{Config as RunnerConfig, TestRunner};
 use std::cell::RefCell;
-
-fn rss_mib() -> f64 {
-    std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("VmRSS:"))
-                .and_then(|l| l.split_whitespace().nth(1))
-                .and_then(|kb| kb.parse::<f64>().ok())
-        })
-        .map_or(0.0, |kb| kb / 1024.0)
-}
 
 /// A JSON-ish number: ordinary, huge, tiny, negative, or not a number at all.
 fn number() -> impl Strategy<Value = String> {

@@ -60,6 +60,7 @@
 //! | `hbt.rs`, `clfrt.rs` | each method's run and analysis, and its typed features |
 //! | `input.rs`, `record.rs` | input validation and counters; bounded test records |
 //! | `abort.rs` | why a test stopped |
+//! | `state.rs` | what a vessel's monitor keeps across a restart |
 //! | `config.rs` | the monitor's sections and [`CoreConfig`] |
 
 pub mod abort;
@@ -69,6 +70,7 @@ mod hbt;
 pub mod input;
 pub mod record;
 mod safety;
+mod state;
 
 use crate::core::angle::wrap_pi;
 use crate::core::dsp::multisine::Multisine;
@@ -82,6 +84,7 @@ use crate::core::wire::{
 };
 pub use abort::{AbortCounts, AbortReason};
 use input::{Clocks, Counters, Latest, Limits, Order, RejectReason, Rejection};
+pub use state::VesselState;
 use std::collections::VecDeque;
 use std::sync::Arc;
 
@@ -135,31 +138,6 @@ pub struct Stats {
     /// Excitation values the safety gate had to bound (should stay 0: a non-zero count means
     /// a generator asked for more than the limits allow).
     pub excitation_clamped: u64,
-}
-
-/// What a vessel's monitor keeps across a restart: the FDI's memory (alarm tracks, CUSUM,
-/// sea memory, the last notification) and the scheduler's (when the last test ended, which
-/// method is next, how many tests so far: test ids do not repeat). Saved by the daemon after
-/// every decision, restored at start.
-#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct VesselState {
-    /// [`VesselState::FORMAT`].
-    pub format: String,
-    /// The vessel.
-    pub vessel: String,
-    /// The FDI's memory.
-    pub fdi: crate::core::fdi::FdiState,
-    /// End of the last test (ship time) [s].
-    pub last_test_end: Option<f64>,
-    /// Index of the next scheduled method.
-    pub next_method: usize,
-    /// Tests started so far.
-    pub test_seq: u64,
-}
-
-impl VesselState {
-    /// The format tag of this version.
-    pub const FORMAT: &'static str = "helmwatch-vessel-state/1";
 }
 
 /// Smoothing time constant of the speed used for the speed-change abort [s].
@@ -324,47 +302,6 @@ impl Monitor {
             estimator,
             fdi: Fdi::new(cfg),
         }
-    }
-
-    /// What to save after a decision (see [`VesselState`]).
-    pub fn saved_state(&self) -> VesselState {
-        VesselState {
-            format: VesselState::FORMAT.to_string(),
-            vessel: self.vessel.clone(),
-            fdi: self.fdi.state(),
-            last_test_end: self.last_test_end,
-            next_method: self.next_method,
-            test_seq: self.test_seq,
-        }
-    }
-
-    /// Takes up a saved state (before any sample). Refused, changing nothing, when it is of
-    /// another format or another vessel.
-    pub fn restore(&mut self, s: VesselState) -> Result<(), String> {
-        if s.format != VesselState::FORMAT {
-            return Err(format!(
-                "format `{}`, expected `{}`",
-                s.format,
-                VesselState::FORMAT
-            ));
-        }
-        if s.vessel != self.vessel {
-            return Err(format!(
-                "saved for vessel `{}`, not `{}`",
-                s.vessel, self.vessel
-            ));
-        }
-        self.fdi.restore(s.fdi);
-        self.last_test_end = s.last_test_end.filter(|t| t.is_finite());
-        self.next_method = s.next_method % self.cfg.scheduler.methods.len().max(1);
-        self.test_seq = s.test_seq;
-        Ok(())
-    }
-
-    /// The last alarm notification published, to publish again at once after a restore (an
-    /// alarm stays an alarm across a restart).
-    pub fn last_notification(&self) -> Option<&Notification> {
-        self.fdi.last_notification()
     }
 
     /// The vessel's alarm state (the worst of the methods' decision tracks).

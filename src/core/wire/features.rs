@@ -406,26 +406,11 @@ mod tests {
 
     fn hbt() -> HbtFeatures {
         HbtFeatures {
-            period_s: 150.0,
-            omega_u_rad_s: 2.0 * std::f64::consts::PI / 150.0,
-            amplitude_rad: 0.05,
-            periods: 4,
-            period_std_s: 3.0,
-            ultimate_gain: 3.0,
-            relay_height_rad: 0.14,
-            hysteresis_rad: 0.017,
-            trim_rad: 0.0,
-            initial_trim_rad: 0.001,
-            min_switch_interval_s: 60.0,
-            switches: 11,
-            wave_yaw_rad: None,
-            rudder_amplitude_rad: None,
             response_gain: Some(0.3),
             response_phase_rad: Some(-2.8),
-            servo_rate: None,
             speed_log_mps: Some(7.0),
-            baseline: None,
             baseline_error: Some("too short".into()),
+            ..sample::hbt()
         }
     }
 

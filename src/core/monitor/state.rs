@@ -1,0 +1,73 @@
+//! What a vessel's monitor keeps across a restart ([`VesselState`]): the FDI's memory and the
+//! scheduler's. Part of [`Monitor`]; the daemon saves it in its state directory.
+
+use super::Monitor;
+use crate::core::wire::Notification;
+
+/// What a vessel's monitor keeps across a restart: the FDI's memory (alarm tracks, CUSUM,
+/// sea memory, the last notification) and the scheduler's (when the last test ended, which
+/// method is next, how many tests so far: test ids do not repeat). Saved by the daemon after
+/// every decision, restored at start.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct VesselState {
+    /// [`VesselState::FORMAT`].
+    pub format: String,
+    /// The vessel.
+    pub vessel: String,
+    /// The FDI's memory.
+    pub fdi: crate::core::fdi::FdiState,
+    /// End of the last test (ship time) [s].
+    pub last_test_end: Option<f64>,
+    /// Index of the next scheduled method.
+    pub next_method: usize,
+    /// Tests started so far.
+    pub test_seq: u64,
+}
+
+impl VesselState {
+    /// The format tag of this version.
+    pub const FORMAT: &'static str = "helmwatch-vessel-state/1";
+}
+
+impl Monitor {
+    /// What to save after a decision (see [`VesselState`]).
+    pub fn saved_state(&self) -> VesselState {
+        VesselState {
+            format: VesselState::FORMAT.to_string(),
+            vessel: self.vessel.clone(),
+            fdi: self.fdi.state(),
+            last_test_end: self.last_test_end,
+            next_method: self.next_method,
+            test_seq: self.test_seq,
+        }
+    }
+
+    /// Takes up a saved state (before any sample). Refused, changing nothing, when it is of
+    /// another format or another vessel.
+    pub fn restore(&mut self, s: VesselState) -> Result<(), String> {
+        if s.format != VesselState::FORMAT {
+            return Err(format!(
+                "format `{}`, expected `{}`",
+                s.format,
+                VesselState::FORMAT
+            ));
+        }
+        if s.vessel != self.vessel {
+            return Err(format!(
+                "saved for vessel `{}`, not `{}`",
+                s.vessel, self.vessel
+            ));
+        }
+        self.fdi.restore(s.fdi);
+        self.last_test_end = s.last_test_end.filter(|t| t.is_finite());
+        self.next_method = s.next_method % self.cfg.scheduler.methods.len().max(1);
+        self.test_seq = s.test_seq;
+        Ok(())
+    }
+
+    /// The last alarm notification published, to publish again at once after a restore (an
+    /// alarm stays an alarm across a restart).
+    pub fn last_notification(&self) -> Option<&Notification> {
+        self.fdi.last_notification()
+    }
+}
