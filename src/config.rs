@@ -16,6 +16,17 @@
 //! Each section is defined beside the code that owns it; this is the file as a whole. The
 //! floors below take only their part: [`Config::core`] for a monitor core, [`Config::sim`]
 //! for a simulated ship, and the shells their own sections.
+//!
+//! ## One daemon, ships of different classes
+//!
+//! A `[vessel.<name>]` table overrides, for that vessel only, any key of the sections a ship
+//! owns: its particulars and nominal values (`[vessel.<name>.ship]`), servo, sensors,
+//! autopilot and sea (simulated ships), the tests, scheduler, safety limits, input checks,
+//! the estimator's models directory, the FDI and the baseline. Keys left out keep the file's
+//! top-level value. The daemon-wide sections (`daemon`, `zenoh`, `ship-peer`) cannot be
+//! overridden. [`Config::for_vessel`] gives a vessel's effective configuration: the
+//! top-level file with the vessel's table merged in, checked like the file itself (an error
+//! names `vessel.<name>.<section>.<key>`).
 
 use crate::core::baseline::config::BaselineConfig;
 pub use crate::core::config::ConfigError;
@@ -29,7 +40,26 @@ use crate::shells::net::ZenohConfig;
 use crate::shells::shipnode::ShipPeerConfig;
 use crate::sim::config::{AutopilotConfig, SeaConfig, SimConfig, SimulationConfig};
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::path::Path;
+
+/// Sections a `[vessel.<name>]` table may override (the rest are daemon-wide).
+pub const VESSEL_SECTIONS: [&str; 14] = [
+    "ship",
+    "servo",
+    "autopilot",
+    "sensors",
+    "sea",
+    "simulation",
+    "scheduler",
+    "hbt",
+    "clfrt",
+    "safety",
+    "input",
+    "estimator",
+    "fdi",
+    "baseline",
+];
 
 /// The whole configuration file.
 #[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
@@ -69,6 +99,9 @@ pub struct Config {
     pub fdi: FdiConfig,
     /// The time-domain baseline (equation-error least squares of a and b).
     pub baseline: BaselineConfig,
+    /// Per-vessel overrides (`[vessel.<name>.<section>]`), see the module documentation.
+    /// Kept as TOML tables: a key left out keeps the top-level value.
+    pub vessel: BTreeMap<String, toml::Table>,
 }
 
 impl Config {
@@ -89,13 +122,94 @@ impl Config {
     }
 
     /// Checks every semantic limit; the first violation is returned, naming its key.
+    /// Every `[vessel.<name>]` table is checked too, merged into the top level.
     pub fn check(&self) -> Result<(), ConfigError> {
-        self.core().check()?;
-        self.sim().check()?;
+        self.check_sections()?;
         self.daemon.check()?;
         self.zenoh.check("zenoh")?;
         self.ship_peer.check()?;
+        for name in self.vessel.keys() {
+            let key = format!("vessel.{name}");
+            crate::core::config::check_vessel_name(&key, name)?;
+            if !self.daemon.vessels.iter().any(|v| v == name) {
+                return Err(crate::core::config::fail(
+                    &key,
+                    format!("{name:?}"),
+                    "a vessel listed in daemon.vessels",
+                ));
+            }
+            self.for_vessel(name)?;
+        }
         Ok(())
+    }
+
+    /// The limits of the sections a vessel can override.
+    fn check_sections(&self) -> Result<(), ConfigError> {
+        self.core().check()?;
+        self.sim().check()
+    }
+
+    /// The effective configuration of `vessel`: the top level with its `[vessel.<name>]`
+    /// table merged in (itself when it has none), checked; errors name the vessel's key.
+    /// The result has no vessel tables of its own.
+    pub fn for_vessel(&self, vessel: &str) -> Result<Config, ConfigError> {
+        let Some(over) = self.vessel.get(vessel) else {
+            let mut c = self.clone();
+            c.vessel.clear();
+            return Ok(c);
+        };
+        let prefix = format!("vessel.{vessel}");
+        for (section, value) in over {
+            if !VESSEL_SECTIONS.contains(&section.as_str()) {
+                return Err(crate::core::config::fail(
+                    &format!("{prefix}.{section}"),
+                    "a table",
+                    &format!("one of the sections {}", VESSEL_SECTIONS.join(", ")),
+                ));
+            }
+            if !value.is_table() {
+                return Err(ConfigError::Parse(format!(
+                    "`{prefix}.{section}` must be a table of keys"
+                )));
+            }
+        }
+        let mut base = self.clone();
+        base.vessel.clear();
+        let mut table = toml::Table::try_from(&base)
+            .map_err(|e| ConfigError::Parse(format!("{prefix}: {e}")))?;
+        merge(&mut table, over);
+        let merged: Config = table.try_into().map_err(|e: toml::de::Error| {
+            ConfigError::Parse(format!("{prefix}: {}", e.message()))
+        })?;
+        merged.check_sections().map_err(|e| match e {
+            ConfigError::OutOfRange {
+                key,
+                value,
+                allowed,
+            } => ConfigError::OutOfRange {
+                key: format!("{prefix}.{key}"),
+                value,
+                allowed,
+            },
+            other => other,
+        })?;
+        Ok(merged)
+    }
+
+    /// Each vessel of `daemon.vessels` with its monitor core's configuration, in order.
+    pub fn fleet(&self) -> Result<Vec<(String, CoreConfig)>, ConfigError> {
+        let root = self.core();
+        self.daemon
+            .vessels
+            .iter()
+            .map(|v| {
+                let core = match self.vessel.contains_key(v) {
+                    true => self.for_vessel(v)?.core(),
+                    false => root.clone(),
+                };
+                Ok((v.clone(), core))
+            })
+            .collect()
     }
 
     /// What one monitor core needs: the ship's particulars and streams, the test designs,
@@ -127,6 +241,18 @@ impl Config {
             autopilot: self.autopilot.clone(),
             sea: self.sea.clone(),
             simulation: self.simulation.clone(),
+        }
+    }
+}
+
+/// Merges `over` into `base`: tables key by key, anything else replaced.
+fn merge(base: &mut toml::Table, over: &toml::Table) {
+    for (k, v) in over {
+        match (base.get_mut(k), v) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(o)) => merge(b, o),
+            _ => {
+                base.insert(k.clone(), v.clone());
+            }
         }
     }
 }
@@ -244,6 +370,60 @@ mod tests {
         Config::from_toml_str("[baseline]\nfilter-rad-s = 0.1\ntransient-s = 60\n").unwrap();
         let e = Config::from_toml_str("[baseline]\nlambda = 0.1\n").unwrap_err();
         assert!(e.to_string().contains("lambda"), "{e}");
+    }
+
+    #[test]
+    fn a_vessel_table_overrides_only_its_keys() {
+        let text = "[daemon]\nvessels = [\"alpha\", \"bravo\"]\n\
+                    [ship]\nlength-m = 130\n\
+                    [vessel.bravo.ship]\nnominal-displacement-t = 9000\n\
+                    [vessel.bravo.estimator]\nmodels-dir = \"/srv/bravo\"\n";
+        let cfg = Config::from_toml_str(text).unwrap();
+        let bravo = cfg.for_vessel("bravo").unwrap();
+        assert_eq!(bravo.ship.nominal_displacement_t, 9000.0);
+        // Left out: the file's top-level value, not the default.
+        assert_eq!(bravo.ship.length_m, 130.0);
+        assert_eq!(bravo.estimator.models_dir.as_deref(), Some("/srv/bravo"));
+        assert!(bravo.vessel.is_empty());
+        let alpha = cfg.for_vessel("alpha").unwrap();
+        assert_eq!(alpha.ship, cfg.ship);
+        let fleet = cfg.fleet().unwrap();
+        assert_eq!(fleet.len(), 2);
+        assert_eq!(fleet[0].1, cfg.core());
+        assert_eq!(fleet[1].1, bravo.core());
+        assert_ne!(fleet[0].1, fleet[1].1);
+    }
+
+    #[test]
+    fn the_defaults_survive_the_merge_bit_for_bit() {
+        let mut cfg = Config::default();
+        cfg.vessel.insert("self".into(), toml::Table::new());
+        assert_eq!(cfg.for_vessel("self").unwrap(), Config::default());
+    }
+
+    #[test]
+    fn vessel_tables_are_checked_and_named() {
+        let base = "[daemon]\nvessels = [\"alpha\"]\n";
+        let e = Config::from_toml_str(&format!("{base}[vessel.alpha.ship]\nlength-m = -3\n"))
+            .unwrap_err();
+        assert!(e.to_string().contains("vessel.alpha.ship.length-m"), "{e}");
+        let e =
+            Config::from_toml_str(&format!("{base}[vessel.alpha.ship]\nbogus = 1\n")).unwrap_err();
+        assert!(
+            e.to_string().contains("vessel.alpha") && e.to_string().contains("bogus"),
+            "{e}"
+        );
+        let e = Config::from_toml_str(&format!("{base}[vessel.alpha.daemon]\ntick-s = 1\n"))
+            .unwrap_err();
+        assert!(e.to_string().contains("vessel.alpha.daemon"), "{e}");
+        let e = Config::from_toml_str(&format!("{base}[vessel.zulu.ship]\nlength-m = 100\n"))
+            .unwrap_err();
+        assert!(
+            e.to_string().contains("vessel.zulu") && e.to_string().contains("daemon.vessels"),
+            "{e}"
+        );
+        let e = Config::from_toml_str(&format!("{base}[vessel.alpha]\nship = 3\n")).unwrap_err();
+        assert!(e.to_string().contains("vessel.alpha.ship"), "{e}");
     }
 
     #[test]

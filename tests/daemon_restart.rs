@@ -6,20 +6,13 @@
 
 mod common;
 
-use common::{endpoint, Observer};
+use common::{endpoint, temp_dir, Observer};
 use std::os::unix::net::UnixDatagram;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 const LIMIT: Duration = Duration::from_secs(180);
-
-fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("helmwatch-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 /// `helmwatch --config <dir>/<name>.toml <args>`, standard error to `<dir>/<name>.log`,
 /// `NOTIFY_SOCKET` pointed at `notify` when given.

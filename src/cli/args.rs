@@ -111,6 +111,9 @@ pub(crate) struct TrainArgs {
     /// Worker threads (default: every core).
     #[arg(long)]
     pub(crate) threads: Option<usize>,
+    /// Train for this vessel's class: its `[vessel.<name>]` table over the file's top level.
+    #[arg(long, value_name = "NAME")]
+    pub(crate) vessel: Option<String>,
 }
 
 #[derive(Debug, Args)]
@@ -274,6 +277,9 @@ pub(crate) struct SimulateArgs {
 pub(crate) struct ProbeArgs {
     #[command(flatten)]
     pub(crate) ship: ShipArgs,
+    /// Probe this vessel's class: its `[vessel.<name>]` table over the file's top level.
+    #[arg(long, value_name = "NAME")]
+    pub(crate) vessel: Option<String>,
     /// Directory of the estimator's model files (default: the models embedded in the binary).
     #[arg(long, value_name = "DIR")]
     pub(crate) models: Option<PathBuf>,

@@ -69,7 +69,10 @@ pub fn main() -> i32 {
     };
     let result = match cli.command {
         Command::Simulate(a) => offline::simulate(&cfg, a),
-        Command::Probe(a) => offline::probe(&cfg, a),
+        Command::Probe(a) => match vessel_config(&cfg, a.vessel.as_deref()) {
+            Ok(c) => offline::probe(&c, a),
+            Err(e) => Err(e),
+        },
         Command::CheckConfig => offline::check_config(&cfg),
         Command::Replay(a) => offline::replay(&cfg, a),
         Command::Eval(a) if a.fdi => offline::eval_fdi(&cfg, &a),
@@ -80,7 +83,10 @@ pub fn main() -> i32 {
         Command::Status(a) => client::status(&cfg, a),
         Command::Trigger(a) => client::trigger(&cfg, a),
         Command::History(a) => client::history(&cfg, a),
-        Command::Train(a) => estimator::train(&cfg, &a.into()),
+        Command::Train(a) => match vessel_config(&cfg, a.vessel.as_deref()) {
+            Ok(c) => estimator::train(&c, &a.into()),
+            Err(e) => Err(e),
+        },
         Command::Eval(a) => estimator::eval(&cfg, &a.into()),
     };
     match result {
@@ -90,6 +96,22 @@ pub fn main() -> i32 {
             e.code
         }
     }
+}
+
+/// The effective configuration of `vessel` (`--vessel`): its `[vessel.<name>]` table over
+/// the file's top level; the file itself without one.
+fn vessel_config(cfg: &Config, vessel: Option<&str>) -> Result<Config, Failure> {
+    let Some(v) = vessel else {
+        return Ok(cfg.clone());
+    };
+    crate::core::config::check_vessel_name("--vessel", v).map_err(|e| Failure {
+        error: e.into(),
+        code: EX_USAGE,
+    })?;
+    cfg.for_vessel(v).map_err(|e| Failure {
+        error: e.into(),
+        code: EX_CONFIG,
+    })
 }
 
 /// An error at the binary's edge, with its exit code.

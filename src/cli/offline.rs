@@ -106,7 +106,14 @@ pub(crate) fn replay(cfg: &Config, a: ReplayArgs) -> Result<(), Failure> {
         Box::new(std::io::BufReader::new(f))
     };
     let json = a.json;
-    let sum = crate::drivers::replay::replay(&cfg.core(), reader, |vessel, out| {
+    // Vessels with a `[vessel.<name>]` table are replayed with their own configuration.
+    let own = cfg
+        .vessel
+        .keys()
+        .map(|v| Ok((v.clone(), cfg.for_vessel(v)?.core())))
+        .collect::<Result<Vec<_>, crate::config::ConfigError>>()
+        .map_err(|e| fail(EX_CONFIG)(e.into()))?;
+    let sum = crate::drivers::replay::replay_fleet(&cfg.core(), &own, reader, |vessel, out| {
         if let Output::Report(r) = out {
             if json {
                 if let Ok(line) = serde_json::to_string(r) {

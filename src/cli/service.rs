@@ -36,17 +36,21 @@ pub(crate) fn run_daemon(cfg: &Config, a: RunArgs) -> Result<(), Failure> {
     if let Some(d) = &a.state_dir {
         dcfg.state_dir = Some(d.display().to_string());
     }
+    // Each vessel's own configuration: `[vessel.<name>]` over the file's top level.
+    let fleet = cfg.fleet().map_err(|e| fail(EX_CONFIG)(e.into()))?;
     let rt = runtime()?;
     rt.block_on(async {
-        let daemon = Daemon::start(&cfg.core(), &dcfg, zcfg).await.map_err(|e| {
-            let code = match e {
-                DaemonError::Config(_) | DaemonError::Estimator(_) => EX_CONFIG,
-                DaemonError::Open(_) => EX_UNAVAILABLE,
-                DaemonError::Declare { .. } => EX_SOFTWARE,
-                DaemonError::State(_) | DaemonError::History(_) => EX_CANTCREAT,
-            };
-            fail(code)(e.into())
-        })?;
+        let daemon = Daemon::start_fleet(&fleet, &dcfg, zcfg)
+            .await
+            .map_err(|e| {
+                let code = match e {
+                    DaemonError::Config(_) | DaemonError::Estimator(_) => EX_CONFIG,
+                    DaemonError::Open(_) => EX_UNAVAILABLE,
+                    DaemonError::Declare { .. } => EX_SOFTWARE,
+                    DaemonError::State(_) | DaemonError::History(_) => EX_CANTCREAT,
+                };
+                fail(code)(e.into())
+            })?;
         let status = format!("monitoring {} vessel(s)", daemon.vessels().len());
         systemd::ready(&status);
         let watchdog = systemd::spawn_watchdog();
@@ -65,6 +69,18 @@ pub(crate) fn run_daemon(cfg: &Config, a: RunArgs) -> Result<(), Failure> {
 
 pub(crate) fn ship(cfg: &Config, a: ShipPeerArgs) -> Result<(), Failure> {
     use crate::shells::shipnode::{ShipNode, ShipNodeOptions};
+    let vessel = match &a.vessel {
+        Some(v) => {
+            crate::core::config::check_vessel_name("--vessel", v)
+                .map_err(|e| fail(EX_USAGE)(e.into()))?;
+            v.clone()
+        }
+        None => cfg.simulation.vessel.clone(),
+    };
+    // The simulated ship is the vessel's own: `[vessel.<name>]` over the top level.
+    let cfg = &cfg
+        .for_vessel(&vessel)
+        .map_err(|e| fail(EX_CONFIG)(e.into()))?;
     let mut sc = scenario(cfg, &a.ship)?;
     let mut faults = cfg
         .ship_peer
@@ -75,12 +91,7 @@ pub(crate) fn ship(cfg: &Config, a: ShipPeerArgs) -> Result<(), Failure> {
         .map_err(|e| fail(EX_CONFIG)(e.into()))?;
     faults.append(&mut sc.faults);
     sc.faults = faults;
-    let mut opts = ShipNodeOptions::from_config(&cfg.ship_peer, &cfg.simulation.vessel);
-    if let Some(v) = a.vessel {
-        crate::core::config::check_vessel_name("--vessel", &v)
-            .map_err(|e| fail(EX_USAGE)(e.into()))?;
-        opts.vessel = v;
-    }
+    let mut opts = ShipNodeOptions::from_config(&cfg.ship_peer, &vessel);
     if a.real_time {
         opts.lockstep = false;
     }

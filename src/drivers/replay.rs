@@ -57,12 +57,32 @@ pub struct ReplaySummary {
 pub fn replay(
     cfg: &CoreConfig,
     reader: impl BufRead,
+    on_output: impl FnMut(&str, &Output),
+) -> Result<ReplaySummary, ReplayError> {
+    replay_fleet(cfg, &[], reader, on_output)
+}
+
+/// As [`replay`], with a configuration of their own for the vessels named in `own` (ships
+/// of another class); every other vessel gets `cfg`.
+pub fn replay_fleet(
+    cfg: &CoreConfig,
+    own: &[(String, CoreConfig)],
+    reader: impl BufRead,
     mut on_output: impl FnMut(&str, &Output),
 ) -> Result<ReplaySummary, ReplayError> {
-    let estimator = crate::core::estimator::Estimator::from_config(cfg)?;
-    // Designed once for every vessel of the recording (a failed design is the monitor's to
-    // report, per test).
-    let multisine = Monitor::design_multisine(cfg).ok();
+    // Models loaded and the multisine designed once per configuration (a failed design is
+    // the monitor's to report, per test).
+    let parts = |c: &CoreConfig| -> Result<_, ReplayError> {
+        Ok((
+            Monitor::design_multisine(c).ok(),
+            crate::core::estimator::Estimator::from_config(c)?,
+        ))
+    };
+    let (multisine, estimator) = parts(cfg)?;
+    let own = own
+        .iter()
+        .map(|(v, c)| Ok((v.as_str(), (c, parts(c)?))))
+        .collect::<Result<HashMap<_, _>, ReplayError>>()?;
     let mut cores: HashMap<String, (Keys, Monitor)> = HashMap::new();
     let mut sum = ReplaySummary::default();
     for line in reader.lines() {
@@ -92,11 +112,15 @@ pub fn replay(
             if cores.len() >= MAX_VESSELS {
                 return Err(ReplayError::TooManyVessels);
             }
+            let (c, (ms, est)) = match own.get(vessel) {
+                Some((c, p)) => (*c, p),
+                None => (cfg, &(multisine.clone(), estimator.clone())),
+            };
             cores.insert(
                 vessel.to_string(),
                 (
                     Keys::new(vessel),
-                    Monitor::with_parts(cfg, vessel, multisine.clone(), estimator.clone()),
+                    Monitor::with_parts(c, vessel, ms.clone(), est.clone()),
                 ),
             );
         }

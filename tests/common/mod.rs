@@ -14,6 +14,15 @@ pub fn endpoint() -> String {
     format!("tcp/127.0.0.1:{}", free_loopback_port().unwrap())
 }
 
+/// A fresh directory under the system's temporary directory, named for the test and the
+/// process (emptied if a previous run left it).
+pub fn temp_dir(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("helmwatch-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
 /// The daemon configuration of the tests: the defaults (real test lengths: lockstep makes
 /// them cheap), a fast silence check and statistics.
 pub fn daemon_config() -> Config {

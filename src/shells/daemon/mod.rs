@@ -104,6 +104,12 @@ enum Msg {
     },
 }
 
+/// What vessels of one configuration share: the designed multisine and the estimator.
+type Parts = (
+    Option<crate::core::dsp::multisine::Multisine>,
+    Option<Arc<crate::core::estimator::Estimator>>,
+);
+
 /// Counters the Zenoh callbacks update without touching the core.
 #[derive(Debug, Default)]
 struct Shared {
@@ -206,17 +212,45 @@ pub async fn run(
 
 impl Daemon {
     /// Opens the session and declares everything; the daemon is ready when this returns.
-    /// Every vessel's monitor core is configured by `core`; the multisine is designed once for
-    /// all of them.
+    /// Every vessel of `cfg.vessels` is configured by `core` (one ship class).
     pub async fn start(
         core: &CoreConfig,
         cfg: &DaemonConfig,
         zcfg: zenoh::Config,
     ) -> Result<Daemon, DaemonError> {
-        core.check()?;
+        let fleet: Vec<(String, CoreConfig)> = cfg
+            .vessels
+            .iter()
+            .map(|v| (v.clone(), core.clone()))
+            .collect();
+        Self::start_fleet(&fleet, cfg, zcfg).await
+    }
+
+    /// Opens the session and declares everything; the daemon is ready when this returns.
+    /// Each vessel has its own core configuration (ships of different classes: see
+    /// `Config::fleet`); `cfg.vessels` is not read. The estimator's models are loaded and
+    /// the multisine designed once per distinct configuration, not per vessel.
+    pub async fn start_fleet(
+        vessels: &[(String, CoreConfig)],
+        cfg: &DaemonConfig,
+        zcfg: zenoh::Config,
+    ) -> Result<Daemon, DaemonError> {
         cfg.check()?;
-        let estimator = crate::core::estimator::Estimator::from_config(core)?;
-        let multisine = Monitor::design_multisine(core).ok();
+        let mut cores: Vec<(&CoreConfig, Parts)> = Vec::new();
+        let mut part_of = Vec::with_capacity(vessels.len());
+        for (_, core) in vessels {
+            let i = match cores.iter().position(|(c, _)| *c == core) {
+                Some(i) => i,
+                None => {
+                    core.check()?;
+                    let estimator = crate::core::estimator::Estimator::from_config(core)?;
+                    let multisine = Monitor::design_multisine(core).ok();
+                    cores.push((core, (multisine, estimator)));
+                    cores.len() - 1
+                }
+            };
+            part_of.push(i);
+        }
         let state = match &cfg.state_dir {
             Some(dir) => Some(StateDir::open(std::path::Path::new(dir))?),
             None => None,
@@ -239,7 +273,7 @@ impl Daemon {
             .await
             .map_err(|e| DaemonError::Open(e.to_string()))?;
         let cancel = CancellationToken::new();
-        let names = cfg.vessels.clone();
+        let names: Vec<String> = vessels.iter().map(|(n, _)| n.clone()).collect();
         let capacity = cfg.queue_capacity as usize;
 
         // Publishers and vessel tasks.
@@ -247,7 +281,8 @@ impl Daemon {
         let mut shared = Vec::with_capacity(names.len());
         let mut trigger_keys = Vec::with_capacity(names.len());
         let mut vessel_tasks = Vec::with_capacity(names.len());
-        for name in &names {
+        for (v, (name, core)) in vessels.iter().enumerate() {
+            let (multisine, estimator) = &cores[part_of[v]].1;
             let keys = Keys::new(name);
             let pubs = Publishers::declare(&session, &keys, cfg.publish_stats).await?;
             let (tx, rx) = mpsc::channel(capacity);
