@@ -333,3 +333,83 @@ async fn a_fleet_daemon_answers_each_vessel_on_its_own_keys() {
     daemon.stop().await;
     obs.close().await;
 }
+
+/// The sensors' clock over Zenoh: one tick of every stream stamped 1e6 s in the future, later
+/// the clock stepping back an hour on every stream (a GNSS time fix). The daemon answers the
+/// headings again at once after the wild tick and within 10 s of ship time after the step,
+/// counts one re-synchronisation per stream, and completes a test on the new timeline.
+#[tokio::test(flavor = "multi_thread")]
+async fn a_wild_timestamp_and_a_clock_stepped_back_an_hour_never_stop_the_daemon() {
+    const OUTLIER_S: f64 = 300.0;
+    const STEP_S: f64 = 600.0;
+    let ep = endpoint();
+    let mut cfg = daemon_config();
+    cfg.scheduler.enabled = false;
+    let daemon = Daemon::start(
+        &cfg.core(),
+        &cfg.daemon,
+        loopback_peer(&[ep.clone()], &[]).unwrap(),
+    )
+    .await
+    .unwrap();
+    let obs = Observer::new(&ep, "self", true).await;
+    let mut scenario = Scenario::nominal(&cfg.sim(), 5);
+    scenario.faults = vec![
+        format!("clock_outlier_s:1e6@{OUTLIER_S}").parse().unwrap(),
+        format!("clock_step_s:-3600@{STEP_S}").parse().unwrap(),
+    ];
+    let (stop, ship) = spawn_ship(&cfg, &scenario, &ep);
+    let exc_t = |v: &serde_json::Value| v["t"].as_f64().unwrap_or(f64::NAN);
+
+    // The first excitation on the new timeline (ship time after the step, the clock an hour
+    // behind) comes within 10 s of the step.
+    let first_new = obs
+        .wait_for("steering/autopilot/excitation", LIMIT, |e| {
+            exc_t(e) < STEP_S - 3600.0 + 1000.0
+        })
+        .await;
+    let late = exc_t(&first_new) - (STEP_S - 3600.0);
+    assert!(
+        (0.0..10.0).contains(&late),
+        "headings answered again {late} s of ship time after the step"
+    );
+    let excitations = obs.on("steering/autopilot/excitation");
+    // The wild tick was never answered; the tick after it was, on the old timeline.
+    assert!(
+        excitations.iter().all(|e| exc_t(e) < 1e5),
+        "a wild tick answered"
+    );
+    let after_outlier = excitations
+        .iter()
+        .map(exc_t)
+        .filter(|t| *t > OUTLIER_S)
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        after_outlier < OUTLIER_S + 0.25,
+        "first heading answered after the wild tick: t = {after_outlier}"
+    );
+
+    // A test completes on the new timeline.
+    let id = obs.trigger("hbt").await.test.unwrap();
+    let r = obs
+        .wait_for("fdi/report", LIMIT, |r| r["test"] == id.as_str())
+        .await;
+    assert_eq!(r["outcome"], "completed", "{r}");
+    assert!(r["t_start"].as_f64().unwrap() < 0.0, "{r}");
+    // Counted: one re-synchronisation per stream, one wild sample rejected per stream.
+    let stats = obs
+        .wait_for("fdi/stats", LIMIT, |s| {
+            s["inputs"]["heading"]["resyncs"].as_u64() == Some(1)
+        })
+        .await;
+    for stream in ["heading", "rudder", "speed"] {
+        let s = &stats["inputs"][stream];
+        assert_eq!(s["resyncs"], 1, "{stream}: {s}");
+        assert_eq!(s["time_jump"], 1, "{stream}: {s}");
+    }
+
+    stop.cancel();
+    ship.await.unwrap().unwrap();
+    daemon.stop().await;
+    obs.close().await;
+}
