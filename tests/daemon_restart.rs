@@ -2,7 +2,8 @@
 //! and started again on the same state directory publishes the alarm again within a second of
 //! telling systemd it is ready (`READY=1`, received here on our own `NOTIFY_SOCKET`), its
 //! test ids go on from where they were, and its history (`fdi/history`) holds every report a
-//! subscriber saw, before and after the kill.
+//! subscriber saw, before and after the kill. A damaged state directory is named, moved
+//! aside, and monitoring goes on with a fresh store.
 
 mod common;
 
@@ -257,6 +258,78 @@ async fn an_alarm_survives_sigkill_and_is_published_within_a_second_of_ready() {
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(69), "no daemon monitors `nobody`");
+
+    let _ = ship.kill();
+    let _ = ship.wait();
+    let _ = daemon.kill();
+    let _ = daemon.wait();
+    obs.close().await;
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A state directory someone damaged (a truncated vessel file, garbage in place of the
+/// history): the daemon starts, says which files it moved aside and why, and monitors with a
+/// fresh store: its next report is published and kept in the new history.
+#[tokio::test(flavor = "multi_thread")]
+async fn a_corrupted_state_directory_is_named_moved_aside_and_monitoring_goes_on() {
+    let dir = temp_dir("corrupt-state");
+    let state = dir.join("state");
+    std::fs::create_dir_all(state.join("vessels")).unwrap();
+    let vessel_file = state.join("vessels/self.json");
+    std::fs::write(&vessel_file, "{\"format\": \"helmwatch-state/1\", \"vess").unwrap();
+    let history_file = state.join("history.sqlite");
+    std::fs::write(&history_file, vec![0xA5u8; 5000]).unwrap();
+    let obs_ep = endpoint();
+    let daemon_ep = endpoint();
+    let daemon_toml = format!(
+        "[daemon]\nvessels = [\"self\"]\ntick-s = 0.1\n\n[zenoh]\nmode = \"peer\"\nlisten = [\"{daemon_ep}\"]\nconnect = [\"{obs_ep}\"]\nmulticast-scouting = false\n\n[scheduler]\nmethods = [\"hbt\"]\nsteady-time-s = 60.0\n"
+    );
+    let ship_toml = format!(
+        "[ship-peer]\nlockstep = true\nmode = \"peer\"\nlisten = []\nconnect = [\"{daemon_ep}\"]\nmulticast-scouting = false\n"
+    );
+    let notify_path = dir.join("notify.sock");
+    let notify = UnixDatagram::bind(&notify_path).unwrap();
+    notify.set_nonblocking(true).unwrap();
+    let obs = Observer::listening(&obs_ep, "self", false).await;
+    let mut daemon = spawn(
+        &dir,
+        "daemon",
+        &daemon_toml,
+        &["run", "--state-dir", state.to_str().unwrap()],
+        Some(&notify_path),
+    );
+    ready(&notify).await;
+    let text = log(&dir, "daemon");
+    for f in [&vessel_file, &history_file] {
+        assert!(
+            text.contains(&f.display().to_string()),
+            "the log names {}:\n{text}",
+            f.display()
+        );
+    }
+    assert!(vessel_file.with_extension("json.corrupt").exists());
+    assert!(state.join("history.sqlite.corrupt").exists());
+
+    let mut ship = spawn(&dir, "ship", &ship_toml, &["ship"], None);
+    let r = obs.wait_for("fdi/report", LIMIT, |_| true).await;
+    assert_eq!(r["outcome"], "completed", "{r}");
+    let replies = obs
+        .session
+        .get("vessels/self/fdi/history?limit=100")
+        .await
+        .unwrap();
+    let reply = replies.recv_async().await.unwrap();
+    let body: serde_json::Value =
+        serde_json::from_slice(&reply.result().unwrap().payload().to_bytes()).unwrap();
+    assert!(
+        body["records"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|x| x["kind"] == "report" && x["payload"] == r),
+        "{body}"
+    );
+    assert_eq!(daemon.try_wait().unwrap(), None, "the daemon is running");
 
     let _ = ship.kill();
     let _ = ship.wait();
