@@ -21,7 +21,7 @@
 //!
 //! A `[vessel.<name>]` table overrides, for that vessel only, any key of the sections a ship
 //! owns: its particulars and nominal values (`[vessel.<name>.ship]`), servo, sensors,
-//! autopilot and sea (simulated ships), the tests, scheduler, safety limits, input checks,
+//! autopilot, sea and structure (simulated ships), the tests, scheduler, safety limits, input checks,
 //! the estimator's models directory, the FDI and the baseline. Keys left out keep the file's
 //! top-level value. The daemon-wide sections (`daemon`, `zenoh`, `ship-peer`) cannot be
 //! overridden. [`Config::for_vessel`] gives a vessel's effective configuration: the
@@ -38,19 +38,22 @@ use crate::core::monitor::config::{CoreConfig, InputConfig, SafetyConfig, Schedu
 use crate::shells::daemon::config::DaemonConfig;
 use crate::shells::net::ZenohConfig;
 use crate::shells::shipnode::ShipPeerConfig;
-use crate::sim::config::{AutopilotConfig, SeaConfig, SimConfig, SimulationConfig};
+use crate::sim::config::{
+    AutopilotConfig, SeaConfig, SimConfig, SimulationConfig, StructureConfig,
+};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
 
 /// Sections a `[vessel.<name>]` table may override (the rest are daemon-wide).
-pub const VESSEL_SECTIONS: [&str; 14] = [
+pub const VESSEL_SECTIONS: [&str; 15] = [
     "ship",
     "servo",
     "autopilot",
     "sensors",
     "sea",
     "simulation",
+    "structure",
     "scheduler",
     "hbt",
     "clfrt",
@@ -77,6 +80,9 @@ pub struct Config {
     pub sea: SeaConfig,
     /// Simulation set-up (initial course, integration).
     pub simulation: SimulationConfig,
+    /// The simulated ship's structure beyond the first-order model (second-order Nomoto,
+    /// cubic damping, steering dead band and backlash); off by default.
+    pub structure: StructureConfig,
     /// When tests run.
     pub scheduler: SchedulerConfig,
     /// Harmonic balance (relay) test.
@@ -241,6 +247,7 @@ impl Config {
             autopilot: self.autopilot.clone(),
             sea: self.sea.clone(),
             simulation: self.simulation.clone(),
+            structure: self.structure.clone(),
         }
     }
 }

@@ -233,6 +233,88 @@ impl SimulationConfig {
     }
 }
 
+// ---------------------------------------------------------------------------------------------
+// Structure
+
+/// How the simulated ship differs in structure from the first-order Nomoto model the method
+/// is designed on (the nuisances of a real ship; all off by default).
+///
+/// ```text
+/// hull:     T1 T2 r'' + (T1 + T2) r' + H(r) = K (v + T3 v'),   H(r) = r + n3 r^3
+///           T1 = T / (1 + T2/T1 - T3/T1), so T1 + T2 - T3 = T = 1/a and K = b/a:
+///           the ship's first-order (Nomoto) approximation is the nominal model
+/// steering: the servo ignores command errors inside the dead band (it stops at its edge);
+///           the rudder blade follows the servo through a backlash (mechanical play)
+/// ```
+///
+/// With every value zero the hull is integrated exactly (`sim::ship`) and the simulator is
+/// the first-order ship bit for bit; otherwise by fourth-order Runge-Kutta on the sub-steps.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
+pub struct StructureConfig {
+    /// Second-order Nomoto: T2 / T1, 0 (first order) or [0.005, 0.5].
+    pub nomoto_t2_ratio: f64,
+    /// Second-order Nomoto: the zero's T3 / T1, [0, 0.5] and below 1 + T2/T1.
+    pub nomoto_t3_ratio: f64,
+    /// Norrbin cubic yaw damping n3 in H(r) = r + n3 r^3 [s^2/rad^2], [0, 1e6]. At 1000 s^2
+    /// the cubic term is 30 % of the linear one at r = 1 deg/s.
+    pub norrbin_n3_s2: f64,
+    /// Steering-gear dead band: command errors smaller than half of it leave the servo at
+    /// rest [deg], [0, 5].
+    pub rudder_dead_band_deg: f64,
+    /// Backlash between the servo and the rudder blade (total play) [deg], [0, 5]. The
+    /// rudder-angle sensor reads the blade.
+    pub rudder_backlash_deg: f64,
+}
+
+impl Default for StructureConfig {
+    fn default() -> Self {
+        Self {
+            nomoto_t2_ratio: 0.0,
+            nomoto_t3_ratio: 0.0,
+            norrbin_n3_s2: 0.0,
+            rudder_dead_band_deg: 0.0,
+            rudder_backlash_deg: 0.0,
+        }
+    }
+}
+
+impl StructureConfig {
+    /// Checks the section's limits; the error names the key and its allowed range.
+    pub fn check(&self) -> Result<(), ConfigError> {
+        let r2 = self.nomoto_t2_ratio;
+        if r2 != 0.0 {
+            check_range("structure.nomoto-t2-ratio", r2, 0.005, 0.5).map_err(|_| {
+                crate::core::config::fail(
+                    "structure.nomoto-t2-ratio",
+                    r2,
+                    "0 (first order) or [0.005, 0.5]",
+                )
+            })?;
+        }
+        check_range("structure.nomoto-t3-ratio", self.nomoto_t3_ratio, 0.0, 0.5)?;
+        check_range("structure.norrbin-n3-s2", self.norrbin_n3_s2, 0.0, 1.0e6)?;
+        check_range(
+            "structure.rudder-dead-band-deg",
+            self.rudder_dead_band_deg,
+            0.0,
+            5.0,
+        )?;
+        check_range(
+            "structure.rudder-backlash-deg",
+            self.rudder_backlash_deg,
+            0.0,
+            5.0,
+        )?;
+        Ok(())
+    }
+
+    /// Whether the hull is the exact first-order model (no T2, T3 or cubic damping).
+    pub fn first_order_hull(&self) -> bool {
+        self.nomoto_t2_ratio == 0.0 && self.nomoto_t3_ratio == 0.0 && self.norrbin_n3_s2 == 0.0
+    }
+}
+
 /// Everything one simulated ship needs: the ship (its true particulars default to the
 /// nominal ones), its servo, sensors and autopilot, the sea and the simulation set-up. Cloned
 /// from [`crate::config::Config::sim`] or built by hand in tests.
@@ -250,6 +332,8 @@ pub struct SimConfig {
     pub sea: SeaConfig,
     /// Simulation set-up.
     pub simulation: SimulationConfig,
+    /// The ship's structure beyond the first-order model (a scenario may override it).
+    pub structure: StructureConfig,
 }
 
 impl SimConfig {
@@ -261,6 +345,7 @@ impl SimConfig {
         self.autopilot.check()?;
         self.sea.check()?;
         self.simulation.check()?;
+        self.structure.check()?;
         Ok(())
     }
 }

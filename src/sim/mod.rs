@@ -66,8 +66,8 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use sea::{MarkovBias, WaveYaw};
-use servo::Servo;
-use ship::{Hull, HullStep};
+use servo::{Backlash, Servo};
+use ship::{GeneralHull, Hull, HullStep, Structure};
 
 /// Why a simulation could not be set up or run.
 #[derive(Debug, thiserror::Error)]
@@ -244,7 +244,12 @@ pub struct Ship {
     full: HullStep,
     a_per_s: f64,
     hull: Hull,
+    /// The hull's structure beyond the first order, and the state it adds (None: the exact
+    /// first-order hull).
+    general: Option<(config::StructureConfig, GeneralHull)>,
     servo: Servo,
+    /// Play between the servo and the blade (None: none).
+    backlash: Option<Backlash>,
     autopilot: Autopilot,
     bias: MarkovBias,
     wave: WaveYaw,
@@ -307,7 +312,27 @@ impl Ship {
         let max = cfg.servo.max_angle_rad();
         let trim = (-bias.value_rad()).clamp(-max, max);
         let course = deg(cfg.simulation.initial_course_deg);
-        let (a, _) = cfg.ship.nomoto(scenario.speed_mps, scenario.displacement_t);
+        let (a, b) = cfg.ship.nomoto(scenario.speed_mps, scenario.displacement_t);
+        let st = &cfg.structure;
+        let hull = Hull {
+            psi_rad: wrap_2pi(course),
+            r_rad_s: 0.0,
+        };
+        let general = (!st.first_order_hull()).then(|| {
+            let s = Structure::new(
+                a,
+                b,
+                st.nomoto_t2_ratio,
+                st.nomoto_t3_ratio,
+                st.norrbin_n3_s2,
+            );
+            (
+                st.clone(),
+                GeneralHull::steady(&s, &hull, trim + bias.value_rad()),
+            )
+        });
+        let backlash = (st.rudder_backlash_deg > 0.0)
+            .then(|| Backlash::new(deg(st.rudder_backlash_deg), trim));
         let autopilot = Autopilot::new(
             cfg.autopilot.gains_at(&cfg.ship, scenario.speed_mps),
             cfg.autopilot.wave_filter_rad_s,
@@ -329,17 +354,17 @@ impl Ship {
             h_s,
             full: HullStep::new(a, h_s),
             a_per_s: a,
-            hull: Hull {
-                psi_rad: wrap_2pi(course),
-                r_rad_s: 0.0,
-            },
+            hull,
+            general,
             servo: Servo::new(
                 max,
                 cfg.servo.max_rate_rad_s(),
                 cfg.servo.time_constant_s,
                 trim,
                 h_s,
-            ),
+            )
+            .with_dead_band(deg(st.rudder_dead_band_deg)),
+            backlash,
             autopilot,
             bias,
             wave,
@@ -379,7 +404,7 @@ impl Ship {
         let n_speed = normal(&mut self.rng);
         let n_heading = normal(&mut self.rng);
         let m = Measurement {
-            rudder_rad: self.servo.delta_rad() + self.rudder_noise_rad * n_rudder,
+            rudder_rad: self.rudder_rad() + self.rudder_noise_rad * n_rudder,
             speed_mps: self.speed_mps * fx.speed_log_scale
                 + fx.speed_log_bias_mps
                 + self.speed_noise_mps * n_speed,
@@ -479,13 +504,31 @@ impl Ship {
         let beta = self.bias.value_rad();
 
         let mut rate_limited = false;
+        let structure = self.general.as_ref().map(|(st, _)| {
+            Structure::new(
+                self.a_per_s,
+                b,
+                st.nomoto_t2_ratio,
+                st.nomoto_t3_ratio,
+                st.norrbin_n3_s2,
+            )
+        });
         for _ in 0..self.substeps {
             let pieces = self.servo.advance(cmd, self.h_s);
             for p in pieces.as_slice() {
                 rate_limited |= p.ramp;
-                let v0 = e * p.delta0_rad + beta;
-                let v1 = e * p.delta1_rad + beta;
-                if p.duration_s == self.h_s {
+                // The blade: the servo's angle through the play, if any.
+                let (d0, d1) = match &mut self.backlash {
+                    Some(bl) => (bl.blade_rad(), bl.follow(p.delta1_rad)),
+                    None => (p.delta0_rad, p.delta1_rad),
+                };
+                let v0 = e * d0 + beta;
+                let v1 = e * d1 + beta;
+                if let (Some(s), Some((_, g))) = (&structure, &mut self.general) {
+                    if p.duration_s > 0.0 {
+                        g.advance(s, &mut self.hull, v0, v1, p.duration_s);
+                    }
+                } else if p.duration_s == self.h_s {
                     self.hull.advance(&self.full, b, v0, v1);
                 } else if p.duration_s > 0.0 {
                     let c = HullStep::new(self.a_per_s, p.duration_s);
@@ -503,6 +546,13 @@ impl Ship {
         self.rate_limited = rate_limited;
         self.tick += 1;
         self.meas = None;
+    }
+
+    /// The rudder blade's angle [rad]: the servo's, through the backlash if there is one.
+    fn rudder_rad(&self) -> f64 {
+        self.backlash
+            .as_ref()
+            .map_or(self.servo.delta_rad(), Backlash::blade_rad)
     }
 
     /// Sets the autopilot's target course [rad] (published at the next tick).
@@ -539,7 +589,7 @@ impl Ship {
             t_s: t,
             psi_rad: self.hull.psi_rad,
             r_rad_s: self.hull.r_rad_s,
-            delta_rad: self.servo.delta_rad(),
+            delta_rad: self.rudder_rad(),
             beta_rad: self.bias.value_rad(),
             wave_rad: self.wave.value_rad(),
             drift_rad: fx.heading_drift_rad,

@@ -12,6 +12,15 @@
 //! error decays exponentially, `c - delta(t) = (c - delta_1) exp(-t / T_r)`. So one sub-step
 //! is at most two [`Piece`]s: a ramp then an exponential. The rudder moves monotonically
 //! towards c, which lies inside the angle limits, so it never leaves them.
+//!
+//! Two steering-gear nuisances of real ships (`[structure]`, off by default):
+//!
+//! - a dead band db: a command error |c - delta| <= db/2 leaves the servo at rest; a larger
+//!   one drives it to the band's near edge, c - sign(c - delta) db/2 (the valve closes there);
+//! - a backlash (play) p between the servo and the rudder blade: the blade stays put until the
+//!   servo has taken up the play, then is dragged at its side,
+//!   `blade = clamp(blade, delta - p/2, delta + p/2)` ([`Backlash`]); the rudder-angle sensor
+//!   reads the blade.
 
 /// One stretch of the rudder trajectory over (part of) a sub-step.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -55,6 +64,40 @@ pub struct Servo {
     cached_h_s: f64,
     /// exp(-h / T_r).
     cached_decay: f64,
+    /// Dead band on the command error (total width) [rad]; 0: none.
+    dead_band_rad: f64,
+}
+
+/// The play between the servo and the rudder blade (see the module documentation).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Backlash {
+    /// Half the play [rad].
+    half_rad: f64,
+    /// Blade angle [rad].
+    blade_rad: f64,
+}
+
+impl Backlash {
+    /// A play of `play_rad` (total) with the blade at `blade_rad`.
+    pub fn new(play_rad: f64, blade_rad: f64) -> Self {
+        Self {
+            half_rad: 0.5 * play_rad,
+            blade_rad,
+        }
+    }
+
+    /// The blade after the servo moved to `servo_rad`.
+    pub fn follow(&mut self, servo_rad: f64) -> f64 {
+        self.blade_rad = self
+            .blade_rad
+            .clamp(servo_rad - self.half_rad, servo_rad + self.half_rad);
+        self.blade_rad
+    }
+
+    /// Blade angle [rad].
+    pub fn blade_rad(&self) -> f64 {
+        self.blade_rad
+    }
 }
 
 impl Servo {
@@ -73,7 +116,14 @@ impl Servo {
             time_constant_s,
             cached_h_s: substep_s,
             cached_decay: (-substep_s / time_constant_s).exp(),
+            dead_band_rad: 0.0,
         }
+    }
+
+    /// The servo with a dead band of `dead_band_rad` (total width) on the command error.
+    pub fn with_dead_band(mut self, dead_band_rad: f64) -> Self {
+        self.dead_band_rad = dead_band_rad;
+        self
     }
 
     /// Rudder angle [rad].
@@ -111,8 +161,17 @@ impl Servo {
 
     /// Advances the rudder by `h_s` under the held command `cmd_rad` (clamped here), exactly.
     pub fn advance(&mut self, cmd_rad: f64, h_s: f64) -> Pieces {
-        let c = self.clamp_command(cmd_rad);
+        let mut c = self.clamp_command(cmd_rad);
         let d0 = self.delta_rad;
+        if self.dead_band_rad > 0.0 {
+            let half = 0.5 * self.dead_band_rad;
+            let e = c - d0;
+            c = if e.abs() <= half {
+                d0
+            } else {
+                c - e.signum() * half
+            };
+        }
         let err = c - d0;
         let knee = self.rate_rad_s * self.time_constant_s;
         let mut pieces = Pieces {
@@ -189,6 +248,65 @@ mod tests {
             worst = worst.max((s.delta_rad() / DEG - expect).abs());
         }
         assert!(worst < 1e-9, "worst deviation {worst} deg");
+    }
+
+    /// Dead band 1 deg: a command 0.4 deg away leaves the servo at rest; one 3 deg away
+    /// brings it to 2.5 deg, the band's near edge (the lag's exponential towards it).
+    #[test]
+    fn a_dead_band_stops_the_servo_at_its_edge() {
+        let h = 0.02;
+        let mut s = Servo::new(30.0 * DEG, 4.0 * DEG, 1.0, 0.0, h).with_dead_band(1.0 * DEG);
+        for _ in 0..500 {
+            s.advance(0.4 * DEG, h);
+        }
+        assert_eq!(s.delta_rad(), 0.0);
+        for _ in 0..1000 {
+            s.advance(3.0 * DEG, h);
+        }
+        assert!(
+            (s.delta_rad() / DEG - 2.5).abs() < 1e-6,
+            "{}",
+            s.delta_rad() / DEG
+        );
+        // Back by less than the band's half: it stays.
+        for _ in 0..500 {
+            s.advance(2.2 * DEG, h);
+        }
+        assert!((s.delta_rad() / DEG - 2.5).abs() < 1e-6);
+    }
+
+    /// Backlash 2 deg against a sine on the servo: the blade's peaks are those of the servo
+    /// less half the play, and it rests for the servo's travel of the whole play after each
+    /// reversal.
+    #[test]
+    fn backlash_takes_half_the_play_off_the_peaks() {
+        let mut b = Backlash::new(2.0 * DEG, 0.0);
+        let (amp, w, dt) = (5.0, 0.1, 0.01);
+        let mut max: f64 = f64::MIN;
+        let mut min: f64 = f64::MAX;
+        let mut still = 0usize;
+        let mut prev = 0.0;
+        for i in 0..20_000 {
+            let servo = amp * DEG * (w * i as f64 * dt).sin();
+            let blade = b.follow(servo);
+            if i > 5000 {
+                max = max.max(blade);
+                min = min.min(blade);
+                still += usize::from(blade == prev);
+            }
+            prev = blade;
+        }
+        assert!((max / DEG - 4.0).abs() < 1e-3, "{}", max / DEG);
+        assert!((min / DEG + 4.0).abs() < 1e-3, "{}", min / DEG);
+        // After each reversal the servo travels 2 deg back from its 5 deg peak:
+        // sin(phi) = 3/5, the blade rests (pi/2 - asin(0.6)) / w per half period.
+        let rest_s = (std::f64::consts::FRAC_PI_2 - 0.6f64.asin()) / w;
+        let halves = 15_000.0 * dt * w / std::f64::consts::PI;
+        let expect = rest_s * halves / dt;
+        assert!(
+            (still as f64 / expect - 1.0).abs() < 0.05,
+            "{still} samples at rest, expected {expect}"
+        );
     }
 
     #[test]
