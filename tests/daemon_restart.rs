@@ -62,32 +62,72 @@ async fn ready(sock: &UnixDatagram) -> Instant {
     }
 }
 
+/// What both tests set up: endpoints, the daemon's and the ship's configuration (HBT tests
+/// only, back to back), our own `NOTIFY_SOCKET`, and an observer the daemon connects to.
+struct Setup {
+    dir: PathBuf,
+    state: PathBuf,
+    daemon_ep: String,
+    daemon_toml: String,
+    ship_toml: String,
+    notify_path: PathBuf,
+    notify: UnixDatagram,
+    obs: Observer,
+}
+
+impl Setup {
+    async fn new(name: &str) -> Setup {
+        let dir = temp_dir(name);
+        let state = dir.join("state");
+        let obs_ep = endpoint();
+        let daemon_ep = endpoint();
+        let daemon_toml = format!(
+            "[daemon]\nvessels = [\"self\"]\ntick-s = 0.1\n\n[zenoh]\nmode = \"peer\"\nlisten = [\"{daemon_ep}\"]\nconnect = [\"{obs_ep}\"]\nmulticast-scouting = false\n\n[scheduler]\nmethods = [\"hbt\"]\ninterval-s = 30.0\nsteady-time-s = 60.0\n"
+        );
+        let ship_toml = format!(
+            "[ship-peer]\nlockstep = true\nmode = \"peer\"\nlisten = []\nconnect = [\"{daemon_ep}\"]\nmulticast-scouting = false\n"
+        );
+        let notify_path = dir.join("notify.sock");
+        let notify = UnixDatagram::bind(&notify_path).unwrap();
+        notify.set_nonblocking(true).unwrap();
+        let obs = Observer::listening(&obs_ep, "self", false).await;
+        Setup {
+            dir,
+            state,
+            daemon_ep,
+            daemon_toml,
+            ship_toml,
+            notify_path,
+            notify,
+            obs,
+        }
+    }
+}
+
+/// `helmwatch run --state-dir <state>` under our notify socket.
+fn daemon(dir: &Path, toml: &str, state: &Path, notify: &Path) -> Child {
+    spawn(
+        dir,
+        "daemon",
+        toml,
+        &["run", "--state-dir", state.to_str().unwrap()],
+        Some(notify),
+    )
+}
+
 #[tokio::test(flavor = "multi_thread")]
 async fn an_alarm_survives_sigkill_and_is_published_within_a_second_of_ready() {
-    let dir = temp_dir("restart");
-    let state = dir.join("state");
-    let obs_ep = endpoint();
-    let daemon_ep = endpoint();
-    // HBT tests only, back to back: two faulty tests in a row raise the alarm.
-    let daemon_toml = format!(
-        "[daemon]\nvessels = [\"self\"]\ntick-s = 0.1\n\n[zenoh]\nmode = \"peer\"\nlisten = [\"{daemon_ep}\"]\nconnect = [\"{obs_ep}\"]\nmulticast-scouting = false\n\n[scheduler]\nmethods = [\"hbt\"]\ninterval-s = 30.0\nsteady-time-s = 60.0\n"
-    );
-    let ship_toml = format!(
-        "[ship-peer]\nlockstep = true\nmode = \"peer\"\nlisten = []\nconnect = [\"{daemon_ep}\"]\nmulticast-scouting = false\n"
-    );
-    let notify_path = dir.join("notify.sock");
-    let notify = UnixDatagram::bind(&notify_path).unwrap();
-    notify.set_nonblocking(true).unwrap();
-    let obs = Observer::listening(&obs_ep, "self", false).await;
-
-    let state_arg = state.to_str().unwrap();
-    let mut daemon = spawn(
-        &dir,
-        "daemon",
-        &daemon_toml,
-        &["run", "--state-dir", state_arg],
-        Some(&notify_path),
-    );
+    let Setup {
+        dir,
+        state,
+        daemon_ep,
+        daemon_toml,
+        ship_toml,
+        notify_path,
+        notify,
+        obs,
+    } = Setup::new("restart").await;
+    let mut daemon = daemon(&dir, &daemon_toml, &state, &notify_path);
     ready(&notify).await;
     let mut ship = spawn(
         &dir,
@@ -120,13 +160,7 @@ async fn an_alarm_survives_sigkill_and_is_published_within_a_second_of_ready() {
         .collect();
     let last_seq = seen_ids.iter().map(|id| seq(id)).max().unwrap();
 
-    let mut daemon = spawn(
-        &dir,
-        "daemon",
-        &daemon_toml,
-        &["run", "--state-dir", state_arg],
-        Some(&notify_path),
-    );
+    let mut daemon = self::daemon(&dir, &daemon_toml, &state, &notify_path);
     let t_ready = ready(&notify).await;
     let deadline = t_ready + Duration::from_secs(1);
     let republished = loop {
@@ -272,32 +306,22 @@ async fn an_alarm_survives_sigkill_and_is_published_within_a_second_of_ready() {
 /// fresh store: its next report is published and kept in the new history.
 #[tokio::test(flavor = "multi_thread")]
 async fn a_corrupted_state_directory_is_named_moved_aside_and_monitoring_goes_on() {
-    let dir = temp_dir("corrupt-state");
-    let state = dir.join("state");
+    let Setup {
+        dir,
+        state,
+        daemon_toml,
+        ship_toml,
+        notify_path,
+        notify,
+        obs,
+        ..
+    } = Setup::new("corrupt-state").await;
     std::fs::create_dir_all(state.join("vessels")).unwrap();
     let vessel_file = state.join("vessels/self.json");
     std::fs::write(&vessel_file, "{\"format\": \"helmwatch-state/1\", \"vess").unwrap();
     let history_file = state.join("history.sqlite");
     std::fs::write(&history_file, vec![0xA5u8; 5000]).unwrap();
-    let obs_ep = endpoint();
-    let daemon_ep = endpoint();
-    let daemon_toml = format!(
-        "[daemon]\nvessels = [\"self\"]\ntick-s = 0.1\n\n[zenoh]\nmode = \"peer\"\nlisten = [\"{daemon_ep}\"]\nconnect = [\"{obs_ep}\"]\nmulticast-scouting = false\n\n[scheduler]\nmethods = [\"hbt\"]\nsteady-time-s = 60.0\n"
-    );
-    let ship_toml = format!(
-        "[ship-peer]\nlockstep = true\nmode = \"peer\"\nlisten = []\nconnect = [\"{daemon_ep}\"]\nmulticast-scouting = false\n"
-    );
-    let notify_path = dir.join("notify.sock");
-    let notify = UnixDatagram::bind(&notify_path).unwrap();
-    notify.set_nonblocking(true).unwrap();
-    let obs = Observer::listening(&obs_ep, "self", false).await;
-    let mut daemon = spawn(
-        &dir,
-        "daemon",
-        &daemon_toml,
-        &["run", "--state-dir", state.to_str().unwrap()],
-        Some(&notify_path),
-    );
+    let mut daemon = daemon(&dir, &daemon_toml, &state, &notify_path);
     ready(&notify).await;
     let text = log(&dir, "daemon");
     for f in [&vessel_file, &history_file] {

@@ -35,17 +35,22 @@ fn spawn_ship(
     (stop, task)
 }
 
+/// The daemon of `cfg`, listening on `ep`.
+async fn start_daemon(cfg: &Config, ep: &str) -> Daemon {
+    Daemon::start(
+        &cfg.core(),
+        &cfg.daemon,
+        loopback_peer(&[ep.to_string()], &[]).unwrap(),
+    )
+    .await
+    .unwrap()
+}
+
 #[tokio::test(flavor = "multi_thread")]
 async fn nominal_run_reports_arrive_with_features_and_no_alarm() {
     let ep = endpoint();
     let cfg = daemon_config();
-    let daemon = Daemon::start(
-        &cfg.core(),
-        &cfg.daemon,
-        loopback_peer(&[ep.clone()], &[]).unwrap(),
-    )
-    .await
-    .unwrap();
+    let daemon = start_daemon(&cfg, &ep).await;
     let obs = Observer::new(&ep, "self", false).await;
     let (stop, ship) = spawn_ship(&cfg, &Scenario::nominal(&cfg.sim(), 7), &ep);
 
@@ -111,13 +116,7 @@ async fn displacement_fault_raises_the_alarm() {
     let ep = endpoint();
     let mut cfg = daemon_config();
     cfg.scheduler.enabled = false;
-    let daemon = Daemon::start(
-        &cfg.core(),
-        &cfg.daemon,
-        loopback_peer(&[ep.clone()], &[]).unwrap(),
-    )
-    .await
-    .unwrap();
+    let daemon = start_daemon(&cfg, &ep).await;
     let obs = Observer::new(&ep, "self", false).await;
     let mut scenario = Scenario::nominal(&cfg.sim(), 11);
     scenario.faults = vec!["displacement_pct:+30@0".parse().unwrap()];
@@ -168,13 +167,7 @@ async fn ship_disconnecting_mid_test_aborts_the_test_with_a_report() {
     let ep = endpoint();
     let mut cfg = daemon_config();
     cfg.scheduler.enabled = false;
-    let daemon = Daemon::start(
-        &cfg.core(),
-        &cfg.daemon,
-        loopback_peer(&[ep.clone()], &[]).unwrap(),
-    )
-    .await
-    .unwrap();
+    let daemon = start_daemon(&cfg, &ep).await;
     let obs = Observer::new(&ep, "self", false).await;
     let (stop, ship) = spawn_ship(&cfg, &Scenario::nominal(&cfg.sim(), 3), &ep);
 
@@ -207,13 +200,7 @@ async fn malformed_nan_and_out_of_order_samples_are_counted_and_the_next_test_co
     let ep = endpoint();
     let mut cfg = daemon_config();
     cfg.scheduler.enabled = false;
-    let daemon = Daemon::start(
-        &cfg.core(),
-        &cfg.daemon,
-        loopback_peer(&[ep.clone()], &[]).unwrap(),
-    )
-    .await
-    .unwrap();
+    let daemon = start_daemon(&cfg, &ep).await;
     let obs = Observer::new(&ep, "self", false).await;
     let (stop, ship) = spawn_ship(&cfg, &Scenario::nominal(&cfg.sim(), 5), &ep);
 
@@ -300,13 +287,7 @@ async fn a_fleet_daemon_answers_each_vessel_on_its_own_keys() {
     let mut cfg = daemon_config();
     cfg.scheduler.enabled = false;
     cfg.daemon.vessels = vec!["alpha".into(), "bravo".into()];
-    let daemon = Daemon::start(
-        &cfg.core(),
-        &cfg.daemon,
-        loopback_peer(&[ep.clone()], &[]).unwrap(),
-    )
-    .await
-    .unwrap();
+    let daemon = start_daemon(&cfg, &ep).await;
     let obs = Observer::new(&ep, "bravo", false).await;
     let mut ship_cfg = cfg.clone();
     ship_cfg.simulation.vessel = "bravo".into();
@@ -345,13 +326,7 @@ async fn a_wild_timestamp_and_a_clock_stepped_back_an_hour_never_stop_the_daemon
     let ep = endpoint();
     let mut cfg = daemon_config();
     cfg.scheduler.enabled = false;
-    let daemon = Daemon::start(
-        &cfg.core(),
-        &cfg.daemon,
-        loopback_peer(&[ep.clone()], &[]).unwrap(),
-    )
-    .await
-    .unwrap();
+    let daemon = start_daemon(&cfg, &ep).await;
     let obs = Observer::new(&ep, "self", true).await;
     let mut scenario = Scenario::nominal(&cfg.sim(), 5);
     scenario.faults = vec![

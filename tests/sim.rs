@@ -151,7 +151,6 @@ fn dft_of_difference(x: &[f64], start: usize, n: usize, k: usize) -> (f64, f64) 
 fn sinusoidal_rudder_matches_transfer_function() {
     let cfg = Config::default();
     let window_s = 600.0;
-    let n = ticks(window_s, &cfg);
     let amp = 2.0 * DEG;
     let mut worst_gain: f64 = 0.0;
     let mut worst_phase_deg: f64 = 0.0;
@@ -160,22 +159,7 @@ fn sinusoidal_rudder_matches_transfer_function() {
         for harmonic in [3usize, 7, 17] {
             let w = 2.0 * PI * harmonic as f64 / window_s;
             assert!(amp * w < cfg.servo.max_rate_rad_s() / 2.0);
-            let mut ship = clean_ship(&cfg, u, d, &[]);
-            // Settle three windows (>= 15 time constants), measure the fourth.
-            let settle = 3 * n;
-            let (mut delta, mut psi) = (Vec::new(), Vec::new());
-            for _ in 0..settle + n + 1 {
-                let t = ship.time_s();
-                let tr = ship.truth();
-                delta.push(tr.delta_rad);
-                psi.push(tr.psi_rad);
-                ship.set_command_override(Some(amp * (w * t).sin()));
-                ship.step();
-            }
-            let (dr, di) = dft_of_difference(&delta, settle, n, harmonic);
-            let (pr, pi) = dft_of_difference(&psi, settle, n, harmonic);
-            let gain = (pr * pr + pi * pi).sqrt() / (dr * dr + di * di).sqrt();
-            let phase = pi.atan2(pr) - di.atan2(dr);
+            let (gain, phase) = measured_response(&cfg, u, d, harmonic, amp);
             // b / (jw (jw + a)) = b / (-w^2 + j a w).
             let (hr, hi) = (-w * w, a * w);
             let gain_true = b / (hr * hr + hi * hi).sqrt();
@@ -203,7 +187,8 @@ fn sinusoidal_rudder_matches_transfer_function() {
 }
 
 /// Gain and phase of heading over the measured (blade) rudder at `harmonic` of a 600 s
-/// window, with a 2 deg sinusoidal command on a clean ship of `cfg`.
+/// window, with a sinusoidal command of `amp` on a clean ship of `cfg`: three windows
+/// (>= 15 time constants) to settle, the fourth measured.
 fn measured_response(cfg: &Config, u: f64, d: f64, harmonic: usize, amp: f64) -> (f64, f64) {
     let window_s = 600.0;
     let n = ticks(window_s, cfg);
