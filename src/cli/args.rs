@@ -152,6 +152,10 @@ pub(crate) struct EvalArgs {
     /// Skip the accuracy-against-test-length table.
     #[arg(long)]
     pub(crate) no_lengths: bool,
+    /// Also evaluate on the family of real ships (second-order Nomoto, Norrbin damping, dead
+    /// band, backlash, a fixed-gain autopilot; `sim::config::family`).
+    #[arg(long)]
+    pub(crate) family: bool,
     /// Worker threads (default: every core).
     #[arg(long)]
     pub(crate) threads: Option<usize>,

@@ -77,6 +77,8 @@ pub struct EvalOptions {
     pub drift: bool,
     /// Print the accuracy against test length.
     pub lengths: bool,
+    /// Print the accuracy on each member of the family of real ships.
+    pub family: bool,
     /// Worker threads (None: every core).
     pub threads: Option<usize>,
 }
@@ -293,6 +295,10 @@ pub(crate) fn eval(cfg: &Config, o: &EvalOptions) -> Result<(), Failure> {
     println!();
     print_durations(&db);
 
+    if o.family {
+        print_family(cfg, &lm_models, &spec, threads);
+    }
+
     if o.drift {
         let drift: Fault = "heading_drift_deg_per_min:1@0"
             .parse()
@@ -405,4 +411,44 @@ pub fn length_variants(cfg: &Config) -> Vec<(String, (Method, Config))> {
         v.push((format!("{p} periods{default}"), (Method::Hbt, x)));
     }
     v
+}
+
+/// `eval --family`: the shipped (LM) models on ships of other structures, bias and RMSE per
+/// method, sea and parameter, and the share of tests that completed.
+fn print_family(
+    cfg: &Config,
+    models: &[crate::core::estimator::model::Model],
+    spec: &crate::tools::training::database::DatabaseSpec,
+    threads: usize,
+) {
+    let rows = crate::tools::eval::estimator::family_accuracy(cfg, models, spec, threads);
+    println!();
+    println!("## The family of real ships (same held-out points and seeds, LM models)");
+    println!();
+    println!("Error = estimate - truth; bias is its mean, RMSE its root mean square.");
+    println!();
+    println!("| ship | method | sea | speed bias | speed RMSE | displacement bias | displacement RMSE | completed |");
+    println!("|---|---|---|---:|---:|---:|---:|---:|");
+    for (name, cells, rate) in &rows {
+        for method in [Method::Clfrt, Method::Hbt] {
+            for &sea in &spec.seas {
+                let (Some(u), Some(d)) = (
+                    find(cells, method, sea, Target::Speed),
+                    find(cells, method, sea, Target::Displacement),
+                ) else {
+                    continue;
+                };
+                println!(
+                    "| {name} | {} | {} | {:+.2} m/s | {:.2} m/s | {:+.0} t | {:.0} t | {:.0} % |",
+                    method.name().to_uppercase(),
+                    sea.name(),
+                    u.bias,
+                    u.rmse,
+                    d.bias,
+                    d.rmse,
+                    100.0 * rate
+                );
+            }
+        }
+    }
 }

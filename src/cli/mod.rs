@@ -176,6 +176,7 @@ impl From<EvalArgs> for EvalOptions {
             points: a.points,
             drift: a.drift,
             lengths: !a.no_lengths,
+            family: a.family,
             threads: a.threads,
         }
     }

@@ -315,6 +315,75 @@ impl StructureConfig {
     }
 }
 
+/// One member of the family of real ships the method must serve: a structure and whether the
+/// autopilot keeps gains of its own tuned at the nominal ship (no speed scheduling).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FamilyMember {
+    /// Name in tables.
+    pub name: &'static str,
+    /// Hull and steering structure.
+    pub structure: StructureConfig,
+    /// The autopilot's gains are fixed at those of the nominal ship.
+    pub fixed_gain_autopilot: bool,
+}
+
+impl FamilyMember {
+    /// Sets this member's structure and autopilot in a configuration's sections.
+    pub fn apply(&self, structure: &mut StructureConfig, autopilot: &mut AutopilotConfig) {
+        *structure = self.structure.clone();
+        if self.fixed_gain_autopilot {
+            autopilot.speed_scheduling = false;
+        }
+    }
+}
+
+/// The family of ships of the real-ships issue, each nuisance alone at two strengths (the
+/// upper one the acceptance bound: T2/T1 0.1, T3/T1 0.25, dead band 1 deg), then all at once.
+/// The first member is the first-order ship the estimator was designed on.
+pub fn family() -> Vec<FamilyMember> {
+    let s = |t2, t3, n3, db, bl| StructureConfig {
+        nomoto_t2_ratio: t2,
+        nomoto_t3_ratio: t3,
+        norrbin_n3_s2: n3,
+        rudder_dead_band_deg: db,
+        rudder_backlash_deg: bl,
+    };
+    let m = |name, structure, fixed_gain_autopilot| FamilyMember {
+        name,
+        structure,
+        fixed_gain_autopilot,
+    };
+    vec![
+        m("first order", s(0.0, 0.0, 0.0, 0.0, 0.0), false),
+        m(
+            "nomoto2 T2/T1 0.05 T3/T1 0.12",
+            s(0.05, 0.12, 0.0, 0.0, 0.0),
+            false,
+        ),
+        m(
+            "nomoto2 T2/T1 0.1 T3/T1 0.25",
+            s(0.1, 0.25, 0.0, 0.0, 0.0),
+            false,
+        ),
+        m("norrbin n3 3000 s^2", s(0.0, 0.0, 3000.0, 0.0, 0.0), false),
+        m(
+            "norrbin n3 30000 s^2",
+            s(0.0, 0.0, 30000.0, 0.0, 0.0),
+            false,
+        ),
+        m("dead band 0.5 deg", s(0.0, 0.0, 0.0, 0.5, 0.0), false),
+        m("dead band 1 deg", s(0.0, 0.0, 0.0, 1.0, 0.0), false),
+        m("backlash 0.5 deg", s(0.0, 0.0, 0.0, 0.0, 0.5), false),
+        m("backlash 1 deg", s(0.0, 0.0, 0.0, 0.0, 1.0), false),
+        m("fixed-gain autopilot", s(0.0, 0.0, 0.0, 0.0, 0.0), true),
+        m(
+            "all at the upper strength",
+            s(0.1, 0.25, 30000.0, 1.0, 1.0),
+            true,
+        ),
+    ]
+}
+
 /// Everything one simulated ship needs: the ship (its true particulars default to the
 /// nominal ones), its servo, sensors and autopilot, the sea and the simulation set-up. Cloned
 /// from [`crate::config::Config::sim`] or built by hand in tests.
