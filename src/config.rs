@@ -247,7 +247,7 @@ impl Config {
             autopilot: self.autopilot.clone(),
             sea: self.sea.clone(),
             simulation: self.simulation.clone(),
-            structure: self.structure.clone(),
+            structure: self.structure,
         }
     }
 }

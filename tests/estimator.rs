@@ -59,6 +59,7 @@ fn shipped_models_reproduce_their_recorded_test_mse_on_fresh_probes() {
         seas: vec![SeaState::Calm, SeaState::Moderate],
         methods: vec![Method::Clfrt, Method::Hbt],
         faults: vec![],
+        family: false,
     };
     let db = simulate(&cfg, &spec, 2, &|_, _| {});
     // One sea-state mixture per model, as recorded: pool the two sea states.
@@ -198,6 +199,7 @@ fn training_is_reproducible_bit_for_bit() {
         seas: vec![SeaState::Calm],
         methods: vec![Method::Clfrt, Method::Hbt],
         faults: vec![],
+        family: false,
     };
     let db1 = simulate(&cfg, &spec(5), 2, &|_, _| {});
     let db1_one_thread = simulate(&cfg, &spec(5), 1, &|_, _| {});

@@ -114,6 +114,10 @@ pub(crate) struct TrainArgs {
     /// Train for this vessel's class: its `[vessel.<name>]` table over the file's top level.
     #[arg(long, value_name = "NAME")]
     pub(crate) vessel: Option<String>,
+    /// Draw every point's ship from the family of real ships (second-order Nomoto, Norrbin
+    /// damping, dead band, backlash, fixed-gain autopilot; docs/estimator.md).
+    #[arg(long)]
+    pub(crate) family: bool,
 }
 
 #[derive(Debug, Args)]

@@ -62,6 +62,8 @@ pub struct TrainOptions {
     pub restarts: usize,
     /// Worker threads (None: every core).
     pub threads: Option<usize>,
+    /// Draw every point's ship from the family of real ships.
+    pub family: bool,
 }
 
 /// Options of `helmwatch eval`.
@@ -92,6 +94,7 @@ pub fn training_spec(seed: u64, points: usize) -> DatabaseSpec {
         seas: SEAS.to_vec(),
         methods: vec![Method::Clfrt, Method::Hbt],
         faults: Vec::new(),
+        family: false,
     }
 }
 
@@ -138,7 +141,10 @@ fn print_failures(db: &Database) {
 pub(crate) fn train(cfg: &Config, o: &TrainOptions) -> Result<(), Failure> {
     let t0 = Instant::now();
     let threads = o.threads.unwrap_or_else(default_threads).max(1);
-    let spec = training_spec(o.seed, o.points);
+    let spec = DatabaseSpec {
+        family: o.family,
+        ..training_spec(o.seed, o.points)
+    };
     println!(
         "helmwatch train: seed {}, {} Latin-hypercube points per sea state ({}), CLFRT and HBT at each, {threads} threads",
         o.seed,

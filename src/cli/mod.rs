@@ -164,6 +164,7 @@ impl From<TrainArgs> for TrainOptions {
             points: a.points,
             restarts: a.restarts,
             threads: a.threads,
+            family: a.family,
         }
     }
 }

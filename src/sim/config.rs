@@ -249,7 +249,7 @@ impl SimulationConfig {
 ///
 /// With every value zero the hull is integrated exactly (`sim::ship`) and the simulator is
 /// the first-order ship bit for bit; otherwise by fourth-order Runge-Kutta on the sub-steps.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
 pub struct StructureConfig {
     /// Second-order Nomoto: T2 / T1, 0 (first order) or [0.005, 0.5].
@@ -317,7 +317,7 @@ impl StructureConfig {
 
 /// One member of the family of real ships the method must serve: a structure and whether the
 /// autopilot keeps gains of its own tuned at the nominal ship (no speed scheduling).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FamilyMember {
     /// Name in tables.
     pub name: &'static str,
@@ -330,7 +330,7 @@ pub struct FamilyMember {
 impl FamilyMember {
     /// Sets this member's structure and autopilot in a configuration's sections.
     pub fn apply(&self, structure: &mut StructureConfig, autopilot: &mut AutopilotConfig) {
-        *structure = self.structure.clone();
+        *structure = self.structure;
         if self.fixed_gain_autopilot {
             autopilot.speed_scheduling = false;
         }
@@ -382,6 +382,36 @@ pub fn family() -> Vec<FamilyMember> {
             true,
         ),
     ]
+}
+
+/// A ship drawn from the family's documented ranges (uniform): T2/T1 in [0, 0.1], T3/T1 in
+/// [0, 0.25], n3 in [0, 30000] s^2, dead band and backlash in [0, 1] deg, and an autopilot
+/// with fixed gains one time in two. Each nuisance is present (drawn) with probability 1/2,
+/// so the first-order ship and every one alone stay in the draw.
+pub fn draw_family_member(rng: &mut impl rand::Rng) -> FamilyMember {
+    let mut draw = |hi: f64| -> f64 {
+        let on: bool = rng.gen();
+        let x: f64 = rng.gen();
+        if on {
+            hi * x
+        } else {
+            0.0
+        }
+    };
+    let t2 = draw(0.1);
+    let t2 = if t2 > 0.0 { t2.max(0.005) } else { 0.0 };
+    let structure = StructureConfig {
+        nomoto_t2_ratio: t2,
+        nomoto_t3_ratio: draw(0.25),
+        norrbin_n3_s2: draw(30000.0),
+        rudder_dead_band_deg: draw(1.0),
+        rudder_backlash_deg: draw(1.0),
+    };
+    FamilyMember {
+        name: "drawn",
+        structure,
+        fixed_gain_autopilot: rng.gen(),
+    }
 }
 
 /// Everything one simulated ship needs: the ship (its true particulars default to the

@@ -326,10 +326,7 @@ impl Ship {
                 st.nomoto_t3_ratio,
                 st.norrbin_n3_s2,
             );
-            (
-                st.clone(),
-                GeneralHull::steady(&s, &hull, trim + bias.value_rad()),
-            )
+            (*st, GeneralHull::steady(&s, &hull, trim + bias.value_rad()))
         });
         let backlash = (st.rudder_backlash_deg > 0.0)
             .then(|| Backlash::new(deg(st.rudder_backlash_deg), trim));

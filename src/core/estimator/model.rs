@@ -296,6 +296,10 @@ pub struct TrainingRecord {
     pub design_points_per_sea: usize,
     /// Sea states of the database.
     pub sea_states: Vec<SeaState>,
+    /// Each point's ship was drawn from the family of real ships (`train --family`); absent
+    /// in files trained on the configured ship alone.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub family: bool,
     /// Completed tests in the database for this method.
     pub database_size: usize,
     /// Tests of this method that did not complete (excluded).

@@ -44,6 +44,7 @@ pub(crate) fn sample_model() -> Model {
                 database_seed: 1,
                 design_points_per_sea: 10,
                 sea_states: vec![SeaState::Calm],
+                family: false,
                 database_size: 10,
                 database_failed: 0,
                 split: Split {

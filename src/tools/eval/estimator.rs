@@ -238,6 +238,7 @@ mod tests {
                 seas: vec![SeaState::Calm],
                 methods: vec![Method::Clfrt],
                 faults: vec![],
+                family: false,
             },
             points: truths
                 .iter()
@@ -247,6 +248,7 @@ mod tests {
                     speed_mps: 7.0,
                     displacement_t: d,
                     seed: 0,
+                    ship: None,
                 })
                 .collect(),
             runs: vec![feats

@@ -302,6 +302,7 @@ pub fn build_models(
                     database_seed: db.spec.seed,
                     design_points_per_sea: db.spec.points_per_sea,
                     sea_states: db.spec.seas.clone(),
+                    family: db.spec.family,
                     database_size: d.size,
                     database_failed: d.failed,
                     split: Split {

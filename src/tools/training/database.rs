@@ -79,6 +79,10 @@ pub struct DatabaseSpec {
     pub methods: Vec<Method>,
     /// Faults added to every scenario (e.g. a heading drift for the drift check).
     pub faults: Vec<Fault>,
+    /// Draw each point's ship from the family of real ships
+    /// ([`crate::sim::config::draw_family_member`], on a random stream of its own: the points,
+    /// seeds and every other draw are those of the database without it).
+    pub family: bool,
 }
 
 /// One design point.
@@ -92,6 +96,9 @@ pub struct Point {
     pub displacement_t: f64,
     /// Seed of the simulation.
     pub seed: u64,
+    /// The ship's structure and autopilot, when drawn from the family (else the
+    /// configuration's).
+    pub ship: Option<crate::sim::config::FamilyMember>,
 }
 
 /// The outcome of one test at one point.
@@ -124,6 +131,8 @@ pub fn design(cfg: &Config, spec: &DatabaseSpec) -> Vec<Point> {
     for &sea in &spec.seas {
         let mut rng = ChaCha8Rng::seed_from_u64(spec.seed);
         rng.set_stream(spec.purpose.stream(sea));
+        let mut family = ChaCha8Rng::seed_from_u64(spec.seed);
+        family.set_stream(spec.purpose.stream(sea) | 1 << 16);
         let mut pu: Vec<usize> = (0..n).collect();
         let mut pd: Vec<usize> = (0..n).collect();
         pu.shuffle(&mut rng);
@@ -137,6 +146,9 @@ pub fn design(cfg: &Config, spec: &DatabaseSpec) -> Vec<Point> {
                 speed_mps: u_lo + (u_hi - u_lo) * (pu[i] as f64 + fu) / n as f64,
                 displacement_t: d_lo + (d_hi - d_lo) * (pd[i] as f64 + fd) / n as f64,
                 seed,
+                ship: spec
+                    .family
+                    .then(|| crate::sim::config::draw_family_member(&mut family)),
             });
         }
     }
@@ -191,7 +203,11 @@ pub fn run_point(
     };
     let mut opts = ProbeOptions::new(&cfg.core(), method);
     opts.multisine = multisine.cloned();
-    match run_probe(&cfg.core(), &cfg.sim(), &sc, &opts) {
+    let mut sim = cfg.sim();
+    if let Some(m) = &point.ship {
+        m.apply(&mut sim.structure, &mut sim.autopilot);
+    }
+    match run_probe(&cfg.core(), &sim, &sc, &opts) {
         Ok(res) => {
             let r = res.report;
             let duration_s = r.t_end - r.t_start;
@@ -291,7 +307,45 @@ mod tests {
             seas: vec![SeaState::Calm, SeaState::Moderate],
             methods: vec![Method::Clfrt, Method::Hbt],
             faults: vec![],
+            family: false,
         }
+    }
+
+    /// The family's draws come from a stream of their own: the points and seeds are those of
+    /// the plain database; every nuisance is drawn inside its documented range, present in
+    /// about half the ships and absent in the others.
+    #[test]
+    fn family_draws_leave_the_design_alone_and_stay_in_range() {
+        let cfg = Config::default();
+        let plain = design(&cfg, &spec(Purpose::Training, 200));
+        let fam = design(
+            &cfg,
+            &DatabaseSpec {
+                family: true,
+                ..spec(Purpose::Training, 200)
+            },
+        );
+        assert_eq!(plain.len(), fam.len());
+        let mut with_t2 = 0;
+        let mut fixed = 0;
+        for (p, f) in plain.iter().zip(&fam) {
+            assert_eq!(
+                (p.sea, p.speed_mps, p.displacement_t, p.seed),
+                (f.sea, f.speed_mps, f.displacement_t, f.seed)
+            );
+            assert!(p.ship.is_none());
+            let m = f.ship.unwrap();
+            let s = m.structure;
+            s.check().unwrap();
+            assert!(s.nomoto_t2_ratio <= 0.1 && s.nomoto_t3_ratio <= 0.25);
+            assert!(s.norrbin_n3_s2 <= 30000.0);
+            assert!(s.rudder_dead_band_deg <= 1.0 && s.rudder_backlash_deg <= 1.0);
+            with_t2 += usize::from(s.nomoto_t2_ratio > 0.0);
+            fixed += usize::from(m.fixed_gain_autopilot);
+        }
+        // 400 ships, each half present: 200 +- 3 sigma (30).
+        assert!((170..=230).contains(&with_t2), "{with_t2}");
+        assert!((170..=230).contains(&fixed), "{fixed}");
     }
 
     #[test]
