@@ -67,34 +67,45 @@ fn block<T>(f: impl std::future::Future<Output = Result<T, Failure>>) -> Result<
     runtime()?.block_on(f)
 }
 
+/// Asks `selector` once over a session of its own and closes it. With `--json` the reply is
+/// printed as it came and `None` returned; else it is parsed (`what` names it in errors).
+fn ask<T: serde::de::DeserializeOwned>(
+    a: &ClientArgs,
+    selector: &str,
+    what: &str,
+) -> Result<Option<T>, Failure> {
+    let limit = timeout(a)?;
+    let bytes = block(async {
+        let s = session(a).await?;
+        let bytes = get_one(&s, selector, limit).await;
+        let _ = s.close().await;
+        bytes
+    })?;
+    if a.json {
+        println!("{}", String::from_utf8_lossy(&bytes));
+        return Ok(None);
+    }
+    serde_json::from_slice(&bytes)
+        .map(Some)
+        .map_err(|e| fail(EX_UNAVAILABLE)(anyhow::anyhow!("{what}: {e}")))
+}
+
 /// `helmwatch trigger`.
 pub(crate) fn trigger(cfg: &Config, a: TriggerArgs) -> Result<(), Failure> {
     let v = vessel(cfg, &a.client)?;
-    let limit = timeout(&a.client)?;
-    block(async {
-        let s = session(&a.client).await?;
-        let sel = format!("{}?method={}", Keys::new(&v).trigger(), a.method.name());
-        let bytes = get_one(&s, &sel, limit).await;
-        let _ = s.close().await;
-        let bytes = bytes?;
-        if a.client.json {
-            println!("{}", String::from_utf8_lossy(&bytes));
-            return Ok(());
-        }
-        let r: TriggerReply = serde_json::from_slice(&bytes)
-            .map_err(|e| fail(EX_UNAVAILABLE)(anyhow::anyhow!("trigger reply: {e}")))?;
+    let sel = format!("{}?method={}", Keys::new(&v).trigger(), a.method.name());
+    if let Some(r) = ask::<TriggerReply>(&a.client, &sel, "trigger reply")? {
         match (r.accepted, r.test, r.reason) {
             (true, Some(t), _) => println!("{v}: test {t} started"),
             (_, _, reason) => println!("{v}: refused: {}", reason.unwrap_or_default()),
         }
-        Ok(())
-    })
+    }
+    Ok(())
 }
 
 /// `helmwatch history`.
 pub(crate) fn history(cfg: &Config, a: HistoryArgs) -> Result<(), Failure> {
     let v = vessel(cfg, &a.client)?;
-    let limit = timeout(&a.client)?;
     let mut params = vec![format!("limit={}", a.limit)];
     if let Some(f) = a.from {
         params.push(format!("from={f}"));
@@ -102,21 +113,11 @@ pub(crate) fn history(cfg: &Config, a: HistoryArgs) -> Result<(), Failure> {
     if let Some(t) = a.to {
         params.push(format!("to={t}"));
     }
-    block(async {
-        let s = session(&a.client).await?;
-        let sel = format!("{}?{}", Keys::new(&v).history(), params.join(";"));
-        let bytes = get_one(&s, &sel, limit).await;
-        let _ = s.close().await;
-        let bytes = bytes?;
-        if a.client.json {
-            println!("{}", String::from_utf8_lossy(&bytes));
-            return Ok(());
-        }
-        let h: HistoryReply = serde_json::from_slice(&bytes)
-            .map_err(|e| fail(EX_UNAVAILABLE)(anyhow::anyhow!("history reply: {e}")))?;
+    let sel = format!("{}?{}", Keys::new(&v).history(), params.join(";"));
+    if let Some(h) = ask::<HistoryReply>(&a.client, &sel, "history reply")? {
         print_records(&h);
-        Ok(())
-    })
+    }
+    Ok(())
 }
 
 fn print_records(h: &HistoryReply) {

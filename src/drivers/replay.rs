@@ -112,9 +112,9 @@ pub fn replay_fleet(
             if cores.len() >= MAX_VESSELS {
                 return Err(ReplayError::TooManyVessels);
             }
-            let (c, (ms, est)) = match own.get(vessel) {
-                Some((c, p)) => (*c, p),
-                None => (cfg, &(multisine.clone(), estimator.clone())),
+            let (c, ms, est) = match own.get(vessel) {
+                Some((c, (ms, est))) => (*c, ms, est),
+                None => (cfg, &multisine, &estimator),
             };
             cores.insert(
                 vessel.to_string(),

@@ -154,12 +154,10 @@ impl Structure {
         r + self.n3_s2 * r * r * r
     }
 
-    /// The turn rate for the auxiliary state `w` under input `v`.
+    /// For T2 = 0: the turn rate for the auxiliary state `w` under input `v` (with T2 > 0,
+    /// r is a state of its own).
     fn rate(&self, w: f64, v: f64) -> f64 {
-        match self.t2_s > 0.0 {
-            true => f64::NAN, // r is a state of its own
-            false => (w + self.k_per_s * self.t3_s * v) / self.t1_s,
-        }
+        (w + self.k_per_s * self.t3_s * v) / self.t1_s
     }
 
     /// d/dt of (psi, r, w) at input `v`.

@@ -102,24 +102,9 @@ use std::f64::consts::PI;
 /// Default number of symmetric neighbour pairs used for the noise estimate.
 pub const DEFAULT_NEIGHBOUR_PAIRS: usize = 3;
 
-/// The frequency response at one tone, with its uncertainty.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ToneEstimate {
-    /// Tone frequency [rad/s].
-    pub omega_rad_s: f64,
-    /// |G| [rad heading / rad rudder].
-    pub gain: f64,
-    /// arg G [rad], in (-2 pi, 0] (see the module documentation).
-    pub phase_rad: f64,
-    /// Signal / (signal + noise) of the heading at the tone, in [0, 1].
-    pub coherence: f64,
-    /// Signal-to-noise ratio of the heading at the tone [dB], clamped to [-120, 300].
-    pub snr_db: f64,
-    /// Half-width of the 90 % interval of the gain, relative to `gain`.
-    pub gain_ci90_rel: f64,
-    /// Half-width of the 90 % interval of the phase [rad], at most pi.
-    pub phase_ci90_rad: f64,
-}
+/// The frequency response at one tone, with its uncertainty: the wire's tone features, so
+/// a report carries the analysis's result as it is.
+pub type ToneEstimate = crate::core::wire::features::ToneFeatures;
 
 /// Reusable state for [`analyse_tones`]: FFT plans and buffers (no allocation per call once
 /// the record length is fixed, apart from the returned vector).

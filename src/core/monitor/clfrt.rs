@@ -64,7 +64,7 @@ use crate::core::dsp::spectrum::{band_rms, detrend_linear_keep_bins, naive_dft, 
 use crate::core::dsp::tones::{analyse_tones, ToneAnalyser, ToneEstimate};
 use crate::core::model::ShipConfig;
 use crate::core::monitor::config::CoreConfig;
-use crate::core::wire::features::{ClfrtFeatures, ServoCheckFeatures, ToneFeatures};
+use crate::core::wire::features::{ClfrtFeatures, ServoCheckFeatures};
 use crate::core::wire::{ExcitationMode, MonitorState};
 use rustfft::num_complex::Complex64;
 use std::f64::consts::PI;
@@ -160,19 +160,7 @@ impl ClfrtReport {
     pub fn to_features(&self) -> ClfrtFeatures {
         let (baseline, baseline_error) = baseline::to_features(&self.baseline);
         ClfrtFeatures {
-            tones: self
-                .tones
-                .iter()
-                .map(|t| ToneFeatures {
-                    omega_rad_s: t.omega_rad_s,
-                    gain: t.gain,
-                    phase_rad: t.phase_rad,
-                    coherence: t.coherence,
-                    snr_db: t.snr_db,
-                    gain_ci90_rel: t.gain_ci90_rel,
-                    phase_ci90_rad: t.phase_ci90_rad,
-                })
-                .collect(),
+            tones: self.tones.clone(),
             window_s: self.window_s,
             windows: self.windows,
             amplitude_rad: self.amplitude_rad,

@@ -165,8 +165,10 @@ pub struct BaselineFeatures {
     pub displacement_t: f64,
 }
 
-/// One excited tone of a CLFRT test (`features.tones[k]`, lowest first).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// One excited tone of a CLFRT test (`features.tones[k]`, lowest first): the frequency
+/// response at the tone with its uncertainty, as the tone analysis
+/// (`crate::core::dsp::tones`) estimates it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ToneFeatures {
     /// Tone frequency [rad/s].
     pub omega_rad_s: f64,
@@ -176,11 +178,11 @@ pub struct ToneFeatures {
     pub phase_rad: f64,
     /// Signal / (signal + noise) of the heading at the tone, in [0, 1].
     pub coherence: f64,
-    /// Signal-to-noise ratio of the heading at the tone [dB].
+    /// Signal-to-noise ratio of the heading at the tone [dB], clamped to [-120, 300].
     pub snr_db: f64,
     /// Half-width of the 90 % interval of the gain, relative to `gain`.
     pub gain_ci90_rel: f64,
-    /// Half-width of the 90 % interval of the phase [rad].
+    /// Half-width of the 90 % interval of the phase [rad], at most pi.
     pub phase_ci90_rad: f64,
 }
 
