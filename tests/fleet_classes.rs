@@ -48,8 +48,8 @@ async fn two_ship_classes_in_one_daemon_each_estimated_with_its_own_models() {
     // The file as written is the configuration the daemon reads.
     assert_eq!(Config::from_file(&file).unwrap(), cfg);
 
-    // bravo's models: a small database (60 points per sea) is enough to tell the classes
-    // apart; the shipped models took 1200.
+    // bravo's models: a small database (150 points per sea, 7 s) is enough to tell the
+    // classes apart; the shipped models took 1200.
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_helmwatch"))
         .arg("--config")
         .arg(&file)
@@ -58,7 +58,7 @@ async fn two_ship_classes_in_one_daemon_each_estimated_with_its_own_models() {
             "--vessel",
             "bravo",
             "--points",
-            "60",
+            "150",
             "--restarts",
             "1",
         ])
@@ -117,7 +117,10 @@ async fn two_ship_classes_in_one_daemon_each_estimated_with_its_own_models() {
         ));
     }
 
-    // (vessel, true speed, true displacement, tolerances) per class.
+    // (vessel, true speed, true displacement) per class. One test's speed estimate on
+    // bravo's class spreads by about 0.3 m/s (CLFRT, `probe --vessel bravo` over seeds 1-10:
+    // 5.6 to 6.5 m/s; HBT 5.7 to 6.4), so speed is held to 1 m/s, about three spreads; the
+    // displacement, which tells the classes apart, spreads by about 1 % and is held to 10 %.
     let truth = [("alpha", 7.0, 7000.0), ("bravo", 6.0, 14000.0)];
     for method in ["clfrt", "hbt"] {
         let mut ids = Vec::new();
@@ -134,7 +137,7 @@ async fn two_ship_classes_in_one_daemon_each_estimated_with_its_own_models() {
                 est["speed_mps"].as_f64().unwrap(),
                 est["displacement_t"].as_f64().unwrap(),
             );
-            assert!((u_est - u).abs() < 0.5, "{vessel} {method}: speed {u_est}");
+            assert!((u_est - u).abs() < 1.0, "{vessel} {method}: speed {u_est}");
             assert!(
                 (d_est - d).abs() < 0.1 * d,
                 "{vessel} {method}: displacement {d_est} t, truth {d} t"

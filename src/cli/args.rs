@@ -247,12 +247,12 @@ pub(crate) struct BenchArgs {
 /// The simulated ship of one run.
 #[derive(Debug, Args)]
 pub(crate) struct ShipArgs {
-    /// True speed through water [m/s].
-    #[arg(long, default_value_t = 7.0)]
-    pub(crate) speed_mps: f64,
-    /// True displacement [t].
-    #[arg(long, default_value_t = 7000.0)]
-    pub(crate) displacement_t: f64,
+    /// True speed through water [m/s] (default: the ship's nominal speed).
+    #[arg(long)]
+    pub(crate) speed_mps: Option<f64>,
+    /// True displacement [t] (default: the ship's nominal displacement).
+    #[arg(long)]
+    pub(crate) displacement_t: Option<f64>,
     /// Seed of every random draw (sensor noise, sea).
     #[arg(long, default_value_t = 1)]
     pub(crate) seed: u64,
@@ -288,7 +288,8 @@ pub(crate) struct ProbeArgs {
     /// Probe this vessel's class: its `[vessel.<name>]` table over the file's top level.
     #[arg(long, value_name = "NAME")]
     pub(crate) vessel: Option<String>,
-    /// Directory of the estimator's model files (default: the models embedded in the binary).
+    /// Directory of the estimator's model files (default: `estimator.models-dir`, else the
+    /// models embedded in the binary).
     #[arg(long, value_name = "DIR")]
     pub(crate) models: Option<PathBuf>,
     /// Test method.

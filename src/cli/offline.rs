@@ -21,8 +21,8 @@ pub(crate) fn scenario(cfg: &Config, a: &ShipArgs) -> Result<Scenario, Failure> 
         .collect::<Result<Vec<_>, _>>()
         .map_err(fail(EX_USAGE))?;
     Ok(Scenario {
-        speed_mps: a.speed_mps,
-        displacement_t: a.displacement_t,
+        speed_mps: a.speed_mps.unwrap_or(cfg.ship.nominal_speed_mps),
+        displacement_t: a.displacement_t.unwrap_or(cfg.ship.nominal_displacement_t),
         sea: a.sea.unwrap_or(cfg.sea.state),
         faults,
         seed: a.seed,
@@ -60,12 +60,14 @@ pub(crate) fn simulate(cfg: &Config, a: SimulateArgs) -> Result<(), Failure> {
 pub(crate) fn probe(cfg: &Config, a: ProbeArgs) -> Result<(), Failure> {
     let sc = scenario(cfg, &a.ship)?;
     let mut opts = ProbeOptions::new(&cfg.core(), a.method);
+    // `--models` overrides the configuration's `estimator.models-dir` (the vessel's own
+    // with `--vessel`); without either the embedded models serve.
     let loaded = match &a.models {
-        Some(dir) => Estimator::load_dir(dir, &cfg.core()),
-        None => Estimator::embedded(&cfg.core()),
+        Some(dir) => Estimator::load_dir(dir, &cfg.core()).map(|e| Some(Arc::new(e))),
+        None => Estimator::from_config(&cfg.core()),
     };
     match loaded {
-        Ok(e) => opts.estimator = Some(Arc::new(e)),
+        Ok(e) => opts.estimator = e,
         Err(e) => {
             tracing::warn!("no estimate: {e}");
             eprintln!("helmwatch: no estimate: {e}");
