@@ -63,7 +63,8 @@ async fn ready(sock: &UnixDatagram) -> Instant {
 }
 
 /// What both tests set up: endpoints, the daemon's and the ship's configuration (HBT tests
-/// only, back to back), our own `NOTIFY_SOCKET`, and an observer the daemon connects to.
+/// only, back to back; the design reference from the first test, no commissioning: the ship is
+/// faulty from the start), our own `NOTIFY_SOCKET`, and an observer the daemon connects to.
 struct Setup {
     dir: PathBuf,
     state: PathBuf,
@@ -82,7 +83,7 @@ impl Setup {
         let obs_ep = endpoint();
         let daemon_ep = endpoint();
         let daemon_toml = format!(
-            "[daemon]\nvessels = [\"self\"]\ntick-s = 0.1\n\n[zenoh]\nmode = \"peer\"\nlisten = [\"{daemon_ep}\"]\nconnect = [\"{obs_ep}\"]\nmulticast-scouting = false\n\n[scheduler]\nmethods = [\"hbt\"]\ninterval-s = 30.0\nsteady-time-s = 60.0\n"
+            "[daemon]\nvessels = [\"self\"]\ntick-s = 0.1\n\n[zenoh]\nmode = \"peer\"\nlisten = [\"{daemon_ep}\"]\nconnect = [\"{obs_ep}\"]\nmulticast-scouting = false\n\n[scheduler]\nmethods = [\"hbt\"]\ninterval-s = 30.0\nsteady-time-s = 60.0\n\n[fdi]\ncommissioning-tests = 0\n"
         );
         let ship_toml = format!(
             "[ship-peer]\nlockstep = true\nmode = \"peer\"\nlisten = []\nconnect = [\"{daemon_ep}\"]\nmulticast-scouting = false\n"

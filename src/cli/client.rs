@@ -1,9 +1,9 @@
-//! The daemon's clients over Zenoh: `status`, `trigger`, `history`. Each opens a peer session
+//! The daemon's clients over Zenoh: `status`, `trigger`, `history`, `commission`. Each opens a peer session
 //! (multicast off) to `--connect`, asks, prints a table (or the JSON with `--json`) and closes
 //! the session. Exit codes: 0 answered (a refused trigger included: the refusal is the
 //! answer), 64 bad arguments, 69 no answer within `--timeout-s` (no daemon for the vessel).
 
-use super::args::{ClientArgs, HistoryArgs, TriggerArgs};
+use super::args::{ClientArgs, CommissionArgs, HistoryArgs, TriggerArgs};
 use super::service::runtime;
 use super::{fail, Failure, EX_UNAVAILABLE, EX_USAGE};
 use crate::config::Config;
@@ -103,6 +103,56 @@ pub(crate) fn trigger(cfg: &Config, a: TriggerArgs) -> Result<(), Failure> {
     Ok(())
 }
 
+/// `helmwatch commission`: prints each method's commissioning; `--start` begins it again.
+pub(crate) fn commission(cfg: &Config, a: CommissionArgs) -> Result<(), Failure> {
+    let v = vessel(cfg, &a.client)?;
+    let mut params = Vec::new();
+    if a.start {
+        params.push("start".to_string());
+        if let Some(m) = a.method {
+            params.push(format!("method={}", m.name()));
+        }
+    }
+    let sel = if params.is_empty() {
+        Keys::new(&v).commission()
+    } else {
+        format!("{}?{}", Keys::new(&v).commission(), params.join(";"))
+    };
+    if let Some(r) = ask::<serde_json::Value>(&a.client, &sel, "commission reply")? {
+        if let Some(e) = r["error"].as_str() {
+            return Err(fail(EX_UNAVAILABLE)(anyhow::anyhow!("{v}: {e}")));
+        }
+        if a.start {
+            println!("{v}: commissioning started");
+        }
+        println!(
+            "{:<6}  {:<14}  {:>5}  {:>4}  {:>14}  {:>16}  {:>12}",
+            "method", "state", "tests", "of", "speed offset", "displacement off", "at speed"
+        );
+        for m in ["clfrt", "hbt"] {
+            let x = &r[m];
+            let f = |k: &str, scale: f64, unit: &str| {
+                x["reference"][k]
+                    .as_f64()
+                    .map_or("-".to_string(), |v| format!("{:+.2}{unit}", v * scale))
+            };
+            println!(
+                "{:<6}  {:<14}  {:>5}  {:>4}  {:>14}  {:>16}  {:>12}",
+                m,
+                x["state"].as_str().unwrap_or("?"),
+                x["tests"].as_u64().unwrap_or(0),
+                x["of"].as_u64().unwrap_or(0),
+                f("speed_offset_mps", 1.0, " m/s"),
+                f("displacement_offset", 100.0, " %"),
+                x["reference"]["speed_log_mps"]
+                    .as_f64()
+                    .map_or("-".to_string(), |v| format!("{v:.2} m/s")),
+            );
+        }
+    }
+    Ok(())
+}
+
 /// `helmwatch history`.
 pub(crate) fn history(cfg: &Config, a: HistoryArgs) -> Result<(), Failure> {
     let v = vessel(cfg, &a.client)?;
@@ -170,6 +220,14 @@ pub(crate) fn status(cfg: &Config, a: ClientArgs) -> Result<(), Failure> {
         } else {
             None
         };
+        let commissioning = if alive {
+            get_one(&s, &keys.commission(), limit)
+                .await
+                .ok()
+                .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+        } else {
+            None
+        };
         let _ = s.close().await;
         let last = |kind: Kind| {
             hist.as_ref()
@@ -184,6 +242,7 @@ pub(crate) fn status(cfg: &Config, a: ClientArgs) -> Result<(), Failure> {
                     "vessel": v, "alive": alive,
                     "alarm": notification.as_ref().map_or(serde_json::Value::Null, |n| n["state"].clone()),
                     "last_report": report, "last_notification": notification,
+                    "commissioning": commissioning,
                 })
             );
         } else {
@@ -203,6 +262,10 @@ pub(crate) fn status(cfg: &Config, a: ClientArgs) -> Result<(), Failure> {
                     n["message"].as_str().unwrap_or("")
                 ),
                 None => println!("alarm state   normal (no notification in the history)"),
+            }
+            if let Some(c) = &commissioning {
+                let text = |m: &str| c[m]["text"].as_str().unwrap_or("?").to_string();
+                println!("reference     CLFRT {}, HBT {}", text("clfrt"), text("hbt"));
             }
             match &report {
                 Some(r) => println!(

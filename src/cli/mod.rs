@@ -83,6 +83,7 @@ pub fn main() -> i32 {
         Command::Status(a) => client::status(&cfg, a),
         Command::Trigger(a) => client::trigger(&cfg, a),
         Command::History(a) => client::history(&cfg, a),
+        Command::Commission(a) => client::commission(&cfg, a),
         Command::Train(a) => match vessel_config(&cfg, a.vessel.as_deref()) {
             Ok(c) => estimator::train(&c, &a.into()),
             Err(e) => Err(e),

@@ -180,6 +180,8 @@ pub(crate) fn eval_fdi(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
             .max(1),
         ..FdiEvalOptions::default()
     };
+    o.family = a.family;
+    o.member = a.member.clone();
     if let Some(m) = a.method {
         o.methods = vec![m];
     }

@@ -380,6 +380,13 @@ impl Ship {
         })
     }
 
+    /// Adds `fault` from the next tick on (its onset set to now): a fault that appears
+    /// during a run, after commissioning (the FDI suite).
+    pub fn inject(&mut self, mut fault: Fault) {
+        fault.onset_s = self.time_s();
+        self.faults.push(fault);
+    }
+
     /// Current tick time [s]; starts at `simulation.start_time_s`.
     pub fn time_s(&self) -> f64 {
         self.start_s + self.tick as f64 / self.rate_hz

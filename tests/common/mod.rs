@@ -146,6 +146,25 @@ impl Observer {
         serde_json::from_slice(&sample.payload().to_bytes()).map_err(|e| e.to_string())
     }
 
+    /// Asks the vessel's `fdi/commission` queryable once (`params`: e.g. `start;method=hbt`).
+    pub async fn commission(&self, params: &str) -> Value {
+        let mut key = format!("vessels/{}/fdi/commission", self.vessel);
+        if !params.is_empty() {
+            key = format!("{key}?{params}");
+        }
+        for _ in 0..100 {
+            if let Ok(replies) = self.session.get(&key).await {
+                if let Ok(reply) = replies.recv_async().await {
+                    if let Ok(sample) = reply.into_result() {
+                        return serde_json::from_slice(&sample.payload().to_bytes()).unwrap();
+                    }
+                }
+            }
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        panic!("{key}: no answer");
+    }
+
     /// Asks for a test until it is accepted (the monitor refuses until every stream arrived).
     pub async fn trigger(&self, method: &str) -> TriggerReply {
         for _ in 0..600 {

@@ -101,6 +101,8 @@ pub fn slot_index(method: Method, target: Target) -> usize {
 pub struct Estimator {
     /// Models in [`SLOTS`] order.
     models: [Model; 4],
+    /// CRC-32 of each model file's content, in [`SLOTS`] order (see [`Estimator::fingerprint`]).
+    fingerprint: String,
 }
 
 /// Per-caller buffers for [`Estimator::estimate`] (no allocation per estimate).
@@ -133,13 +135,23 @@ impl Estimator {
             path: SLOTS[i].1.file_name(SLOTS[i].0),
             message: "missing".into(),
         };
+        let models = [
+            a.ok_or_else(|| missing(0))?,
+            b.ok_or_else(|| missing(1))?,
+            c.ok_or_else(|| missing(2))?,
+            d.ok_or_else(|| missing(3))?,
+        ];
+        let fingerprint = models
+            .iter()
+            .map(|m| {
+                let bytes = serde_json::to_vec(&m.file).unwrap_or_default();
+                format!("{:08x}", crc32fast::hash(&bytes))
+            })
+            .collect::<Vec<_>>()
+            .join("-");
         Ok(Self {
-            models: [
-                a.ok_or_else(|| missing(0))?,
-                b.ok_or_else(|| missing(1))?,
-                c.ok_or_else(|| missing(2))?,
-                d.ok_or_else(|| missing(3))?,
-            ],
+            models,
+            fingerprint,
         })
     }
 
@@ -178,6 +190,12 @@ impl Estimator {
             None => Self::embedded(cfg)?,
         };
         Ok(Some(Arc::new(e)))
+    }
+
+    /// Which models these are: the CRC-32 of each model file's content, in slot order. A
+    /// vessel's commissioning reference is kept only for the models it was made with.
+    pub fn fingerprint(&self) -> &str {
+        &self.fingerprint
     }
 
     /// The model of a slot.

@@ -25,6 +25,21 @@ impl DecisionRule {
     }
 }
 
+/// The commissioning keys of `[fdi]` (see `crate::core::fdi::reference`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Commissioning {
+    /// K: tests per method (0: the design reference for good).
+    pub tests: u32,
+    /// Speed spread floor while commissioning [m/s].
+    pub wide_speed_mps: f64,
+    /// Displacement spread floor while commissioning [fraction of D_nom].
+    pub wide_displacement: f64,
+    /// `f`.
+    pub spread_factor: f64,
+    /// The reference's speed band [m/s].
+    pub speed_band_mps: f64,
+}
+
 /// Fault detection and isolation (see `crate::core::fdi`). Pairs are `[calm, moderate]` values,
 /// interpolated by the test's measured sea index.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -70,6 +85,20 @@ pub struct FdiConfig {
     pub model_fit_threshold: f64,
     /// Let the model fit join the actuator group of the decision.
     pub model_fit_decides: bool,
+    /// Commissioning: completed tests per method that set the vessel's own reference (0: the
+    /// design reference for good; see `crate::core::fdi::reference`).
+    pub commissioning_tests: u32,
+    /// Speed spread floor while commissioning (and outside the reference's speed band) [m/s].
+    pub commissioning_spread_speed_mps: f64,
+    /// Displacement spread floor while commissioning [fraction of the nominal displacement].
+    pub commissioning_spread_displacement: f64,
+    /// Factor on the commissioning sample's standard deviation in the reference's spread.
+    pub commissioning_spread_factor: f64,
+    /// The reference holds for speed logs within this of the commissioning's mean [m/s].
+    pub commissioning_speed_band_mps: f64,
+    /// CLFRT model-fit chi-square above which a test reports `model_mismatch` (a warning,
+    /// never a fault).
+    pub model_mismatch_chi2: f64,
     /// Baseline (equation error): spread of its speed from a, CLFRT record [m/s].
     pub baseline_clfrt_speed_sigma_mps: [f64; 2],
     /// Baseline: spread of its displacement from b and the speed log, CLFRT record [t].
@@ -101,6 +130,12 @@ impl Default for FdiConfig {
             model_fit_floor_phase_deg: 0.5,
             model_fit_threshold: 18.47,
             model_fit_decides: false,
+            commissioning_tests: 8,
+            commissioning_spread_speed_mps: 2.2,
+            commissioning_spread_displacement: 0.25,
+            commissioning_spread_factor: 1.0,
+            commissioning_speed_band_mps: 1.0,
+            model_mismatch_chi2: 100.0,
             baseline_clfrt_speed_sigma_mps: [0.07, 0.33],
             baseline_clfrt_displacement_sigma_t: [20.0, 100.0],
             baseline_hbt_speed_sigma_mps: [0.04, 0.16],
@@ -110,6 +145,17 @@ impl Default for FdiConfig {
 }
 
 impl FdiConfig {
+    /// The commissioning keys.
+    pub fn commissioning(&self) -> Commissioning {
+        Commissioning {
+            tests: self.commissioning_tests,
+            wide_speed_mps: self.commissioning_spread_speed_mps,
+            wide_displacement: self.commissioning_spread_displacement,
+            spread_factor: self.commissioning_spread_factor,
+            speed_band_mps: self.commissioning_speed_band_mps,
+        }
+    }
+
     /// The baseline's `(speed, displacement)` spread pairs for `method`'s record.
     pub fn baseline_sigmas(&self, method: Method) -> ([f64; 2], [f64; 2]) {
         match method {
@@ -175,6 +221,37 @@ impl FdiConfig {
             self.model_fit_threshold,
             0.0,
             1e6,
+        )?;
+        check_count("fdi.commissioning-tests", self.commissioning_tests, 0, 50)?;
+        check_range_open_low(
+            "fdi.commissioning-spread-speed-mps",
+            self.commissioning_spread_speed_mps,
+            0.0,
+            10.0,
+        )?;
+        check_range_open_low(
+            "fdi.commissioning-spread-displacement",
+            self.commissioning_spread_displacement,
+            0.0,
+            1.0,
+        )?;
+        check_range(
+            "fdi.commissioning-spread-factor",
+            self.commissioning_spread_factor,
+            1.0,
+            10.0,
+        )?;
+        check_range_open_low(
+            "fdi.commissioning-speed-band-mps",
+            self.commissioning_speed_band_mps,
+            0.0,
+            30.0,
+        )?;
+        check_range_open_low(
+            "fdi.model-mismatch-chi2",
+            self.model_mismatch_chi2,
+            0.0,
+            1e9,
         )?;
         spread(
             "fdi.baseline-clfrt-speed-sigma-mps",

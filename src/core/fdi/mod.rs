@@ -19,6 +19,13 @@
 //! spread keeps growing, up to 3 times the moderate one; a test without a wave yaw gets the
 //! moderate spread).
 //!
+//! These are the residuals against the *design* reference. After commissioning (the first
+//! `fdi.commissioning-tests` healthy tests of each method) each is measured against the
+//! vessel's own reference instead: offset removed, spread the larger of the design's and the
+//! vessel's own scatter; while commissioning, the design's with wide spreads
+//! (`reference`, docs/fdi.md). A CLFRT model fit far above any first-order model's
+//! (`fdi.model-mismatch-chi2`) adds a `model_mismatch` warning, never a decision.
+//!
 //! Both methods carry a *servo check* (actuator residual): the rudder's measured rate against
 //! the healthy servo's, `rho`, gives the one-sided `z_rate = max(0, 1 - rho) /
 //! fdi.actuator-rate-sigma`: a rate-limited servo cannot follow. CLFRT reads the rudder's
@@ -67,6 +74,7 @@
 
 pub mod config;
 mod fit;
+pub mod reference;
 
 use crate::core::estimator::model::{Target, Uncertainty};
 use crate::core::estimator::{Estimator, EstimatorScratch};
@@ -76,6 +84,7 @@ pub use crate::core::model::{displacement_from_b, speed_from_a};
 use crate::core::monitor::config::CoreConfig;
 use crate::core::wire::Method;
 use crate::core::wire::{AlarmState, Cause, Decision, Estimate, Features, Notification};
+use reference::{Basis, Commissioning, Raw};
 use serde_json::{json, Value};
 
 /// Speed step of the central difference for `dD/du_log` [m/s].
@@ -412,7 +421,14 @@ pub struct Assessment {
     pub summary: String,
     /// The notification to publish, when the vessel's alarm state changed.
     pub notification: Option<Notification>,
+    /// The CLFRT model fit found the ship outside the trained family (a warning).
+    pub model_mismatch: bool,
+    /// This test completed the method's commissioning.
+    pub commissioned: bool,
 }
+
+/// What a `model_mismatch` warning tells the operator.
+pub const MISMATCH_ADVICE: &str = "the ship's response is not the trained model's (a higher-order hull, a dead band or an autopilot of its own): this is no fault of the ship; decisions rest on the vessel's commissioned reference, so commission it on a healthy ship (`helmwatch commission`), and train models for this class (`helmwatch train --family`) if it persists";
 
 /// The FDI of one vessel: the tracks of both methods and of the baseline, the alarm state.
 #[derive(Debug, Clone)]
@@ -427,6 +443,88 @@ pub struct Fdi {
     published: AlarmState,
     /// The last notification published (republished after a restart).
     last_notification: Option<Notification>,
+    /// Per method, the commissioning and the vessel's own reference.
+    commissioning: [Commissioning; 2],
+    /// What the reference is valid for: the ship configuration and the models.
+    fingerprint: Fingerprint,
+}
+
+/// What a commissioning reference was made under: the ship's particulars, servo and test
+/// designs (relay, periods measured, multisine; the nominal values excluded: a reference
+/// survives a new loading), and the models' checksums. A saved reference made under another is discarded on restore.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Fingerprint {
+    /// `{ship, servo, hbt, clfrt}` as configured.
+    pub config: Value,
+    /// [`Estimator::fingerprint`] of the models in use (`None`: no estimator).
+    pub models: Option<String>,
+}
+
+impl Fingerprint {
+    /// The configuration part for `cfg`.
+    fn of(cfg: &CoreConfig) -> Self {
+        let mut ship = serde_json::to_value(&cfg.ship).unwrap_or(Value::Null);
+        if let Some(o) = ship.as_object_mut() {
+            o.remove("nominal-speed-mps");
+            o.remove("nominal-displacement-t");
+        }
+        // What the features depend on: the ship, the servo and the tests' designs (not
+        // their timeouts or safety limits).
+        Self {
+            config: json!({
+                "ship": ship,
+                "servo": cfg.servo,
+                "hbt": {
+                    "relay-height-deg": cfg.hbt.relay_height_deg,
+                    "hysteresis-deg": cfg.hbt.hysteresis_deg,
+                    "measure-periods": cfg.hbt.measure_periods,
+                },
+                "clfrt": {
+                    "window-s": cfg.clfrt.window_s,
+                    "harmonics": cfg.clfrt.harmonics,
+                    "amplitude-deg": cfg.clfrt.amplitude_deg,
+                },
+            }),
+            models: None,
+        }
+    }
+
+    /// Why `saved` differs from `self`, in words (`None`: it does not).
+    pub fn difference(&self, saved: &Fingerprint) -> Option<String> {
+        let mut why = Vec::new();
+        if self.config != saved.config {
+            let mut keys = Vec::new();
+            if let (Some(now), Some(then)) = (self.config.as_object(), saved.config.as_object()) {
+                for (section, v) in now {
+                    let old = then.get(section);
+                    match (v.as_object(), old.and_then(Value::as_object)) {
+                        (Some(a), Some(b)) => {
+                            for (k, x) in a {
+                                if b.get(k) != Some(x) {
+                                    let was = b.get(k).map_or("absent".into(), Value::to_string);
+                                    keys.push(format!("{section}.{k} {was} -> {x}"));
+                                }
+                            }
+                        }
+                        _ if old != Some(v) => keys.push(format!("{section} changed")),
+                        _ => {}
+                    }
+                }
+            }
+            if keys.is_empty() {
+                keys.push("the ship configuration changed".into());
+            }
+            why.push(format!("ship configuration changed ({})", keys.join(", ")));
+        }
+        if self.models != saved.models {
+            why.push(format!(
+                "models changed ({} -> {})",
+                saved.models.as_deref().unwrap_or("none"),
+                self.models.as_deref().unwrap_or("none")
+            ));
+        }
+        (!why.is_empty()).then(|| why.join("; "))
+    }
 }
 
 /// What a vessel's FDI remembers between tests (its tracks: states, runs, CUSUM sums,
@@ -442,6 +540,13 @@ pub struct FdiState {
     pub published: AlarmState,
     /// The last notification published.
     pub last_notification: Option<Notification>,
+    /// Per method, the commissioning and the vessel's own reference (absent in files of
+    /// versions without commissioning: commissioning starts afresh).
+    #[serde(default)]
+    pub commissioning: [Commissioning; 2],
+    /// What the reference was made under.
+    #[serde(default)]
+    pub fingerprint: Fingerprint,
 }
 
 fn method_index(m: Method) -> usize {
@@ -511,7 +616,56 @@ impl Fdi {
             baseline: Default::default(),
             published: AlarmState::Normal,
             last_notification: None,
+            commissioning: Default::default(),
+            fingerprint: Fingerprint::of(cfg),
         }
+    }
+
+    /// Records which models estimate (their checksums, [`Estimator::fingerprint`]).
+    pub fn set_models(&mut self, fingerprint: Option<String>) {
+        self.fingerprint.models = fingerprint;
+    }
+
+    /// Starts commissioning again for `method`, or for both: the vessel's reference is
+    /// dropped and set again from the next `fdi.commissioning-tests` healthy tests.
+    pub fn commission(&mut self, method: Option<Method>) {
+        for m in [Method::Clfrt, Method::Hbt] {
+            if method.is_none_or(|x| x == m) {
+                self.commissioning[method_index(m)].restart();
+            }
+        }
+    }
+
+    /// Per method, the commissioning's progress and reference (the `fdi/commission` reply).
+    pub fn commissioning_status(&self) -> Value {
+        let s = self.cfg.commissioning();
+        let per = |m: Method| {
+            let c = &self.commissioning[method_index(m)];
+            json!({
+                "state": if s.tests == 0 { "off" } else if c.reference.is_some() { "commissioned" } else { "commissioning" },
+                "tests": c.tests,
+                "of": s.tests,
+                "text": c.describe(&s),
+                "reference": c.reference,
+            })
+        };
+        json!({ "clfrt": per(Method::Clfrt), "hbt": per(Method::Hbt) })
+    }
+
+    /// One line per method: "CLFRT commissioning 2 of 5, HBT commissioned (...)".
+    pub fn commissioning_text(&self) -> String {
+        let s = self.cfg.commissioning();
+        [Method::Clfrt, Method::Hbt]
+            .iter()
+            .map(|&m| {
+                format!(
+                    "{} {}",
+                    m.name().to_uppercase(),
+                    self.commissioning[method_index(m)].describe(&s)
+                )
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
     }
 
     /// What to save: see [`FdiState`].
@@ -521,15 +675,31 @@ impl Fdi {
             baseline: self.baseline.clone(),
             published: self.published,
             last_notification: self.last_notification.clone(),
+            commissioning: self.commissioning.clone(),
+            fingerprint: self.fingerprint.clone(),
         }
     }
 
-    /// Takes up a saved state.
-    pub fn restore(&mut self, s: FdiState) {
+    /// Takes up a saved state. A commissioning reference made under another ship
+    /// configuration or other models is discarded: the returned message says why.
+    pub fn restore(&mut self, s: FdiState) -> Option<String> {
         self.tracks = s.tracks;
         self.baseline = s.baseline;
         self.published = s.published;
         self.last_notification = s.last_notification;
+        let had = s.commissioning.iter().any(|c| c.tests > 0);
+        match self.fingerprint.difference(&s.fingerprint) {
+            Some(why) if had => {
+                self.commissioning = Default::default();
+                Some(format!(
+                    "commissioning reference discarded, commissioning starts again: {why}"
+                ))
+            }
+            _ => {
+                self.commissioning = s.commissioning;
+                None
+            }
+        }
     }
 
     /// The last notification published (after a restore: the one to publish again at once).
@@ -550,9 +720,10 @@ impl Fdi {
             .unwrap_or_default()
     }
 
-    /// The neural estimator's parameter residuals for a completed test.
+    /// The neural estimator's raw residuals against the design (`reference::Raw`) for a
+    /// completed test, and `dD_est / du_log` [t per m/s].
     #[allow(clippy::too_many_arguments)]
-    fn nn_residuals(
+    fn nn_raw(
         &self,
         method: Method,
         features: &Features,
@@ -561,7 +732,7 @@ impl Fdi {
         est: &Estimator,
         scratch: &mut EstimatorScratch,
         frac: f64,
-    ) -> Option<ParamResiduals> {
+    ) -> Option<(Raw, f64)> {
         let u_log = features.speed_log_mps().filter(|u| u.is_finite())?;
         let rel = |on: bool, y: f64| on.then_some(y);
         let (mu, su) = spread(
@@ -580,14 +751,19 @@ impl Fdi {
                 .ok()
         };
         let g = (at(u_log + DU_MPS)? - at(u_log - DU_MPS)?) / (2.0 * DU_MPS);
-        let r = ParamResiduals {
+        let raw = Raw {
             speed_mps: estimate.speed_mps - u_log - mu,
+            displacement: (estimate.displacement_t - d_nom_t - md) / d_nom_t,
             speed_sigma_mps: su,
-            displacement_t: estimate.displacement_t - d_nom_t - md,
-            displacement_sigma_t: sd,
-            dd_du_t_per_mps: g,
+            displacement_sigma: sd / d_nom_t,
+            speed_log_mps: u_log,
         };
-        r.z().iter().all(|z| z.is_finite()).then_some(r)
+        let ok = [raw.speed_mps, raw.displacement, g]
+            .iter()
+            .all(|x| x.is_finite())
+            && raw.speed_sigma_mps > 0.0
+            && raw.displacement_sigma > 0.0;
+        ok.then_some((raw, g))
     }
 
     /// The baseline's parameter residuals, from `features.baseline` (a, b).
@@ -647,9 +823,25 @@ impl Fdi {
         let measured = sea_index(features);
         let index = self.tracks[i].sea_index(measured, self.cfg.sea_memory);
         let frac = sea_fraction(self.cfg.sea_wave_yaw_deg, index);
-        let param = estimate.and_then(|(e, est, scratch)| {
-            self.nn_residuals(method, features, e, d_nom_t, est, scratch, frac)
+        let raw = estimate.and_then(|(e, est, scratch)| {
+            self.nn_raw(method, features, e, d_nom_t, est, scratch, frac)
         });
+        let settings = self.cfg.commissioning();
+        let basis = raw.map(|(r, _)| self.commissioning[i].basis(&settings, r.speed_log_mps));
+        let param = match (raw, &basis) {
+            (Some((r, g)), Some(b)) => {
+                let (ru, su, rd, sd) = Commissioning::measure(b, &settings, &r);
+                let p = ParamResiduals {
+                    speed_mps: ru,
+                    speed_sigma_mps: su,
+                    displacement_t: rd * d_nom_t,
+                    displacement_sigma_t: sd * d_nom_t,
+                    dd_du_t_per_mps: g,
+                };
+                p.z().iter().all(|z| z.is_finite()).then_some(p)
+            }
+            _ => None,
+        };
         let fit = match method {
             Method::Clfrt => fit::model_fit(features, &self.ship, &self.cfg),
             Method::Hbt => None,
@@ -671,6 +863,23 @@ impl Fdi {
         } else {
             self.tracks[i].update(&self.cfg, None, None)
         };
+        // A healthy commissioning test joins the vessel's reference.
+        let mut commissioned = false;
+        if let (Some((r, _)), Some(Basis::Commissioning { .. })) = (raw, &basis) {
+            if self.cfg.enabled && param.is_some() && !ours.exceeded {
+                commissioned = self.commissioning[i].add(&settings, &r);
+            }
+        }
+        let mismatch = fit
+            .as_ref()
+            .filter(|f| f.chi2.is_finite() && f.chi2 > self.cfg.model_mismatch_chi2)
+            .map(|f| {
+                json!({
+                    "chi2": f.chi2,
+                    "threshold": self.cfg.model_mismatch_chi2,
+                    "advice": MISMATCH_ADVICE,
+                })
+            });
         let bl_param = self.baseline_residuals(method, features, d_nom_t, frac);
         let bl = self.baseline[i].update(&self.cfg, bl_param.as_ref(), None);
 
@@ -695,6 +904,27 @@ impl Fdi {
             if let Some(f) = &fit {
                 obj.insert("model_fit".into(), f.to_json(&self.ship));
             }
+            if let Some(m) = &mismatch {
+                obj.insert("model_mismatch".into(), m.clone());
+            }
+            if let Some(b) = &basis {
+                let c = &self.commissioning[i];
+                let mut r = json!({
+                    "kind": b.name(),
+                    "text": c.describe(&settings),
+                    "tests": c.tests,
+                    "of": settings.tests,
+                });
+                if let (Some(o), Some(rf)) = (r.as_object_mut(), &c.reference) {
+                    o.insert("speed_offset_mps".into(), json!(rf.speed_offset_mps));
+                    o.insert(
+                        "displacement_offset_t".into(),
+                        json!(rf.displacement_offset * d_nom_t),
+                    );
+                    o.insert("speed_log_mps".into(), json!(rf.speed_log_mps));
+                }
+                obj.insert("reference".into(), r);
+            }
             obj.insert(
                 "baseline".into(),
                 json!({
@@ -709,7 +939,28 @@ impl Fdi {
                 json!(self.servo_time_constant_s),
             );
         }
-        let summary = summary(&ours, param.as_ref(), self.cfg.enabled);
+        let mut summary = summary(&ours, param.as_ref(), self.cfg.enabled);
+        match &basis {
+            Some(Basis::Commissioning { .. }) if commissioned => summary.push_str(&format!(
+                "; commissioning complete: {}",
+                self.commissioning[i].describe(&settings)
+            )),
+            Some(Basis::Commissioning { .. }) => summary.push_str(&format!(
+                "; {} (wide design limits)",
+                self.commissioning[i].describe(&settings)
+            )),
+            Some(Basis::OutsideBand(r)) => summary.push_str(&format!(
+                "; speed outside the commissioned {:.1} +- {:.1} m/s: wide design limits",
+                r.speed_log_mps, settings.speed_band_mps
+            )),
+            _ => {}
+        }
+        if let Some(f) = fit.filter(|_| mismatch.is_some()) {
+            summary.push_str(&format!(
+                "; model_mismatch: model-fit chi2 {:.0} > {:.0}: {MISMATCH_ADVICE}",
+                f.chi2, self.cfg.model_mismatch_chi2
+            ));
+        }
         let now = self.alarm_state();
         let notification = (now != self.published).then(|| {
             self.published = now;
@@ -733,6 +984,8 @@ impl Fdi {
             isolation: ours.isolation,
             summary,
             notification,
+            model_mismatch: mismatch.is_some(),
+            commissioned,
         }
     }
 }

@@ -354,3 +354,68 @@ fn actuator_z_reads_each_methods_servo_field() {
     c.servo_check = Some(failed);
     assert!(fdi.actuator_z(&Features::Clfrt(c)).is_none());
 }
+
+/// A commissioning reference is kept across a restore under the same configuration and
+/// models, and discarded, with a message naming what changed, under others; a state file
+/// of a version without commissioning still loads.
+#[test]
+fn a_reference_is_kept_only_for_its_configuration_and_models() {
+    let cfg = CoreConfig::default();
+    let mut fdi = Fdi::new(&cfg);
+    fdi.set_models(Some("aaaa".into()));
+    let s = cfg.fdi.commissioning();
+    let raw = super::reference::Raw {
+        speed_mps: 1.0,
+        displacement: -0.2,
+        speed_sigma_mps: 0.06,
+        displacement_sigma: 0.002,
+        speed_log_mps: 7.0,
+    };
+    for _ in 0..s.tests {
+        fdi.commissioning[1].add(&s, &raw);
+    }
+    assert!(fdi.commissioning[1].reference.is_some());
+    let saved = fdi.state();
+
+    let mut same = Fdi::new(&cfg);
+    same.set_models(Some("aaaa".into()));
+    assert_eq!(same.restore(saved.clone()), None);
+    assert_eq!(same.state(), saved);
+    assert!(same
+        .commissioning_text()
+        .contains("HBT commissioned (8 tests at 7.0 m/s)"));
+
+    let mut other_models = Fdi::new(&cfg);
+    other_models.set_models(Some("bbbb".into()));
+    let why = other_models.restore(saved.clone()).unwrap();
+    assert!(why.contains("models changed (aaaa -> bbbb)"), "{why}");
+    assert_eq!(other_models.commissioning, <[Commissioning; 2]>::default());
+
+    let mut longer = cfg.clone();
+    longer.ship.length_m = 130.0;
+    // The nominal values are no part of it: a new loading keeps the reference.
+    longer.ship.nominal_displacement_t = 8000.0;
+    let mut other_ship = Fdi::new(&longer);
+    other_ship.set_models(Some("aaaa".into()));
+    let why = other_ship.restore(saved.clone()).unwrap();
+    assert!(why.contains("ship.length-m 120.0 -> 130.0"), "{why}");
+    assert!(!why.contains("nominal"), "{why}");
+
+    let mut loaded = cfg.clone();
+    loaded.ship.nominal_displacement_t = 8000.0;
+    let mut new_load = Fdi::new(&loaded);
+    new_load.set_models(Some("aaaa".into()));
+    assert_eq!(new_load.restore(saved.clone()), None);
+
+    // An older file: no commissioning, no fingerprint.
+    let mut v = serde_json::to_value(&saved).unwrap();
+    let o = v.as_object_mut().unwrap();
+    o.remove("commissioning");
+    o.remove("fingerprint");
+    let old: FdiState = serde_json::from_value(v).unwrap();
+    let mut fresh = Fdi::new(&cfg);
+    assert_eq!(fresh.restore(old), None);
+    assert!(fresh
+        .commissioning_text()
+        .starts_with("CLFRT commissioning 0 of 8"));
+}

@@ -273,6 +273,8 @@ impl Monitor {
             }
             _ => Self::design_multisine(cfg),
         };
+        let mut fdi = Fdi::new(cfg);
+        fdi.set_models(estimator.as_ref().map(|e| e.fingerprint().to_string()));
         let estimator = estimator.map(|e| {
             let scratch = e.scratch();
             (e, scratch)
@@ -300,7 +302,7 @@ impl Monitor {
             last_excitation: None,
             multisine,
             estimator,
-            fdi: Fdi::new(cfg),
+            fdi,
         }
     }
 

@@ -43,8 +43,9 @@ impl Monitor {
     }
 
     /// Takes up a saved state (before any sample). Refused, changing nothing, when it is of
-    /// another format or another vessel.
-    pub fn restore(&mut self, s: VesselState) -> Result<(), String> {
+    /// another format or another vessel. `Ok(Some(message))` when the commissioning
+    /// reference was discarded (made under another ship configuration or other models).
+    pub fn restore(&mut self, s: VesselState) -> Result<Option<String>, String> {
         if s.format != VesselState::FORMAT {
             return Err(format!(
                 "format `{}`, expected `{}`",
@@ -58,11 +59,27 @@ impl Monitor {
                 s.vessel, self.vessel
             ));
         }
-        self.fdi.restore(s.fdi);
+        let discarded = self.fdi.restore(s.fdi);
         self.last_test_end = s.last_test_end.filter(|t| t.is_finite());
         self.next_method = s.next_method % self.cfg.scheduler.methods.len().max(1);
         self.test_seq = s.test_seq;
-        Ok(())
+        Ok(discarded)
+    }
+
+    /// Starts commissioning again for `method`, or both (see `crate::core::fdi::reference`).
+    pub fn commission(&mut self, method: Option<crate::core::wire::Method>) {
+        self.fdi.commission(method);
+    }
+
+    /// Per method, the commissioning's progress and reference (JSON, the `fdi/commission`
+    /// reply).
+    pub fn commissioning_status(&self) -> serde_json::Value {
+        self.fdi.commissioning_status()
+    }
+
+    /// "CLFRT commissioning 2 of 5, HBT commissioned (...)".
+    pub fn commissioning_text(&self) -> String {
+        self.fdi.commissioning_text()
     }
 
     /// The last alarm notification published, to publish again at once after a restore (an

@@ -151,6 +151,10 @@ impl Keys {
     pub fn trigger(&self) -> String {
         format!("{}/fdi/trigger", self.prefix)
     }
+    /// `fdi/commission` (queryable: the commissioning's progress; `start` begins it again).
+    pub fn commission(&self) -> String {
+        format!("{}/fdi/commission", self.prefix)
+    }
     /// `fdi/history` (queryable: the report history).
     pub fn history(&self) -> String {
         format!("{}/fdi/history", self.prefix)

@@ -20,7 +20,8 @@
 //! ## Lifecycle
 //!
 //! [`Daemon::start`] opens the session and declares everything (publishers, vessel tasks,
-//! subscribers, the trigger queryable, and last the liveliness tokens `fdi/alive`): when it
+//! subscribers, the control queryables `fdi/trigger` and `fdi/commission`, the history
+//! queryable, and last the liveliness tokens `fdi/alive`): when it
 //! returns, the daemon is ready. [`Daemon::run`] waits for the `shutdown` future (any future:
 //! a signal in `main`, a token in tests), then stops intake, lets every vessel task publish
 //! `mode: none` at its last heading `t` and a final status (a test under way is reported as
@@ -102,6 +103,22 @@ enum Msg {
         method: Method,
         reply: oneshot::Sender<TriggerReply>,
     },
+    /// A commissioning request: begin again (`start`, for `method` or both), then reply
+    /// with the progress.
+    Commission {
+        start: bool,
+        method: Option<Method>,
+        reply: oneshot::Sender<serde_json::Value>,
+    },
+}
+
+/// The control queryables the vessels answer (see [`serve_controls`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Control {
+    /// `fdi/trigger`.
+    Trigger,
+    /// `fdi/commission`.
+    Commission,
 }
 
 /// What vessels of one configuration share: the designed multisine and the estimator.
@@ -132,6 +149,8 @@ struct Fleet {
     shared: Vec<Arc<Shared>>,
     /// Each vessel's trigger key (to match wildcard queries).
     trigger_keys: Vec<KeyExpr<'static>>,
+    /// Each vessel's commission key.
+    commission_keys: Vec<KeyExpr<'static>>,
     /// Samples on a stream key of a vessel that is not configured (wildcard subscriptions).
     unknown: AtomicU64,
     /// Queries dropped because the trigger queue was full.
@@ -187,7 +206,7 @@ pub struct Daemon {
     /// The history queryable and its task, when a history is kept.
     history_queryable: Option<(Queryable<()>, tokio::task::JoinHandle<()>)>,
     subscribers: Vec<Subscriber<()>>,
-    queryable: Queryable<()>,
+    queryables: Vec<Queryable<()>>,
     tokens: Vec<LivelinessToken>,
 }
 
@@ -280,6 +299,7 @@ impl Daemon {
         let mut senders = Vec::with_capacity(names.len());
         let mut shared = Vec::with_capacity(names.len());
         let mut trigger_keys = Vec::with_capacity(names.len());
+        let mut commission_keys = Vec::with_capacity(names.len());
         let mut vessel_tasks = Vec::with_capacity(names.len());
         for (v, (name, core)) in vessels.iter().enumerate() {
             let (multisine, estimator) = &cores[part_of[v]].1;
@@ -289,6 +309,8 @@ impl Daemon {
             let sh = Arc::new(Shared::default());
             let trigger_key = KeyExpr::try_from(keys.trigger())
                 .map_err(DaemonError::declare("trigger key", name))?;
+            let commission_key = KeyExpr::try_from(keys.commission())
+                .map_err(DaemonError::declare("commission key", name))?;
             let mut monitor = Monitor::with_parts(core, name, multisine.clone(), estimator.clone());
             let restored = state
                 .as_ref()
@@ -314,6 +336,7 @@ impl Daemon {
             senders.push(tx);
             shared.push(sh);
             trigger_keys.push(trigger_key);
+            commission_keys.push(commission_key);
         }
         let fleet = Arc::new(Fleet {
             index: names
@@ -325,6 +348,7 @@ impl Daemon {
             senders,
             shared,
             trigger_keys,
+            commission_keys,
             unknown: AtomicU64::new(0),
             queries_dropped: AtomicU64::new(0),
         });
@@ -354,23 +378,38 @@ impl Daemon {
             subscribers.push(sub);
         }
 
-        // The trigger queryable and its task.
-        let trigger_key = match &single {
-            Some(k) => k.trigger(),
-            None => "vessels/*/fdi/trigger".to_string(),
-        };
-        let (qtx, qrx) = mpsc::channel::<Query>(64);
-        let f = fleet.clone();
-        let queryable = session
-            .declare_queryable(trigger_key.clone())
-            .callback(move |query| {
-                if qtx.try_send(query).is_err() {
-                    f.queries_dropped.fetch_add(1, Ordering::Relaxed);
-                }
-            })
-            .await
-            .map_err(DaemonError::declare("queryable", &trigger_key))?;
-        let trigger_task = tokio::spawn(serve_triggers(fleet.clone(), qrx, cancel.clone()));
+        // The control queryables (trigger, commission) and their task.
+        let (qtx, qrx) = mpsc::channel::<(Control, Query)>(64);
+        let mut queryables = Vec::with_capacity(2);
+        for (control, key) in [
+            (
+                Control::Trigger,
+                single
+                    .as_ref()
+                    .map_or("vessels/*/fdi/trigger".into(), Keys::trigger),
+            ),
+            (
+                Control::Commission,
+                single
+                    .as_ref()
+                    .map_or("vessels/*/fdi/commission".into(), Keys::commission),
+            ),
+        ] {
+            let f = fleet.clone();
+            let tx = qtx.clone();
+            let q = session
+                .declare_queryable(key.clone())
+                .callback(move |query| {
+                    if tx.try_send((control, query)).is_err() {
+                        f.queries_dropped.fetch_add(1, Ordering::Relaxed);
+                    }
+                })
+                .await
+                .map_err(DaemonError::declare("queryable", &key))?;
+            queryables.push(q);
+        }
+        drop(qtx);
+        let trigger_task = tokio::spawn(serve_controls(fleet.clone(), qrx, cancel.clone()));
 
         // The history queryable, when a history is kept.
         let mut history_queryable = None;
@@ -419,7 +458,7 @@ impl Daemon {
             vessel_tasks,
             trigger_task,
             subscribers,
-            queryable,
+            queryables,
             history_queryable,
             tokens,
         })
@@ -460,8 +499,10 @@ impl Daemon {
                 tracing::warn!("undeclaring a subscriber: {e}");
             }
         }
-        if let Err(e) = self.queryable.undeclare().await {
-            tracing::warn!("undeclaring the trigger queryable: {e}");
+        for q in self.queryables {
+            if let Err(e) = q.undeclare().await {
+                tracing::warn!("undeclaring a control queryable: {e}");
+            }
         }
         let history_task = match self.history_queryable {
             Some((q, task)) => {
@@ -514,43 +555,84 @@ impl Daemon {
 
 /// Serves `fdi/trigger` queries: one at a time (they are rare), each answered by the vessel
 /// task that owns the core, on the vessel's own trigger key.
-async fn serve_triggers(
+/// Answers the control queries: `fdi/trigger` (parameter `method=hbt|clfrt`) and
+/// `fdi/commission` (parameters `start` to begin commissioning again, `method=hbt|clfrt` to
+/// restrict it to one method); each vessel whose key the query matches replies.
+async fn serve_controls(
     fleet: Arc<Fleet>,
-    mut rx: mpsc::Receiver<Query>,
+    mut rx: mpsc::Receiver<(Control, Query)>,
     cancel: CancellationToken,
 ) {
     loop {
-        let query = tokio::select! {
+        let (control, query) = tokio::select! {
             biased;
             _ = cancel.cancelled() => return,
             q = rx.recv() => match q { Some(q) => q, None => return },
         };
-        let method = query
-            .parameters()
-            .get("method")
-            .ok_or_else(|| "missing parameter method=hbt|clfrt".to_string())
-            .and_then(|m| m.parse::<Method>());
+        let params = query.parameters();
+        let method = params.get("method").map(|m| m.parse::<Method>());
+        let start = params.get("start").is_some();
+        let keys = match control {
+            Control::Trigger => &fleet.trigger_keys,
+            Control::Commission => &fleet.commission_keys,
+        };
         let qke = query.key_expr().clone();
         let targets: Vec<usize> = match fleet.vessel_of(qke.as_str()) {
-            Some(i) if fleet.trigger_keys[i].intersects(&qke) => vec![i],
+            Some(i) if keys[i].intersects(&qke) => vec![i],
             _ => (0..fleet.names.len())
-                .filter(|&i| fleet.trigger_keys[i].intersects(&qke))
+                .filter(|&i| keys[i].intersects(&qke))
                 .collect(),
         };
         for i in targets {
-            let reply = match &method {
-                Err(reason) => refusal(reason.clone()),
-                Ok(m) => ask_vessel(&fleet, i, *m).await,
+            let bytes = match (control, &method) {
+                (Control::Trigger, None) => {
+                    to_json(&refusal("missing parameter method=hbt|clfrt".into()))
+                }
+                (Control::Trigger, Some(Err(reason)))
+                | (Control::Commission, Some(Err(reason))) => to_json(&refusal(reason.clone())),
+                (Control::Trigger, Some(Ok(m))) => to_json(&ask_vessel(&fleet, i, *m).await),
+                (Control::Commission, m) => {
+                    let m = m.as_ref().and_then(|m| m.as_ref().ok().copied());
+                    to_json(&ask_commission(&fleet, i, start, m).await)
+                }
             };
-            let bytes = serde_json::to_vec(&reply).unwrap_or_default();
             if let Err(e) = query
-                .reply(fleet.trigger_keys[i].clone(), bytes)
+                .reply(keys[i].clone(), bytes)
                 .encoding(Encoding::APPLICATION_JSON)
                 .await
             {
-                tracing::warn!(vessel = %fleet.names[i], "trigger reply failed: {e}");
+                tracing::warn!(vessel = %fleet.names[i], "control reply failed: {e}");
             }
         }
+    }
+}
+
+fn to_json(v: &impl serde::Serialize) -> Vec<u8> {
+    serde_json::to_vec(v).unwrap_or_default()
+}
+
+/// Asks vessel `i` to report (and with `start` to begin again) its commissioning.
+async fn ask_commission(
+    fleet: &Fleet,
+    i: usize,
+    start: bool,
+    method: Option<Method>,
+) -> serde_json::Value {
+    let (tx, rx) = oneshot::channel();
+    let msg = Msg::Commission {
+        start,
+        method,
+        reply: tx,
+    };
+    if fleet.senders[i].try_send(msg).is_err() {
+        fleet.shared[i]
+            .triggers_dropped
+            .fetch_add(1, Ordering::Relaxed);
+        return serde_json::json!({"error": "the vessel's input queue is full"});
+    }
+    match tokio::time::timeout(Duration::from_secs(5), rx).await {
+        Ok(Ok(r)) => r,
+        _ => serde_json::json!({"error": "the vessel's monitor did not answer"}),
     }
 }
 
@@ -591,6 +673,7 @@ mod tests {
             senders: vec![tx],
             shared: vec![Arc::new(Shared::default())],
             trigger_keys: vec![KeyExpr::try_from("vessels/self/fdi/trigger").unwrap()],
+            commission_keys: vec![KeyExpr::try_from("vessels/self/fdi/commission").unwrap()],
             unknown: AtomicU64::new(0),
             queries_dropped: AtomicU64::new(0),
         };

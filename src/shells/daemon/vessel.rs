@@ -213,6 +213,23 @@ impl VesselTask {
                 let _ = reply.send(r);
                 self.publish_outputs().await;
             }
+            Msg::Commission {
+                start,
+                method,
+                reply,
+            } => {
+                if start {
+                    self.monitor.commission(method);
+                    tracing::info!(vessel = %self.name, method = ?method.map(crate::core::wire::Method::name), "commissioning started on request: {}", self.monitor.commissioning_text());
+                    self.save_state();
+                }
+                let mut r = self.monitor.commissioning_status();
+                if let Some(o) = r.as_object_mut() {
+                    o.insert("vessel".into(), self.name.clone().into());
+                    o.insert("started".into(), start.into());
+                }
+                let _ = reply.send(r);
+            }
         }
     }
 
@@ -339,7 +356,10 @@ pub(super) fn restore(
             None
         }
         Loaded::State(s) => match monitor.restore(*s) {
-            Ok(()) => {
+            Ok(discarded) => {
+                if let Some(why) = discarded {
+                    tracing::warn!(vessel, file = %dir.vessel_file(vessel).display(), "{why}");
+                }
                 let n = monitor.last_notification().cloned();
                 tracing::info!(
                     vessel,

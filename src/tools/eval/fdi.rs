@@ -148,6 +148,10 @@ pub struct FdiEvalOptions {
     pub seas: Vec<SeaState>,
     /// Worker threads.
     pub threads: usize,
+    /// Run the family of real ships (`eval --fdi --family`) instead of the first-order ship.
+    pub family: bool,
+    /// With `family`: only members whose name contains this.
+    pub member: Option<String>,
 }
 
 impl Default for FdiEvalOptions {
@@ -162,6 +166,8 @@ impl Default for FdiEvalOptions {
             methods: vec![Method::Clfrt, Method::Hbt],
             seas: vec![SeaState::Calm, SeaState::Moderate],
             threads: 1,
+            family: false,
+            member: None,
         }
     }
 }
@@ -198,7 +204,9 @@ pub struct RunOutcome {
     pub speed_mps: f64,
     /// Drawn displacement [t].
     pub displacement_t: f64,
-    /// Tests in order (fewer when the ship refused or timed out).
+    /// The commissioning's tests, before the fault appears.
+    pub commissioning: Vec<TestOutcome>,
+    /// Tests in order after the fault's onset (fewer when the ship refused or timed out).
     pub tests: Vec<TestOutcome>,
     /// Why the run ended early, if it did.
     pub error: Option<String>,
@@ -254,21 +262,35 @@ fn outcome_of(r: &Report) -> TestOutcome {
     }
 }
 
-/// Draws the run's ship and fault list.
+/// Draws the run's ship and fault list: `(scenario, configuration, faults that appear after
+/// commissioning)`. With `corner = Some(k)` the ship sits at corner `k % 4` of the
+/// scenario's (u, D) box (low/high speed, low/high displacement) instead of a random point.
 fn draw(
     cfg: &Config,
     sc: &FdiScenario,
     sea: SeaState,
     seed: u64,
-) -> Result<(Scenario, Config), String> {
+    corner: Option<usize>,
+) -> Result<(Scenario, Config, Vec<Fault>), String> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let [u_lo, u_hi] = sc.speed_mps.unwrap_or(cfg.ship.speed_range_mps);
     let [d_lo, d_hi] = sc.displacement_t.unwrap_or(cfg.ship.displacement_range_t);
-    let u = rng.gen_range(u_lo..=u_hi);
-    let d = rng.gen_range(d_lo..=d_hi);
+    let mut u = rng.gen_range(u_lo..=u_hi);
+    let mut d = rng.gen_range(d_lo..=d_hi);
+    if let Some(k) = corner {
+        u = if k % 2 == 0 { u_lo } else { u_hi };
+        d = if (k / 2) % 2 == 0 { d_lo } else { d_hi };
+    }
     let mut faults = Vec::new();
+    let mut late = Vec::new();
     if let Some(f) = sc.fault {
-        faults.push(f.parse::<Fault>().map_err(|e| e.to_string())?);
+        let f = f.parse::<Fault>().map_err(|e| e.to_string())?;
+        // With commissioning, the fault appears once the vessel is commissioned.
+        if cfg.fdi.commissioning_tests > 0 {
+            late.push(f);
+        } else {
+            faults.push(f);
+        }
     }
     if sc.drift {
         let v = rng.gen_range(0.25..=1.0) * if rng.gen_bool(0.5) { 1.0 } else { -1.0 };
@@ -287,10 +309,14 @@ fn draw(
             seed: rng.gen(),
         },
         cfg,
+        late,
     ))
 }
 
-/// Runs one run of `method` on the drawn ship.
+/// Runs one run of `method` on the drawn ship: `fdi.commissioning-tests` tests on the healthy
+/// ship (the heading drift, when the scenario has one, from the start), then the scenario's
+/// fault, then `o.tests` tests.
+#[allow(clippy::too_many_arguments)]
 pub fn run_one(
     cfg: &Config,
     sc: &FdiScenario,
@@ -299,13 +325,15 @@ pub fn run_one(
     seed: u64,
     estimator: &Arc<Estimator>,
     o: &FdiEvalOptions,
+    corner: Option<usize>,
 ) -> RunOutcome {
-    let (scenario, cfg) = match draw(cfg, sc, sea, seed) {
+    let (scenario, cfg, late) = match draw(cfg, sc, sea, seed, corner) {
         Ok(x) => x,
         Err(e) => {
             return RunOutcome {
                 speed_mps: f64::NAN,
                 displacement_t: f64::NAN,
+                commissioning: Vec::new(),
                 tests: Vec::new(),
                 error: Some(e),
             }
@@ -314,9 +342,12 @@ pub fn run_one(
     let mut run = RunOutcome {
         speed_mps: scenario.speed_mps,
         displacement_t: scenario.displacement_t,
+        commissioning: Vec::new(),
         tests: Vec::new(),
         error: None,
     };
+    let commissioning = cfg.fdi.commissioning_tests as usize;
+    let mut injected = false;
     let ms = Monitor::design_multisine(&cfg.core()).ok();
     let mut ls = match Lockstep::with_parts(
         &cfg.core(),
@@ -335,6 +366,12 @@ pub fn run_one(
     let mut next = ls.time_s() + o.warmup_s;
     let max_test_s = cfg.safety.max_test_duration_s + 120.0;
     while run.tests.len() < o.tests {
+        if run.commissioning.len() == commissioning && !injected {
+            injected = true;
+            for f in &late {
+                ls.ship.inject(*f);
+            }
+        }
         ls.run_until(next, &mut out);
         out.clear();
         // Trigger, retried each second for up to one warm-up (the course must be steady).
@@ -367,7 +404,11 @@ pub fn run_one(
             run.error = Some("no report in time".into());
             return run;
         };
-        run.tests.push(outcome_of(&r));
+        if run.commissioning.len() < commissioning {
+            run.commissioning.push(outcome_of(&r));
+        } else {
+            run.tests.push(outcome_of(&r));
+        }
         next = ls.time_s() + o.gap_s;
     }
     run
@@ -423,7 +464,14 @@ pub fn score(runs: &[RunOutcome], expected: Option<Cause>, within: usize, baseli
         };
         let mut first_fault = None;
         let mut first_isolated = None;
-        for (k, t) in r.tests.iter().enumerate() {
+        // A nominal run's commissioning tests count among its tests (false alarms); a fault
+        // run's do not (its fault appears after them).
+        let before: &[TestOutcome] = if expected.is_none() {
+            &r.commissioning
+        } else {
+            &[]
+        };
+        for (k, t) in before.iter().chain(r.tests.iter()).enumerate() {
             if !t.completed {
                 c.aborted += 1;
                 continue;
@@ -460,12 +508,74 @@ fn pct(n: usize, d: usize) -> String {
     }
 }
 
-/// Runs the suite and prints its tables (markdown) to standard output.
+/// One row group of a table: a label, the scenario and the configuration its ships run.
+struct Row<'a> {
+    label: String,
+    scenario: &'a FdiScenario,
+    cfg: Config,
+    /// Where the row's scenario sits in the seed space.
+    index: usize,
+}
+
+/// The scenarios of the family suite: healthy with drift, then the faults of the acceptance.
+pub fn family_scenarios() -> Vec<FdiScenario> {
+    let wanted = [
+        "nominal, drift <= 1 deg/min",
+        "displacement +10 %",
+        "displacement -10 %",
+        "speed log +0.5 m/s",
+        "servo rate 2 deg/s",
+    ];
+    scenarios()
+        .into_iter()
+        .filter(|s| wanted.contains(&s.name))
+        .collect()
+}
+
+/// Runs the suite and prints its tables (markdown) to standard output. With `o.family`,
+/// every member of the family of real ships (but the first-order ship) runs the family
+/// scenarios, half its runs at the corners of the (u, D) box.
 pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
-    let scs = scenarios();
+    let scs = if o.family {
+        family_scenarios()
+    } else {
+        scenarios()
+    };
+    let mut rows = Vec::new();
+    if o.family {
+        let members = crate::sim::config::family();
+        for (mi, m) in members.iter().enumerate().skip(1) {
+            if o.member
+                .as_ref()
+                .is_some_and(|w| !m.name.contains(w.as_str()))
+            {
+                continue;
+            }
+            let mut c = cfg.clone();
+            m.apply(&mut c.structure, &mut c.autopilot);
+            for (si, sc) in scs.iter().enumerate() {
+                rows.push(Row {
+                    label: format!("{}: {}", m.name, sc.name),
+                    scenario: sc,
+                    cfg: c.clone(),
+                    index: mi * 16 + si,
+                });
+            }
+        }
+    } else {
+        for (si, sc) in scs.iter().enumerate() {
+            rows.push(Row {
+                label: sc.name.to_string(),
+                scenario: sc,
+                cfg: cfg.clone(),
+                index: si,
+            });
+        }
+    }
     println!(
-        "# FDI scenario suite: seed {}, {} runs per fault scenario, {} per nominal one, {} tests per run",
-        o.seed, o.runs, o.nominal_runs, o.tests
+        "# FDI scenario suite{}: seed {}, {} runs per fault scenario, {} per nominal one, {} commissioning tests then {} tests per run",
+        if o.family { " on the family of real ships" } else { "" },
+        o.seed, o.runs, o.nominal_runs, cfg.fdi.commissioning_tests, o.tests
     );
     println!(
         "rule {}, chi2 threshold {}, persistence {}, clear after {}",
@@ -483,10 +593,12 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
                 sea.name()
             );
             println!();
-            println!("| scenario | who | runs | tests | false alarms (tests / runs) | detected <= 2 | mean delay | detected <= 4 | isolated (last test) | isolated <= 2 | isolated <= 4 | aborted |");
-            println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+            println!("| scenario | who | runs | tests | false alarms (tests / runs) | detected <= 2 | detected <= 3 | mean delay | detected <= 4 | isolated (last test) | isolated <= 2 | isolated <= 3 | isolated <= 4 | aborted |");
+            println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
             let mut notes = Vec::new();
-            for (si, sc) in scs.iter().enumerate() {
+            for (si, row) in rows.iter().enumerate() {
+                let sc = row.scenario;
+                let rcfg = &row.cfg;
                 let n = if sc.expected.is_none() {
                     o.nominal_runs
                 } else {
@@ -495,10 +607,20 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
                 let base = o
                     .seed
                     .wrapping_mul(1_000_003)
-                    .wrapping_add((si as u64) << 20)
+                    .wrapping_add((row.index as u64) << 20)
                     .wrapping_add(u64::from(sea == SeaState::Moderate) << 16);
                 let runs = par_map(n, o.threads, |k| {
-                    run_one(cfg, sc, sea, method, base + k as u64, &estimator, o)
+                    let corner = (o.family && k % 2 == 0).then_some(k / 2);
+                    run_one(
+                        rcfg,
+                        sc,
+                        sea,
+                        method,
+                        base + k as u64,
+                        &estimator,
+                        o,
+                        corner,
+                    )
                 });
                 {
                     let all = || runs.iter().flat_map(|r| r.tests.iter());
@@ -515,7 +637,7 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
                         let cov = zs.iter().map(|z| (z[0] - m0) * (z[1] - m1)).sum::<f64>() / n;
                         notes.push(format!(
                             "{}: z_speed mean {:+.2} sd {:.2}, z_displacement mean {:+.2} sd {:.2}, correlation {:+.2}",
-                            sc.name,
+                            row.label,
                             m0,
                             sd(0),
                             m1,
@@ -528,6 +650,13 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
                     let all = || runs.iter().flat_map(|r| r.tests.iter());
                     for (what, v) in [
                         ("chi2", all().map(|t| t.q_param).collect::<Vec<_>>()),
+                        (
+                            "commissioning chi2",
+                            runs.iter()
+                                .flat_map(|r| r.commissioning.iter())
+                                .map(|t| t.q_param)
+                                .collect(),
+                        ),
                         ("servo-check chi2", all().map(|t| t.q_actuator).collect()),
                         ("model-fit chi2", all().map(|t| t.fit_chi2).collect()),
                         ("sea index", all().map(|t| t.sea_index).collect()),
@@ -535,7 +664,7 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
                         if let Some((m, p99, mx)) = quantiles(v) {
                             notes.push(format!(
                                 "{}: {what} median {m:.4}, 99th percentile {p99:.4}, max {mx:.4}",
-                                sc.name
+                                row.label
                             ));
                         }
                     }
@@ -557,6 +686,7 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
                 };
                 for &(who, baseline) in whos {
                     let c2 = score(&runs, sc.expected, 2, baseline);
+                    let c3 = score(&runs, sc.expected, 3, baseline);
                     let c4 = score(&runs, sc.expected, 4, baseline);
                     let nominal = sc.expected.is_none();
                     let fa = if nominal {
@@ -569,32 +699,28 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
                     } else {
                         "-".into()
                     };
-                    let (det2, det4, delay, iso, iso2, iso4) = if nominal {
-                        (
-                            "-".into(),
-                            "-".into(),
-                            "-".into(),
-                            "-".into(),
-                            "-".into(),
-                            "-".into(),
-                        )
+                    let dash = || -> [String; 8] { std::array::from_fn(|_| "-".to_string()) };
+                    let [det2, det3, delay, det4, iso, iso2, iso3, iso4] = if nominal {
+                        dash()
                     } else {
-                        (
+                        [
                             pct(c2.detected, c2.runs),
-                            pct(c4.detected, c4.runs),
+                            pct(c3.detected, c3.runs),
                             if c4.detected > 0 {
                                 format!("{:.2}", c4.delay_sum as f64 / c4.detected as f64)
                             } else {
                                 "-".into()
                             },
+                            pct(c4.detected, c4.runs),
                             pct(c4.isolated, c4.runs),
                             pct(c2.isolated_within, c2.runs),
+                            pct(c3.isolated_within, c3.runs),
                             pct(c4.isolated_within, c4.runs),
-                        )
+                        ]
                     };
                     println!(
-                        "| {} | {who} | {} | {} | {fa} | {det2} | {delay} | {det4} | {iso} | {iso2} | {iso4} | {}{} |",
-                        sc.name,
+                        "| {} | {who} | {} | {} | {fa} | {det2} | {det3} | {delay} | {det4} | {iso} | {iso2} | {iso3} | {iso4} | {}{} |",
+                        row.label,
                         c2.runs,
                         c2.tests,
                         c2.aborted,
