@@ -3,8 +3,10 @@
 //! client of the daemon sees: every status change and every report's decision, as they arrive.
 //!
 //! Timeline: the ship holds its course; the scheduler runs tests back to back (CLFRT and HBT
-//! in turn, one minute apart); at the fault's onset the ship's displacement steps up; the demo
-//! stops after a few reports of the faulty ship. Everything goes over real Zenoh sessions on
+//! in turn, one minute apart); the first tests commission the vessel (its own reference, two
+//! per method here instead of the configured eight, so the demo stays short); at the fault's
+//! onset, after commissioning, the ship's displacement steps up; the demo runs until the alarm
+//! is raised (or a cap of reports of the faulty ship). Everything goes over real Zenoh sessions on
 //! `127.0.0.1` (a free port), multicast off.
 
 use crate::config::Config;
@@ -42,8 +44,11 @@ pub struct DemoOptions {
     pub seed: u64,
     /// The fault injected (its onset is in ship time).
     pub fault: Fault,
-    /// Reports of tests that ended after the fault's onset before the demo stops.
+    /// Reports of tests that started after the fault's onset before the demo stops without
+    /// an alarm.
     pub fault_reports: usize,
+    /// Commissioning tests per method (`fdi.commissioning-tests` of the demo's daemon).
+    pub commissioning_tests: u32,
     /// Ship time after which the demo stops anyway [s].
     pub max_ship_s: f64,
 }
@@ -57,14 +62,19 @@ impl Default for DemoOptions {
                 value: 25.0,
                 onset_s: DEFAULT_ONSET_S,
             },
-            fault_reports: 2,
+            fault_reports: 8,
+            commissioning_tests: DEMO_COMMISSIONING_TESTS,
             max_ship_s: 6.0 * 3600.0,
         }
     }
 }
 
-/// Onset of the demo's fault [s of ship time]: after three nominal tests (CLFRT, HBT, CLFRT end by 4920 s).
-pub const DEFAULT_ONSET_S: f64 = 5000.0;
+/// Onset of the demo's fault [s of ship time]: after commissioning (two CLFRT and two HBT
+/// tests; with seed 1 the fourth ends at 5954 s, the fifth starts at 6090 s).
+pub const DEFAULT_ONSET_S: f64 = 6000.0;
+
+/// Commissioning tests per method in the demo.
+pub const DEMO_COMMISSIONING_TESTS: u32 = 2;
 
 /// What the demo saw.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -73,6 +83,8 @@ pub struct DemoSummary {
     pub reports: Vec<Report>,
     /// Notifications received over Zenoh.
     pub notifications: usize,
+    /// The alarm was raised (the demo stopped at it).
+    pub alarm: bool,
     /// Ship time simulated [s].
     pub ship_s: f64,
     /// Wall time [s].
@@ -102,6 +114,7 @@ pub async fn run(
     dcfg.daemon.vessels = vec![vessel.clone()];
     dcfg.scheduler.enabled = true;
     dcfg.scheduler.interval_s = 60.0;
+    dcfg.fdi.commissioning_tests = opts.commissioning_tests;
     let daemon = Daemon::start(
         &dcfg.core(),
         &dcfg.daemon,
@@ -146,10 +159,12 @@ pub async fn run(
         out,
         "helmwatch demo: daemon and simulated ship over Zenoh on {endpoint}, lockstep time\n\
          ship {vessel}: {} m/s, {} t, {} sea; tests on schedule (CLFRT and HBT in turn)\n\
-         fault: {} from t = {onset:.0} s\n",
+         commissioning: the first {} tests of each method set the vessel's own reference\n\
+         fault: {} from t = {onset:.0} s; the demo runs until the alarm\n",
         cfg.ship.nominal_speed_mps,
         cfg.ship.nominal_displacement_t,
         cfg.sea.state.name(),
+        opts.commissioning_tests,
         opts.fault
     )
     .map_err(io)?;
@@ -170,6 +185,7 @@ pub async fn run(
 
     let mut summary = DemoSummary::default();
     let mut after_fault = 0usize;
+    let mut fault_report = false;
     while let Some(seen) = rx.recv().await {
         match seen {
             Seen::Status(s) => {
@@ -205,14 +221,20 @@ pub async fn run(
                 if r.t_start >= onset {
                     after_fault += 1;
                 }
+                fault_report |= r.decision == crate::core::wire::Decision::Fault;
                 summary.reports.push(*r);
-                if after_fault >= opts.fault_reports {
+                if (summary.alarm && fault_report) || after_fault >= opts.fault_reports {
                     break;
                 }
             }
             Seen::Notification(n) => {
                 summary.notifications += 1;
                 writeln!(out, "NOTIFICATION {:?}: {}", n.state, n.message).map_err(io)?;
+                // Stop once both the alarm and its report (in either order) are in.
+                summary.alarm |= n.state == crate::core::wire::AlarmState::Alarm;
+                if summary.alarm && fault_report {
+                    break;
+                }
             }
         }
         if ship_task.is_finished() {
@@ -240,5 +262,33 @@ pub async fn run(
         summary.ship_s / summary.wall_s.max(1e-9)
     )
     .map_err(io)?;
+    let first_fault = summary
+        .reports
+        .iter()
+        .position(|r| r.t_start >= onset)
+        .map(|i| summary.reports.len() - i);
+    match (summary.alarm, first_fault) {
+        (true, Some(n)) => writeln!(
+            out,
+            "the alarm was raised at the {} test of the faulty ship",
+            ordinal(n)
+        ),
+        (true, None) => writeln!(out, "the alarm was raised"),
+        (false, _) => writeln!(
+            out,
+            "no alarm within {} reports of the faulty ship",
+            opts.fault_reports
+        ),
+    }
+    .map_err(io)?;
     Ok(summary)
+}
+
+fn ordinal(n: usize) -> String {
+    match n {
+        1 => "first".into(),
+        2 => "second".into(),
+        3 => "third".into(),
+        n => format!("{n}th"),
+    }
 }

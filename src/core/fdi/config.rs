@@ -133,7 +133,7 @@ impl Default for FdiConfig {
             commissioning_tests: 8,
             commissioning_spread_speed_mps: 2.2,
             commissioning_spread_displacement: 0.25,
-            commissioning_spread_factor: 1.0,
+            commissioning_spread_factor: 1.25,
             commissioning_speed_band_mps: 1.0,
             model_mismatch_chi2: 100.0,
             baseline_clfrt_speed_sigma_mps: [0.07, 0.33],
