@@ -6,9 +6,8 @@
 
 mod common;
 
-use common::{daemon_config, endpoint, temp_dir, Observer};
+use common::{daemon_config, endpoint, start_daemon, temp_dir, Observer};
 use helmwatch::config::Config;
-use helmwatch::shells::daemon::Daemon;
 use helmwatch::shells::net::loopback_peer;
 use helmwatch::shells::shipnode::{ShipNode, ShipNodeOptions};
 use helmwatch::sim::Scenario;
@@ -17,16 +16,6 @@ use std::time::Duration;
 use tokio_util::sync::CancellationToken;
 
 const LIMIT: Duration = Duration::from_secs(120);
-
-async fn start_daemon(cfg: &Config, ep: &str) -> Daemon {
-    Daemon::start(
-        &cfg.core(),
-        &cfg.daemon,
-        loopback_peer(&[ep.to_string()], &[]).unwrap(),
-    )
-    .await
-    .unwrap()
-}
 
 /// Runs `methods` one after the other on a lockstep ship of `scenario` (its clock from
 /// `start_s`); returns the reports.

@@ -5,9 +5,8 @@
 
 mod common;
 
-use common::{daemon_config, endpoint, ran_to_analysis, Observer};
+use common::{daemon_config, endpoint, ran_to_analysis, start_daemon, Observer};
 use helmwatch::config::Config;
-use helmwatch::shells::daemon::Daemon;
 use helmwatch::shells::net::loopback_peer;
 use helmwatch::shells::shipnode::{ShipNode, ShipNodeOptions, ShipSummary};
 use helmwatch::sim::Scenario;
@@ -34,17 +33,6 @@ fn spawn_ship(
     let zcfg = loopback_peer(&[], &[ep.to_string()]).unwrap();
     let task = tokio::spawn(node.run(zcfg, async move { s.cancelled().await }));
     (stop, task)
-}
-
-/// The daemon of `cfg`, listening on `ep`.
-async fn start_daemon(cfg: &Config, ep: &str) -> Daemon {
-    Daemon::start(
-        &cfg.core(),
-        &cfg.daemon,
-        loopback_peer(&[ep.to_string()], &[]).unwrap(),
-    )
-    .await
-    .unwrap()
 }
 
 #[tokio::test(flavor = "multi_thread")]

@@ -9,6 +9,17 @@ use serde_json::Value;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+/// The daemon of `cfg` (its core configuration, one core per vessel), listening on `ep`.
+pub async fn start_daemon(cfg: &Config, ep: &str) -> helmwatch::shells::daemon::Daemon {
+    helmwatch::shells::daemon::Daemon::start(
+        &cfg.core(),
+        &cfg.daemon,
+        loopback_peer(&[ep.to_string()], &[]).unwrap(),
+    )
+    .await
+    .unwrap()
+}
+
 /// A free endpoint `tcp/127.0.0.1:<port>`.
 pub fn endpoint() -> String {
     format!("tcp/127.0.0.1:{}", free_loopback_port().unwrap())
