@@ -421,10 +421,6 @@ pub struct Assessment {
     pub summary: String,
     /// The notification to publish, when the vessel's alarm state changed.
     pub notification: Option<Notification>,
-    /// The CLFRT model fit found the ship outside the trained family (a warning).
-    pub model_mismatch: bool,
-    /// This test completed the method's commissioning.
-    pub commissioned: bool,
 }
 
 /// What a `model_mismatch` warning tells the operator.
@@ -451,7 +447,8 @@ pub struct Fdi {
 
 /// What a commissioning reference was made under: the ship's particulars, servo and test
 /// designs (relay, periods measured, multisine; the nominal values excluded: a reference
-/// survives a new loading), and the models' checksums. A saved reference made under another is discarded on restore.
+/// survives a new loading), and the models' checksums. A saved reference made under another
+/// is discarded on restore.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Fingerprint {
     /// `{ship, servo, hbt, clfrt}` as configured.
@@ -511,10 +508,11 @@ impl Fingerprint {
                     }
                 }
             }
-            if keys.is_empty() {
-                keys.push("the ship configuration changed".into());
-            }
-            why.push(format!("ship configuration changed ({})", keys.join(", ")));
+            why.push(if keys.is_empty() {
+                "ship configuration changed".to_string()
+            } else {
+                format!("ship configuration changed ({})", keys.join(", "))
+            });
         }
         if self.models != saved.models {
             why.push(format!(
@@ -642,7 +640,7 @@ impl Fdi {
         let per = |m: Method| {
             let c = &self.commissioning[method_index(m)];
             json!({
-                "state": if s.tests == 0 { "off" } else if c.reference.is_some() { "commissioned" } else { "commissioning" },
+                "state": c.state(&s),
                 "tests": c.tests,
                 "of": s.tests,
                 "text": c.describe(&s),
@@ -984,8 +982,6 @@ impl Fdi {
             isolation: ours.isolation,
             summary,
             notification,
-            model_mismatch: mismatch.is_some(),
-            commissioned,
         }
     }
 }

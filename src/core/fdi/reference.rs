@@ -236,6 +236,15 @@ impl Commissioning {
         *self = Self::default();
     }
 
+    /// `off` (no commissioning configured), `commissioning` or `commissioned`.
+    pub fn state(&self, s: &Settings) -> &'static str {
+        match (s.tests, &self.reference) {
+            (0, _) => "off",
+            (_, None) => "commissioning",
+            (_, Some(_)) => "commissioned",
+        }
+    }
+
     /// Status text: "commissioning k of K", "commissioned (K tests at u m/s)" or "design".
     pub fn describe(&self, s: &Settings) -> String {
         match (s.tests, &self.reference) {

@@ -588,8 +588,10 @@ async fn serve_controls(
                 (Control::Trigger, None) => {
                     to_json(&refusal("missing parameter method=hbt|clfrt".into()))
                 }
-                (Control::Trigger, Some(Err(reason)))
-                | (Control::Commission, Some(Err(reason))) => to_json(&refusal(reason.clone())),
+                (Control::Trigger, Some(Err(reason))) => to_json(&refusal(reason.clone())),
+                (Control::Commission, Some(Err(reason))) => {
+                    to_json(&serde_json::json!({ "error": reason }))
+                }
                 (Control::Trigger, Some(Ok(m))) => to_json(&ask_vessel(&fleet, i, *m).await),
                 (Control::Commission, m) => {
                     let m = m.as_ref().and_then(|m| m.as_ref().ok().copied());
