@@ -13,6 +13,9 @@ pub enum DecisionRule {
     ChiSquare,
     /// Two-sided CUSUM on each normalised residual.
     Cusum,
+    /// A window GLR: the mean of the last n tests' normalised residuals, n = 1 to
+    /// `glr-window`, against `glr-threshold` (one overwhelming test is enough).
+    Glr,
 }
 
 impl DecisionRule {
@@ -21,6 +24,7 @@ impl DecisionRule {
         match self {
             DecisionRule::ChiSquare => "chi-square",
             DecisionRule::Cusum => "cusum",
+            DecisionRule::Glr => "glr",
         }
     }
 }
@@ -47,7 +51,7 @@ pub struct Commissioning {
 pub struct FdiConfig {
     /// Decide on completed tests (false: residuals are still reported, decision inconclusive).
     pub enabled: bool,
-    /// `chi-square` (with persistence) or `cusum`.
+    /// `chi-square` (with persistence), `cusum` or `glr`.
     pub rule: DecisionRule,
     /// Chi-square limit of each two-dimensional residual group (13.82: 0.1 % for m = 2).
     pub chi2_threshold: f64,
@@ -59,6 +63,10 @@ pub struct FdiConfig {
     pub cusum_k: f64,
     /// CUSUM decision interval h [sigma].
     pub cusum_h: f64,
+    /// GLR rule: the longest window of tests (of one method) whose mean is tested.
+    pub glr_window: u32,
+    /// GLR rule: the limit of each window's statistic (chi-square, 2 degrees of freedom).
+    pub glr_threshold: f64,
     /// Name the second parameter cause too when its GLR cost is within this margin [chi2].
     pub isolation_margin: f64,
     /// Band of the wave yaw on the heading (`features.wave_yaw_rad`) [rad/s].
@@ -119,6 +127,8 @@ impl Default for FdiConfig {
             clear_after: 3,
             cusum_k: 0.5,
             cusum_h: 5.0,
+            glr_window: 3,
+            glr_threshold: 25.0,
             isolation_margin: 0.0,
             wave_band_rad_s: [0.4, 2.0],
             sea_wave_yaw_deg: [0.05, 0.18],
@@ -177,6 +187,8 @@ impl FdiConfig {
         check_count("fdi.clear-after", self.clear_after, 1, 1000)?;
         check_range("fdi.cusum-k", self.cusum_k, 0.0, 10.0)?;
         check_range_open_low("fdi.cusum-h", self.cusum_h, 0.0, 1000.0)?;
+        check_count("fdi.glr-window", self.glr_window, 1, 20)?;
+        check_range_open_low("fdi.glr-threshold", self.glr_threshold, 0.0, 1000.0)?;
         check_range("fdi.isolation-margin", self.isolation_margin, 0.0, 1000.0)?;
         let increasing = |key: &str, p: [f64; 2], hi: f64| -> Result<(), ConfigError> {
             check_range(key, p[0], 0.0, hi)?;

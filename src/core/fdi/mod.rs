@@ -46,8 +46,13 @@
 //! (compared with the same limit: conservative for one degree of freedom); a test *exceeds* when either is above `fdi.chi2-threshold` (13.82:
 //! 0.1 % for m = 2). CUSUM rule: a two-sided CUSUM per normalised residual,
 //! `S+ = max(0, S+ + z - k)`, `S- = max(0, S- - z - k)`; a test exceeds when any sum is above
-//! `h`. State machine: `normal -> alert` at the first exceeding test, `-> alarm` after
-//! `fdi.persistence` exceeding tests in a row (1 for CUSUM, which integrates by itself);
+//! `h`. GLR rule: the mean of the last n tests' z (n = 1 to `fdi.glr-window`), squared and
+//! scaled to its variance, `T_n = |z_mean|^2 (1 + c) / (1/n + c)` (`c = 1/K` once
+//! commissioned with K tests: the reference offset's error is shared by the window), against
+//! `fdi.glr-threshold`; a test exceeds when a `T_n` or its own chi-square is over its limit.
+//! State machine: `normal -> alert` at the first exceeding test, `-> alarm` after
+//! `fdi.persistence` exceeding tests in a row (1 for CUSUM, which integrates by itself; for
+//! the GLR rule, when a `T_n` is over its limit);
 //! an alert clears at the next test that does not exceed, an alarm after `fdi.clear-after` of
 //! them. The report's decision follows the state after the test: normal `nominal`, alert
 //! `inconclusive`, alarm `fault`. Aborted tests and tests without an estimate change nothing.
@@ -86,6 +91,7 @@ use crate::core::wire::Method;
 use crate::core::wire::{AlarmState, Cause, Decision, Estimate, Features, Notification};
 use reference::{Basis, Commissioning, Raw};
 use serde_json::{json, Value};
+use std::collections::VecDeque;
 
 /// Speed step of the central difference for `dD/du_log` [m/s].
 const DU_MPS: f64 = 0.05;
@@ -220,18 +226,27 @@ pub struct TrackOutcome {
     pub exceeded: bool,
     /// Exceeding tests in a row.
     pub exceed_run: u32,
+    /// GLR rule: the largest window statistic and its window length [tests].
+    pub glr: Option<(f64, usize)>,
 }
 
 impl TrackOutcome {
     fn to_json(&self, cfg: &FdiConfig) -> Value {
-        json!({
+        let mut v = json!({
             "chi2": finite_or_null(self.q_param),
             "chi2_actuator": self.q_actuator,
             "threshold": cfg.chi2_threshold,
             "exceeded": self.exceeded,
             "exceed_run": self.exceed_run,
             "state": self.state,
-        })
+        });
+        if let (Some((t, n)), Some(o)) = (self.glr, v.as_object_mut()) {
+            o.insert(
+                "glr".into(),
+                json!({ "statistic": t, "window": n, "threshold": cfg.glr_threshold }),
+            );
+        }
+        v
     }
 }
 
@@ -254,6 +269,48 @@ pub struct Track {
     episode: Episode,
     /// The remembered sea index (decaying maximum over this track's tests).
     sea_memory: Option<f64>,
+    /// GLR rule: the last `fdi.glr-window` tests' normalised parameter residuals, newest
+    /// last, all measured against one reference.
+    #[serde(default)]
+    glr_param: VecDeque<[f64; 2]>,
+    /// GLR rule: the last tests' actuator residuals `z_rate`, newest last.
+    #[serde(default)]
+    glr_actuator: VecDeque<[f64; 1]>,
+    /// The relative variance of the reference's offset the window was taken under (1/K
+    /// once commissioned with K tests, else 0); another empties the window.
+    #[serde(default)]
+    glr_offset_var: f64,
+}
+
+/// The largest window statistic of a GLR window: `(T, n)`, with `T_n = |mean of the last n
+/// z|^2 * (1 + c) / (1/n + c)`, for `n = 1..=len`. Each z has unit variance, of which `c /
+/// (1 + c)` is the reference offset's error shared by every test of the window (it does not
+/// average out), so the mean of n tests has variance `(1/n + c) / (1 + c)` per component and
+/// `T_n` is chi-square with the components' count of degrees of freedom for a healthy ship.
+fn glr_statistic<const M: usize>(window: &VecDeque<[f64; M]>, c: f64) -> Option<(f64, usize)> {
+    (1..=window.len())
+        .map(|n| (glr_window_statistic(window, n, c), n))
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+}
+
+/// `T_n` of the last `n` entries of `window` (see [`glr_statistic`]).
+fn glr_window_statistic<const M: usize>(window: &VecDeque<[f64; M]>, n: usize, c: f64) -> f64 {
+    let mut sum = [0.0; M];
+    for z in window.iter().rev().take(n) {
+        for (s, v) in sum.iter_mut().zip(z) {
+            *s += v;
+        }
+    }
+    let n = n as f64;
+    let sq: f64 = sum.iter().map(|s| (s / n) * (s / n)).sum();
+    sq * (1.0 + c) / (1.0 / n + c)
+}
+
+fn push_window<T>(w: &mut VecDeque<T>, v: T, cap: usize) {
+    w.push_back(v);
+    while w.len() > cap {
+        w.pop_front();
+    }
 }
 
 impl Track {
@@ -282,6 +339,18 @@ impl Track {
         param: Option<&ParamResiduals>,
         actuator_z: Option<[f64; 2]>,
     ) -> TrackOutcome {
+        self.update_against(cfg, param, actuator_z, 0.0)
+    }
+
+    /// [`Track::update`] for residuals measured against a reference whose offset has relative
+    /// variance `offset_var` (1/K for a commissioned one; the GLR window accounts for it).
+    pub fn update_against(
+        &mut self,
+        cfg: &FdiConfig,
+        param: Option<&ParamResiduals>,
+        actuator_z: Option<[f64; 2]>,
+        offset_var: f64,
+    ) -> TrackOutcome {
         let zp = param
             .map(|p| p.z())
             .filter(|z| z.iter().all(|v| v.is_finite()));
@@ -297,8 +366,10 @@ impl Track {
                 q_actuator: q_act,
                 exceeded: false,
                 exceed_run: self.exceed_run,
+                glr: None,
             };
         }
+        let mut glr = None;
         let (param_exceeds, act_exceeds, persistence) = match cfg.rule {
             DecisionRule::ChiSquare => (
                 q_param > cfg.chi2_threshold,
@@ -320,7 +391,41 @@ impl Track {
                 let a = za.is_some_and(|z| over(a_sums, &z));
                 (p, a, 1)
             }
+            DecisionRule::Glr => {
+                if self.glr_offset_var.to_bits() != offset_var.to_bits() {
+                    self.glr_param.clear();
+                    self.glr_actuator.clear();
+                    self.glr_offset_var = offset_var;
+                }
+                let cap = cfg.glr_window as usize;
+                if let Some(z) = zp {
+                    push_window(&mut self.glr_param, z, cap);
+                }
+                if let Some(z) = za {
+                    // One-sided: only a slower servo counts (z_rate >= 0 by construction).
+                    push_window(&mut self.glr_actuator, [z[0]], cap);
+                }
+                let p = zp
+                    .and_then(|_| glr_statistic(&self.glr_param, offset_var))
+                    .filter(|t| t.0.is_finite());
+                let a = za
+                    .and_then(|_| glr_statistic(&self.glr_actuator, 0.0))
+                    .filter(|t| t.0.is_finite());
+                glr = [p, a]
+                    .into_iter()
+                    .flatten()
+                    .max_by(|x, y| x.0.total_cmp(&y.0));
+                let over = |t: Option<(f64, usize)>| t.is_some_and(|t| t.0 > cfg.glr_threshold);
+                (
+                    over(p) || q_param > cfg.chi2_threshold,
+                    over(a) || q_act.is_some_and(|q| q > cfg.chi2_threshold),
+                    1,
+                )
+            }
         };
+        // Under the GLR rule a single test over the chi-square limit is an alert; the alarm
+        // needs a window over the GLR limit.
+        let glr_over = glr.is_some_and(|t| t.0 > cfg.glr_threshold);
         let exceeded = param_exceeds || act_exceeds;
         if exceeded {
             self.exceed_run += 1;
@@ -331,7 +436,10 @@ impl Track {
         }
         let before = self.state;
         self.state = match (before, exceeded) {
-            (_, true) if self.exceed_run >= persistence => TrackState::Alarm,
+            (_, true) if cfg.rule == DecisionRule::Glr && glr_over => TrackState::Alarm,
+            (_, true) if cfg.rule != DecisionRule::Glr && self.exceed_run >= persistence => {
+                TrackState::Alarm
+            }
             (TrackState::Alarm, _) => {
                 if !exceeded && self.nominal_run >= cfg.clear_after {
                     TrackState::Normal
@@ -349,6 +457,8 @@ impl Track {
             self.episode = Episode::default();
             if before == TrackState::Alarm {
                 self.cusum = Default::default();
+                self.glr_param.clear();
+                self.glr_actuator.clear();
             }
         } else {
             let e = &mut self.episode;
@@ -377,6 +487,7 @@ impl Track {
             q_actuator: q_act,
             exceeded,
             exceed_run: self.exceed_run,
+            glr,
         }
     }
 
@@ -856,8 +967,12 @@ impl Fdi {
                 }
             }
         }
+        let offset_var = match &basis {
+            Some(Basis::Commissioned(r)) => 1.0 / f64::from(r.tests.max(1)),
+            _ => 0.0,
+        };
         let ours = if self.cfg.enabled {
-            self.tracks[i].update(&self.cfg, param.as_ref(), act)
+            self.tracks[i].update_against(&self.cfg, param.as_ref(), act, offset_var)
         } else {
             self.tracks[i].update(&self.cfg, None, None)
         };

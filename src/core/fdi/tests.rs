@@ -419,3 +419,108 @@ fn a_reference_is_kept_only_for_its_configuration_and_models() {
         .commissioning_text()
         .starts_with("CLFRT commissioning 0 of 8"));
 }
+
+fn glr_cfg() -> FdiConfig {
+    FdiConfig {
+        rule: DecisionRule::Glr,
+        ..FdiConfig::default()
+    }
+}
+
+#[test]
+fn the_glr_statistic_is_the_windowed_mean_worked_by_hand() {
+    let w: VecDeque<[f64; 2]> = [[1.0, 0.0], [3.0, 0.0], [2.0, 2.0]].into_iter().collect();
+    // n = 1: |(2, 2)|^2 = 8; n = 2: mean (2.5, 1), 2 * 7.25 = 14.5; n = 3: mean (2, 2/3),
+    // 3 * (4 + 4/9) = 13.33.
+    assert!((glr_window_statistic(&w, 1, 0.0) - 8.0).abs() < 1e-12);
+    assert!((glr_window_statistic(&w, 2, 0.0) - 14.5).abs() < 1e-12);
+    assert!((glr_window_statistic(&w, 3, 0.0) - 40.0 / 3.0).abs() < 1e-12);
+    let (t, n) = glr_statistic(&w, 0.0).unwrap();
+    assert_eq!(n, 2);
+    assert!((t - 14.5).abs() < 1e-12);
+    // With a shared offset error of relative variance 1/8, three tests' mean has variance
+    // (1/3 + 1/8) / (1 + 1/8) per component: 13.33 * 1.125 / 0.4583 / 3 = 10.91.
+    let t3 = glr_window_statistic(&w, 3, 0.125);
+    assert!((t3 - (4.0 + 4.0 / 9.0) * 1.125 / (1.0 / 3.0 + 0.125)).abs() < 1e-12);
+    assert!(t3 > 10.8 && t3 < 11.0, "{t3}");
+}
+
+/// A healthy vessel's residuals, commissioned with K = 8 tests: each test's z is its own
+/// noise plus the reference offset's error, shared by the run, scaled to unit variance as
+/// `Commissioning::measure` does. The three-test statistic must exceed the chi-square(2)
+/// 99 % point (9.21) 1 % of the time, and would twice as often without the offset term.
+#[test]
+fn the_glr_window_is_calibrated_for_a_commissioned_reference() {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, StandardNormal};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    let c: f64 = 1.0 / 8.0;
+    let runs = 100_000;
+    let (mut over, mut over_naive) = (0, 0);
+    for _ in 0..runs {
+        let mut g = || -> f64 { StandardNormal.sample(&mut rng) };
+        let o = [g() * c.sqrt(), g() * c.sqrt()];
+        let w: VecDeque<[f64; 2]> = (0..3)
+            .map(|_| {
+                let s = (1.0 + c).sqrt();
+                [(o[0] + g()) / s, (o[1] + g()) / s]
+            })
+            .collect();
+        over += usize::from(glr_window_statistic(&w, 3, c) > 9.21);
+        over_naive += usize::from(glr_window_statistic(&w, 3, 0.0) > 9.21);
+    }
+    let rate = over as f64 / runs as f64;
+    let naive = over_naive as f64 / runs as f64;
+    assert!(rate > 0.0085 && rate < 0.0115, "{rate}");
+    assert!(naive > 0.017, "{naive}");
+}
+
+#[test]
+fn glr_alarms_on_one_overwhelming_test_or_a_persistent_small_shift() {
+    let c = glr_cfg();
+    // One test with q = 36 > 25: alarm at once.
+    let mut t = Track::default();
+    let o = t.update(&c, Some(&p(0.0, 6.0, 0.0)), None);
+    assert_eq!(o.state, TrackState::Alarm);
+    assert_eq!(o.glr.map(|g| g.1), Some(1));
+    // z = (0, 3.2) every test: q = 10.24 < 13.82 and T_2 = 20.5 < 25 stay normal; the third
+    // test's T_3 = 30.7 raises the alarm (the chi-square rule with persistence never would).
+    let mut t = Track::default();
+    for _ in 0..2 {
+        let o = t.update(&c, Some(&p(0.0, 3.2, 0.0)), None);
+        assert_eq!(o.state, TrackState::Normal);
+    }
+    let o = t.update(&c, Some(&p(0.0, 3.2, 0.0)), None);
+    assert_eq!(o.state, TrackState::Alarm);
+    assert_eq!(o.glr.map(|g| g.1), Some(3));
+    assert_eq!(o.isolation, vec![Cause::DisplacementOrRudderEffectiveness]);
+    let mut chi = Track::default();
+    for _ in 0..3 {
+        assert_eq!(
+            chi.update(&cfg(), Some(&p(0.0, 3.2, 0.0)), None).state,
+            TrackState::Normal
+        );
+    }
+    // A healthy scatter stays normal; a single test over 13.82 but under 25 is an alert.
+    let mut t = Track::default();
+    for z in [1.0, -1.5, 0.5, 2.0, -0.3] {
+        assert_eq!(
+            t.update(&c, Some(&p(z, -z, 0.0)), None).state,
+            TrackState::Normal
+        );
+    }
+    let o = t.update(&c, Some(&p(0.0, 4.0, 0.0)), None);
+    assert_eq!(o.state, TrackState::Alert);
+}
+
+#[test]
+fn the_glr_window_restarts_with_another_reference() {
+    let c = glr_cfg();
+    let mut t = Track::default();
+    t.update_against(&c, Some(&p(0.0, 3.2, 0.0)), None, 0.0);
+    t.update_against(&c, Some(&p(0.0, 3.2, 0.0)), None, 0.0);
+    // Commissioned now: the window holds this test alone, T = 10.24.
+    let o = t.update_against(&c, Some(&p(0.0, 3.2, 0.0)), None, 0.125);
+    assert_eq!(o.state, TrackState::Normal);
+    assert_eq!(o.glr.map(|g| g.1), Some(1));
+}

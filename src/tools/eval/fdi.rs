@@ -26,6 +26,7 @@
 
 use crate::config::Config;
 use crate::core::estimator::Estimator;
+use crate::core::fdi::config::DecisionRule;
 use crate::core::model::SeaState;
 use crate::core::monitor::{Monitor, Output};
 use crate::core::wire::Method;
@@ -577,12 +578,17 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
         if o.family { " on the family of real ships" } else { "" },
         o.seed, o.runs, o.nominal_runs, cfg.fdi.commissioning_tests, o.tests
     );
+    let f = &cfg.fdi;
+    let rule = match f.rule {
+        DecisionRule::ChiSquare => format!("persistence {}", f.persistence),
+        DecisionRule::Cusum => format!("k {}, h {}", f.cusum_k, f.cusum_h),
+        DecisionRule::Glr => format!("window {}, threshold {}", f.glr_window, f.glr_threshold),
+    };
     println!(
-        "rule {}, chi2 threshold {}, persistence {}, clear after {}",
-        cfg.fdi.rule.name(),
-        cfg.fdi.chi2_threshold,
-        cfg.fdi.persistence,
-        cfg.fdi.clear_after
+        "rule {} ({rule}), chi2 threshold {}, clear after {}",
+        f.rule.name(),
+        f.chi2_threshold,
+        f.clear_after
     );
     for &method in &o.methods {
         for &sea in &o.seas {
