@@ -69,6 +69,9 @@ pub struct FdiConfig {
     pub glr_threshold: f64,
     /// Name the second parameter cause too when its GLR cost is within this margin [chi2].
     pub isolation_margin: f64,
+    /// One fault at a time: a servo check over its limit names `steering_actuator` alone (a
+    /// slow servo also moves the parameter residuals; the servo check measures it directly).
+    pub single_fault: bool,
     /// Band of the wave yaw on the heading (`features.wave_yaw_rad`) [rad/s].
     pub wave_band_rad_s: [f64; 2],
     /// The measured wave yaw in a calm and a moderate sea [deg]: anchors of the spread
@@ -130,6 +133,7 @@ impl Default for FdiConfig {
             glr_window: 3,
             glr_threshold: 25.0,
             isolation_margin: 0.0,
+            single_fault: true,
             wave_band_rad_s: [0.4, 2.0],
             sea_wave_yaw_deg: [0.05, 0.18],
             relative_spread_speed: false,

@@ -497,6 +497,9 @@ impl Track {
         if self.state == TrackState::Normal || e.tests == 0 {
             return Vec::new();
         }
+        if cfg.single_fault && e.actuator_exceeded > 0 {
+            return vec![Cause::SteeringActuator];
+        }
         let mut causes: Vec<(f64, Cause)> = Vec::new();
         if e.param_exceeded > 0 {
             // `Episode::cost` is indexed in `Cause::ALL`'s order.

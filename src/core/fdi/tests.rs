@@ -524,3 +524,27 @@ fn the_glr_window_restarts_with_another_reference() {
     assert_eq!(o.state, TrackState::Normal);
     assert_eq!(o.glr.map(|g| g.1), Some(1));
 }
+
+/// A slow servo that also pushes the parameter residuals over the limit (HBT in a calm sea):
+/// with one fault at a time the servo check names the cause alone; without, a parameter
+/// cause is named beside it.
+#[test]
+fn a_servo_check_over_its_limit_names_the_actuator_alone_under_one_fault() {
+    let run = |single_fault: bool| {
+        let c = FdiConfig {
+            single_fault,
+            ..cfg()
+        };
+        let mut t = Track::default();
+        t.update(&c, Some(&p(0.5, 5.0, 2.0)), Some([6.0, 0.0]));
+        t.update(&c, Some(&p(0.4, 5.5, 2.0)), Some([6.5, 0.0]))
+    };
+    let one = run(true);
+    assert_eq!(one.decision, Decision::Fault);
+    assert_eq!(one.isolation, vec![Cause::SteeringActuator]);
+    let both = run(false);
+    assert_eq!(both.isolation.len(), 2, "{:?}", both.isolation);
+    assert!(both
+        .isolation
+        .contains(&Cause::DisplacementOrRudderEffectiveness));
+}
