@@ -219,7 +219,7 @@ async fn counters_move_and_match_the_reports_over_zenoh() {
     assert_eq!(
         value(
             &m3,
-            r#"helmwatch_excitation_latency_seconds_bucket{vessel="self",le="+Inf"}"#
+            r#"helmwatch_excitation_latency_seconds_bucket{le="+Inf",vessel="self"}"#
         ),
         lat
     );

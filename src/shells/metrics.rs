@@ -675,23 +675,23 @@ mod tests {
         assert!((sum - 0.02015).abs() < 1e-9, "{sum}");
         // 150 us lies in (100 us, 200 us]; 20 ms in (12.8 ms, 25.6 ms].
         assert_eq!(
-            get(&format!("{h}_bucket"), r#"vessel="self",le="0.0001""#),
+            get(&format!("{h}_bucket"), r#"le="0.0001",vessel="self""#),
             0.0
         );
         assert_eq!(
-            get(&format!("{h}_bucket"), r#"vessel="self",le="0.0002""#),
+            get(&format!("{h}_bucket"), r#"le="0.0002",vessel="self""#),
             1.0
         );
         assert_eq!(
-            get(&format!("{h}_bucket"), r#"vessel="self",le="0.0128""#),
+            get(&format!("{h}_bucket"), r#"le="0.0128",vessel="self""#),
             1.0
         );
         assert_eq!(
-            get(&format!("{h}_bucket"), r#"vessel="self",le="0.0256""#),
+            get(&format!("{h}_bucket"), r#"le="0.0256",vessel="self""#),
             2.0
         );
         assert_eq!(
-            get(&format!("{h}_bucket"), r#"vessel="self",le="+Inf""#),
+            get(&format!("{h}_bucket"), r#"le="+Inf",vessel="self""#),
             2.0
         );
     }
