@@ -18,6 +18,11 @@ fn example_etc_config_is_valid_and_stays_on_loopback() {
     for e in cfg.zenoh.listen.iter().chain(&cfg.zenoh.connect) {
         assert!(e.starts_with("tcp/127.0.0.1:"), "{e}");
     }
+    assert!(
+        cfg.daemon.metrics_listen.starts_with("127.0.0.1:"),
+        "{}",
+        cfg.daemon.metrics_listen
+    );
     helmwatch::shells::net::zenoh_config(&cfg.zenoh, &[], &[]).unwrap();
 }
 

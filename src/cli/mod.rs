@@ -15,10 +15,12 @@
 //! | [`estimator`] | `train`, `eval` |
 //! | [`client`] | `status`, `trigger`, `history`: a daemon's client over Zenoh |
 //! | [`print`] | reports on a terminal |
+//! | [`logging`] | the journal under systemd, standard error otherwise |
 
 mod args;
 mod client;
 pub mod estimator;
+mod logging;
 mod offline;
 mod print;
 mod service;
@@ -126,7 +128,8 @@ pub(crate) fn fail(code: i32) -> impl FnOnce(anyhow::Error) -> Failure {
     move |error| Failure { error, code }
 }
 
-/// Logging to standard error; `RUST_LOG` overrides the default filter of `command`.
+/// Logging to the journal under systemd, else to standard error ([`logging`]); `RUST_LOG`
+/// overrides the default filter of `command`.
 fn init_logging(command: &Command) {
     // The demo prints to standard output; its default log level keeps standard error quiet.
     // `train` and `eval` run thousands of tests: the core's per-test lines would drown their
@@ -140,10 +143,7 @@ fn init_logging(command: &Command) {
     };
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
-    let _ = tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .try_init();
+    logging::init(filter);
 }
 
 fn load_config(path: Option<&std::path::Path>) -> Result<Config, ConfigError> {

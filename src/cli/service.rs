@@ -45,7 +45,7 @@ pub(crate) fn run_daemon(cfg: &Config, a: RunArgs) -> Result<(), Failure> {
             .map_err(|e| {
                 let code = match e {
                     DaemonError::Config(_) | DaemonError::Estimator(_) => EX_CONFIG,
-                    DaemonError::Open(_) => EX_UNAVAILABLE,
+                    DaemonError::Open(_) | DaemonError::Metrics(_) => EX_UNAVAILABLE,
                     DaemonError::Declare { .. } => EX_SOFTWARE,
                     DaemonError::State(_) | DaemonError::History(_) => EX_CANTCREAT,
                 };

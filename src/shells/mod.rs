@@ -1,9 +1,11 @@
 //! Shells: the core meets the world. The Zenoh session settings ([`net`]), the daemon
 //! ([`daemon`]) with its state directory ([`state`]) and report history ([`history`]), the simulated ship as a Zenoh peer
-//! ([`shipnode`]) and the service manager ([`systemd`]).
+//! ([`shipnode`]), the service manager ([`systemd`]) and the daemon's metrics endpoint
+//! ([`metrics`]).
 
 pub mod daemon;
 pub mod history;
+pub mod metrics;
 pub mod net;
 pub mod shipnode;
 pub mod state;

@@ -33,6 +33,9 @@ pub struct DaemonConfig {
     pub history_days: f64,
     /// Report history: at most this many records, the oldest dropped first.
     pub history_max_records: u64,
+    /// The metrics endpoint: `IP:PORT` to serve OpenMetrics text on (`GET /metrics`), e.g.
+    /// `127.0.0.1:9464` (port 0: any free port, see `Daemon::metrics_addr`); empty = off.
+    pub metrics_listen: String,
 }
 
 impl Default for DaemonConfig {
@@ -47,6 +50,7 @@ impl Default for DaemonConfig {
             state_dir: None,
             history_days: 365.0,
             history_max_records: 1_000_000,
+            metrics_listen: String::new(),
         }
     }
 }
@@ -76,6 +80,15 @@ impl DaemonConfig {
                 "daemon.history-max-records",
                 self.history_max_records,
                 "integer in [1, 100000000]",
+            ));
+        }
+        if !self.metrics_listen.is_empty()
+            && self.metrics_listen.parse::<std::net::SocketAddr>().is_err()
+        {
+            return Err(fail(
+                "daemon.metrics-listen",
+                format!("{:?}", self.metrics_listen),
+                "\"\" (off) or IP:PORT, port 0 to 65535, e.g. \"127.0.0.1:9464\"",
             ));
         }
         check_range_open_low("daemon.tick-s", self.tick_s, 0.0, 10.0)?;

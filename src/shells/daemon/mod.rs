@@ -36,13 +36,14 @@ use crate::core::monitor::Monitor;
 use crate::core::wire::Method;
 use crate::core::wire::{Keys, Stream, TriggerReply};
 use crate::shells::history::History;
+use crate::shells::metrics::{Metrics, VesselMetrics};
 use crate::shells::state::StateDir;
 use config::DaemonConfig;
 use std::collections::HashMap;
 use std::future::Future;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 use tokio::sync::{mpsc, oneshot};
 use tokio_util::sync::CancellationToken;
 use vessel::{restore, Publishers, VesselTask};
@@ -61,6 +62,9 @@ pub enum DaemonError {
     /// The state directory cannot be used.
     #[error(transparent)]
     State(#[from] crate::shells::state::StateError),
+    /// The metrics endpoint cannot listen (`daemon.metrics-listen`: port in use...).
+    #[error(transparent)]
+    Metrics(#[from] crate::shells::metrics::MetricsError),
     /// The history database cannot be opened, even afresh.
     #[error(transparent)]
     History(#[from] crate::shells::history::HistoryError),
@@ -96,8 +100,12 @@ impl DaemonError {
 /// What a vessel task receives.
 #[derive(Debug)]
 enum Msg {
-    /// A payload on an input stream, as received.
-    Sample { stream: Stream, payload: Vec<u8> },
+    /// A payload on an input stream, as received, and when (the excitation latency).
+    Sample {
+        stream: Stream,
+        payload: Vec<u8>,
+        arrived: Instant,
+    },
     /// A trigger request; the reply goes back on the oneshot.
     Trigger {
         method: Method,
@@ -128,12 +136,12 @@ type Parts = (
 );
 
 /// Counters the Zenoh callbacks update without touching the core.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 struct Shared {
-    /// Samples dropped because the vessel's queue was full.
-    flood: AtomicU64,
-    /// Trigger requests refused because the vessel's queue was full.
-    triggers_dropped: AtomicU64,
+    /// The vessel's metrics: the callbacks count samples dropped because the vessel's queue
+    /// was full (`queue_dropped`, `dropped.flood` in the stats) and control requests refused
+    /// for the same reason (`control_dropped`, `dropped.triggers`).
+    metrics: VesselMetrics,
 }
 
 /// Where a key's vessel queue is.
@@ -171,10 +179,13 @@ impl Fleet {
             self.unknown.fetch_add(1, Ordering::Relaxed);
             return;
         };
-        if let Err(mpsc::error::TrySendError::Full(_)) =
-            self.senders[i].try_send(Msg::Sample { stream, payload })
-        {
-            let n = self.shared[i].flood.fetch_add(1, Ordering::Relaxed) + 1;
+        let msg = Msg::Sample {
+            stream,
+            payload,
+            arrived: Instant::now(),
+        };
+        if let Err(mpsc::error::TrySendError::Full(_)) = self.senders[i].try_send(msg) {
+            let n = self.shared[i].metrics.queue_dropped();
             if n.is_power_of_two() {
                 tracing::warn!(
                     vessel = %self.names[i],
@@ -208,6 +219,8 @@ pub struct Daemon {
     subscribers: Vec<Subscriber<()>>,
     queryables: Vec<Queryable<()>>,
     tokens: Vec<LivelinessToken>,
+    /// The metrics endpoint's bound address and its task, when `daemon.metrics-listen` is set.
+    metrics: Option<(std::net::SocketAddr, tokio::task::JoinHandle<()>)>,
 }
 
 impl std::fmt::Debug for Daemon {
@@ -270,6 +283,13 @@ impl Daemon {
             };
             part_of.push(i);
         }
+        // The metrics listener first: a port in use stops the start before anything is open.
+        let metrics_listener = if cfg.metrics_listen.is_empty() {
+            None
+        } else {
+            Some(crate::shells::metrics::bind(&cfg.metrics_listen).await?)
+        };
+        let mut metrics = Metrics::new();
         let state = match &cfg.state_dir {
             Some(dir) => Some(StateDir::open(std::path::Path::new(dir))?),
             None => None,
@@ -306,7 +326,9 @@ impl Daemon {
             let keys = Keys::new(name);
             let pubs = Publishers::declare(&session, &keys, cfg.publish_stats).await?;
             let (tx, rx) = mpsc::channel(capacity);
-            let sh = Arc::new(Shared::default());
+            let sh = Arc::new(Shared {
+                metrics: metrics.vessel(name),
+            });
             let trigger_key = KeyExpr::try_from(keys.trigger())
                 .map_err(DaemonError::declare("trigger key", name))?;
             let commission_key = KeyExpr::try_from(keys.commission())
@@ -315,7 +337,11 @@ impl Daemon {
             let restored = state
                 .as_ref()
                 .and_then(|dir| restore(dir, name, &mut monitor));
+            sh.metrics.alarm(monitor.alarm_state());
+            let seen_aborts = monitor.stats().aborts.clone();
             let task = VesselTask {
+                seen_aborts,
+                pending_heading: None,
                 monitor,
                 name: name.clone(),
                 state: state.clone(),
@@ -338,6 +364,13 @@ impl Daemon {
             trigger_keys.push(trigger_key);
             commission_keys.push(commission_key);
         }
+        metrics.register_queues(
+            names
+                .iter()
+                .cloned()
+                .zip(senders.iter().map(mpsc::Sender::downgrade))
+                .collect(),
+        );
         let fleet = Arc::new(Fleet {
             index: names
                 .iter()
@@ -445,6 +478,22 @@ impl Daemon {
                 .map_err(DaemonError::declare("liveliness token", &key))?;
             tokens.push(token);
         }
+        let metrics = match metrics_listener {
+            Some(listener) => {
+                let addr =
+                    listener
+                        .local_addr()
+                        .map_err(|e| crate::shells::metrics::MetricsError {
+                            addr: cfg.metrics_listen.clone(),
+                            reason: e.to_string(),
+                        })?;
+                let registry = Arc::new(metrics.into_registry());
+                let task = tokio::spawn(crate::shells::metrics::serve(listener, registry));
+                tracing::info!(%addr, "metrics on http://{addr}/metrics");
+                Some((addr, task))
+            }
+            None => None,
+        };
         tracing::info!(
             vessels = names.len(),
             zid = %session.zid(),
@@ -461,6 +510,7 @@ impl Daemon {
             queryables,
             history_queryable,
             tokens,
+            metrics,
         })
     }
 
@@ -474,8 +524,14 @@ impl Daemon {
         self.fleet
             .shared
             .iter()
-            .map(|s| s.flood.load(Ordering::Relaxed))
+            .map(|s| s.metrics.queue_dropped_count())
             .sum()
+    }
+
+    /// The address the metrics endpoint listens on (`daemon.metrics-listen`, its port
+    /// chosen by the system when 0), or `None` when metrics are off.
+    pub fn metrics_addr(&self) -> Option<std::net::SocketAddr> {
+        self.metrics.as_ref().map(|(a, _)| *a)
     }
 
     /// The daemon's Zenoh session (for in-process tools: the demo, benchmarks).
@@ -547,6 +603,11 @@ impl Daemon {
         }
         if let Err(e) = self.session.close().await {
             tracing::warn!("closing the Zenoh session: {e}");
+        }
+        if let Some((_, task)) = self.metrics {
+            // Dropping the server task closes its listener and every connection.
+            task.abort();
+            let _ = task.await;
         }
         tracing::info!("daemon stopped");
         summaries
@@ -627,9 +688,7 @@ async fn ask_commission(
         reply: tx,
     };
     if fleet.senders[i].try_send(msg).is_err() {
-        fleet.shared[i]
-            .triggers_dropped
-            .fetch_add(1, Ordering::Relaxed);
+        fleet.shared[i].metrics.control_dropped();
         return serde_json::json!({"error": "the vessel's input queue is full"});
     }
     match tokio::time::timeout(Duration::from_secs(5), rx).await {
@@ -652,9 +711,7 @@ async fn ask_vessel(fleet: &Fleet, i: usize, method: Method) -> TriggerReply {
         .try_send(Msg::Trigger { method, reply: tx })
         .is_err()
     {
-        fleet.shared[i]
-            .triggers_dropped
-            .fetch_add(1, Ordering::Relaxed);
+        fleet.shared[i].metrics.control_dropped();
         return refusal("the vessel's input queue is full".into());
     }
     match tokio::time::timeout(Duration::from_secs(5), rx).await {
@@ -673,7 +730,9 @@ mod tests {
             index: [("self".to_string(), 0)].into_iter().collect(),
             names: vec!["self".into()],
             senders: vec![tx],
-            shared: vec![Arc::new(Shared::default())],
+            shared: vec![Arc::new(Shared {
+                metrics: Metrics::new().vessel("self"),
+            })],
             trigger_keys: vec![KeyExpr::try_from("vessels/self/fdi/trigger").unwrap()],
             commission_keys: vec![KeyExpr::try_from("vessels/self/fdi/commission").unwrap()],
             unknown: AtomicU64::new(0),
@@ -692,7 +751,7 @@ mod tests {
                 b"{}".to_vec(),
             );
         }
-        assert_eq!(fleet.shared[0].flood.load(Ordering::Relaxed), 84);
+        assert_eq!(fleet.shared[0].metrics.queue_dropped_count(), 84);
         let mut queued = 0;
         while rx.try_recv().is_ok() {
             queued += 1;

@@ -5,11 +5,12 @@
 
 use super::DaemonError;
 use super::{Msg, Shared, VesselSummary};
+use crate::core::monitor::abort::AbortCounts;
+use crate::core::monitor::input::RejectReason;
 use crate::core::monitor::{Monitor, Output};
 use crate::core::wire::{self, Input, Keys};
 use crate::shells::history::{History, Kind};
 use crate::shells::state::{Loaded, StateDir};
-use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tokio::sync::mpsc;
@@ -118,6 +119,11 @@ pub(super) struct VesselTask {
     pub(super) shutdown_timeout: Duration,
     /// Failed publications (logged once per burst).
     pub(super) publish_errors: u64,
+    /// The abort counts already in the metrics (a report's abort reason code is the one
+    /// whose count moved).
+    pub(super) seen_aborts: AbortCounts,
+    /// The last accepted heading's `t` and arrival, until its excitation is published.
+    pub(super) pending_heading: Option<(f64, Instant)>,
 }
 
 impl VesselTask {
@@ -182,14 +188,21 @@ impl VesselTask {
 
     async fn handle(&mut self, msg: Msg) {
         match msg {
-            Msg::Sample { stream, payload } => {
+            Msg::Sample {
+                stream,
+                payload,
+                arrived,
+            } => {
                 match wire::decode(stream, &payload) {
                     Err(e) => {
+                        self.shared
+                            .metrics
+                            .rejected(stream, RejectReason::Malformed);
                         if self.monitor.count_malformed(stream) {
-                            let n = self.monitor.counters().rejected(
-                                stream,
-                                crate::core::monitor::input::RejectReason::Malformed,
-                            );
+                            let n = self
+                                .monitor
+                                .counters()
+                                .rejected(stream, RejectReason::Malformed);
                             tracing::warn!(vessel = %self.name, stream = stream.name(), count = n, "{e}");
                         }
                     }
@@ -198,10 +211,15 @@ impl VesselTask {
                             Input::Heading(s) => Some(s.t),
                             _ => None,
                         };
-                        if self.monitor.handle_input(input).is_ok() {
-                            if let Some(t) = heading_t {
-                                self.last_heading = Some((t, Instant::now()));
+                        match self.monitor.handle_input(input) {
+                            Ok(()) => {
+                                self.shared.metrics.accepted(stream);
+                                if let Some(t) = heading_t {
+                                    self.last_heading = Some((t, Instant::now()));
+                                    self.pending_heading = Some((t, arrived));
+                                }
                             }
+                            Err(r) => self.shared.metrics.rejected(r.stream, r.reason),
                         }
                     }
                 }
@@ -255,12 +273,23 @@ impl VesselTask {
     /// Drains the core and publishes every output on its key, in order.
     async fn publish_outputs(&mut self) {
         while let Some(out) = self.monitor.poll_output() {
+            let mut excitation_of: Option<Instant> = None;
             let (publisher, bytes) = match &out {
-                Output::Excitation(e) => (&self.pubs.excitation, serde_json::to_vec(e)),
+                Output::Excitation(e) => {
+                    // The latency is measured to this put's return (below).
+                    excitation_of = self
+                        .pending_heading
+                        .take_if(|(t, _)| *t == e.t)
+                        .map(|(_, at)| at);
+                    (&self.pubs.excitation, serde_json::to_vec(e))
+                }
                 Output::Status(s) => {
                     if s.state == wire::MonitorState::Settling {
                         // A test started: its id is taken, even if the daemon dies before it ends.
                         self.save_state();
+                        if let Some(m) = s.method {
+                            self.shared.metrics.test_started(m);
+                        }
                     }
                     tracing::info!(vessel = %self.name, t = s.t, state = ?s.state, test = ?s.test, reason = ?s.reason, "status");
                     (&self.pubs.status, serde_json::to_vec(s))
@@ -270,6 +299,17 @@ impl VesselTask {
                     self.save_state();
                     self.last_report_t = r.t_end;
                     self.record(Kind::Report, r.t_end, r);
+                    let aborts = self.monitor.stats().aborts.clone();
+                    let moved: Vec<(&'static str, u64)> = aborts
+                        .iter()
+                        .zip(self.seen_aborts.iter())
+                        .filter(|((_, now), (_, before))| now > before)
+                        .map(|((code, now), (_, before))| (code, now - before))
+                        .collect();
+                    self.seen_aborts = aborts;
+                    self.shared
+                        .metrics
+                        .test_ended(r.method, r.outcome, r.decision, moved);
                     tracing::info!(
                         vessel = %self.name,
                         test = %r.test,
@@ -282,6 +322,7 @@ impl VesselTask {
                 }
                 Output::Notification(n) => {
                     self.record(Kind::Notification, self.last_report_t, n);
+                    self.shared.metrics.alarm(n.state);
                     tracing::warn!(vessel = %self.name, state = ?n.state, "notification: {}", n.message);
                     (&self.pubs.notification, serde_json::to_vec(n))
                 }
@@ -290,7 +331,11 @@ impl VesselTask {
                 Ok(b) => publisher.put(b).await.map_err(|e| e.to_string()),
                 Err(e) => Err(e.to_string()),
             };
+            if let (Ok(()), Some(at)) = (&result, excitation_of) {
+                self.shared.metrics.excitation_latency(at.elapsed());
+            }
             if let Err(e) = result {
+                self.shared.metrics.publish_error();
                 self.publish_errors += 1;
                 if self.publish_errors.is_power_of_two() {
                     tracing::warn!(vessel = %self.name, count = self.publish_errors, "publication failed: {e}");
@@ -306,8 +351,8 @@ impl VesselTask {
             "state": self.monitor.state(),
             "inputs": self.monitor.counters().to_json(),
             "dropped": {
-                "flood": self.shared.flood.load(Ordering::Relaxed),
-                "triggers": self.shared.triggers_dropped.load(Ordering::Relaxed),
+                "flood": self.shared.metrics.queue_dropped_count(),
+                "triggers": self.shared.metrics.controls_dropped_count(),
             },
             "tests": {
                 "started": s.tests_started,
