@@ -276,10 +276,11 @@ pub struct Track {
     /// GLR rule: the last tests' actuator residuals `z_rate`, newest last.
     #[serde(default)]
     glr_actuator: VecDeque<[f64; 1]>,
-    /// The relative variance of the reference's offset the window was taken under (1/K
-    /// once commissioned with K tests, else 0); another empties the window.
+    /// The reference the window was taken under: the relative variance of its offset (1/K
+    /// once commissioned with K tests, 0 for the design's), `None` on wide design limits
+    /// (no averaging); another empties the window.
     #[serde(default)]
-    glr_offset_var: f64,
+    glr_reference: Option<f64>,
 }
 
 /// The largest window statistic of a GLR window: `(T, n)`, with `T_n = |mean of the last n
@@ -339,17 +340,22 @@ impl Track {
         param: Option<&ParamResiduals>,
         actuator_z: Option<[f64; 2]>,
     ) -> TrackOutcome {
-        self.update_against(cfg, param, actuator_z, 0.0)
+        self.update_against(cfg, param, actuator_z, Some(0.0))
     }
 
-    /// [`Track::update`] for residuals measured against a reference whose offset has relative
-    /// variance `offset_var` (1/K for a commissioned one; the GLR window accounts for it).
+    /// [`Track::update`] for residuals measured against a given reference (the GLR rule's
+    /// window depends on it): `Some(c)` when their errors are test-to-test scatter about a
+    /// reference whose offset has relative variance `c` (1/K for one commissioned with K
+    /// tests, 0 for the design's); `None` on wide design limits (while commissioning, or
+    /// outside the commissioned speed band), whose error is the model's own bias on this
+    /// ship, the same at every test: a mean of tests would not shrink it, so the window is
+    /// one test.
     pub fn update_against(
         &mut self,
         cfg: &FdiConfig,
         param: Option<&ParamResiduals>,
         actuator_z: Option<[f64; 2]>,
-        offset_var: f64,
+        reference: Option<f64>,
     ) -> TrackOutcome {
         let zp = param
             .map(|p| p.z())
@@ -392,14 +398,19 @@ impl Track {
                 (p, a, 1)
             }
             DecisionRule::Glr => {
-                if self.glr_offset_var.to_bits() != offset_var.to_bits() {
+                if self.glr_reference.map(f64::to_bits) != reference.map(f64::to_bits) {
                     self.glr_param.clear();
                     self.glr_actuator.clear();
-                    self.glr_offset_var = offset_var;
+                    self.glr_reference = reference;
                 }
                 let cap = cfg.glr_window as usize;
+                let offset_var = reference.unwrap_or(0.0);
                 if let Some(z) = zp {
-                    push_window(&mut self.glr_param, z, cap);
+                    push_window(
+                        &mut self.glr_param,
+                        z,
+                        if reference.is_some() { cap } else { 1 },
+                    );
                 }
                 if let Some(z) = za {
                     // One-sided: only a slower servo counts (z_rate >= 0 by construction).
@@ -970,12 +981,13 @@ impl Fdi {
                 }
             }
         }
-        let offset_var = match &basis {
-            Some(Basis::Commissioned(r)) => 1.0 / f64::from(r.tests.max(1)),
-            _ => 0.0,
+        let reference = match &basis {
+            Some(Basis::Commissioned(r)) => Some(1.0 / f64::from(r.tests.max(1))),
+            Some(Basis::Commissioning { .. } | Basis::OutsideBand(_)) => None,
+            Some(Basis::Design) | None => Some(0.0),
         };
         let ours = if self.cfg.enabled {
-            self.tracks[i].update_against(&self.cfg, param.as_ref(), act, offset_var)
+            self.tracks[i].update_against(&self.cfg, param.as_ref(), act, reference)
         } else {
             self.tracks[i].update(&self.cfg, None, None)
         };

@@ -517,12 +517,31 @@ fn glr_alarms_on_one_overwhelming_test_or_a_persistent_small_shift() {
 fn the_glr_window_restarts_with_another_reference() {
     let c = glr_cfg();
     let mut t = Track::default();
-    t.update_against(&c, Some(&p(0.0, 3.2, 0.0)), None, 0.0);
-    t.update_against(&c, Some(&p(0.0, 3.2, 0.0)), None, 0.0);
+    t.update_against(&c, Some(&p(0.0, 3.2, 0.0)), None, Some(0.0));
+    t.update_against(&c, Some(&p(0.0, 3.2, 0.0)), None, Some(0.0));
     // Commissioned now: the window holds this test alone, T = 10.24.
-    let o = t.update_against(&c, Some(&p(0.0, 3.2, 0.0)), None, 0.125);
+    let o = t.update_against(&c, Some(&p(0.0, 3.2, 0.0)), None, Some(0.125));
     assert_eq!(o.state, TrackState::Normal);
     assert_eq!(o.glr.map(|g| g.1), Some(1));
+}
+
+/// On wide design limits (commissioning) the residual is the model's bias on this ship, the
+/// same at every test: no averaging. Three tests at q = 9 (the second-order hull's
+/// commissioning tests measured 4-9) would give T_3 = 27 > 25 if averaged.
+#[test]
+fn the_glr_does_not_average_a_bias_on_wide_design_limits() {
+    let c = glr_cfg();
+    let mut t = Track::default();
+    for _ in 0..6 {
+        let o = t.update_against(&c, Some(&p(2.1, 2.1, 0.0)), None, None);
+        assert_eq!(o.state, TrackState::Normal);
+        assert_eq!(o.glr.map(|g| g.1), Some(1));
+    }
+    let mut t = Track::default();
+    let states: Vec<TrackState> = (0..3)
+        .map(|_| t.update(&c, Some(&p(2.1, 2.1, 0.0)), None).state)
+        .collect();
+    assert_eq!(states[2], TrackState::Alarm);
 }
 
 /// A slow servo that also pushes the parameter residuals over the limit (HBT in a calm sea):
