@@ -53,6 +53,7 @@ const FLOORS: &[&str] = &[
     "tools::eval",
     "tools::demo",
     "tools::bench",
+    "tools::plot",
     "tools",
     // The command line.
     "cli",

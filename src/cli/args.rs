@@ -53,6 +53,30 @@ pub(crate) enum Command {
     History(HistoryArgs),
     /// Client: a vessel's commissioning (`fdi/commission`); with --start, begin it again.
     Commission(CommissionArgs),
+    /// Draw a report (Bode pair or Nyquist), a report history or a recording as SVG.
+    Plot(PlotArgs),
+}
+
+#[derive(Debug, Args)]
+pub(crate) struct PlotArgs {
+    /// A report (`probe --json`), a report history (`history --json`, or one report per
+    /// line) or a recording (JSON lines {"key", "payload"}); `-` for standard input.
+    pub(crate) input: PathBuf,
+    /// The SVG file to write.
+    #[arg(long, value_name = "FILE.svg")]
+    pub(crate) out: PathBuf,
+    /// What the input is: report, history or recording (default: detected).
+    #[arg(long)]
+    pub(crate) kind: Option<crate::tools::plot::InputKind>,
+    /// A recording's vessel (default: the first in it).
+    #[arg(long)]
+    pub(crate) vessel: Option<String>,
+    /// Width of the picture [px].
+    #[arg(long, default_value_t = 1000)]
+    pub(crate) width: u32,
+    /// Height of the picture [px].
+    #[arg(long, default_value_t = 760)]
+    pub(crate) height: u32,
 }
 
 /// How a client reaches a daemon.

@@ -10,7 +10,7 @@
 //! | file | subcommands |
 //! |---|---|
 //! | [`args`] | the schema of every subcommand |
-//! | [`offline`] | `simulate`, `probe`, `replay`, `check-config`, `eval --fdi` |
+//! | [`offline`] | `simulate`, `probe`, `replay`, `check-config`, `eval --fdi`, `plot` |
 //! | [`service`] | `run`, `ship`, `demo`, `bench` |
 //! | [`estimator`] | `train`, `eval` |
 //! | [`client`] | `status`, `trigger`, `history`: a daemon's client over Zenoh |
@@ -84,6 +84,7 @@ pub fn main() -> i32 {
         Command::Trigger(a) => client::trigger(&cfg, a),
         Command::History(a) => client::history(&cfg, a),
         Command::Commission(a) => client::commission(&cfg, a),
+        Command::Plot(a) => offline::plot(&cfg, a),
         Command::Train(a) => match vessel_config(&cfg, a.vessel.as_deref()) {
             Ok(c) => estimator::train(&c, &a.into()),
             Err(e) => Err(e),
