@@ -54,6 +54,7 @@ const FLOORS: &[&str] = &[
     "tools::demo",
     "tools::bench",
     "tools::plot",
+    "tools::fleet",
     "tools",
     // The command line.
     "cli",

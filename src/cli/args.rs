@@ -55,6 +55,21 @@ pub(crate) enum Command {
     Commission(CommissionArgs),
     /// Draw a report (Bode pair or Nyquist), a report history or a recording as SVG.
     Plot(PlotArgs),
+    /// Client: every vessel whose daemon is alive, its state, alarm and last decision, live.
+    Fleet(FleetArgs),
+}
+
+#[derive(Debug, Args)]
+pub(crate) struct FleetArgs {
+    /// Endpoint of a daemon or of a router that reaches the fleet (repeatable).
+    #[arg(long, value_name = "ENDPOINT", default_value = "tcp/127.0.0.1:7447")]
+    pub(crate) connect: Vec<String>,
+    /// Print one JSON object per change instead of a table.
+    #[arg(long)]
+    pub(crate) json: bool,
+    /// Stop after this many seconds (default: until Ctrl-C).
+    #[arg(long)]
+    pub(crate) duration_s: Option<f64>,
 }
 
 #[derive(Debug, Args)]

@@ -13,7 +13,7 @@
 //! | [`offline`] | `simulate`, `probe`, `replay`, `check-config`, `eval --fdi`, `plot` |
 //! | [`service`] | `run`, `ship`, `demo`, `bench` |
 //! | [`estimator`] | `train`, `eval` |
-//! | [`client`] | `status`, `trigger`, `history`: a daemon's client over Zenoh |
+//! | [`client`] | `status`, `trigger`, `history`, `commission`, `fleet`: clients over Zenoh |
 //! | [`print`] | reports on a terminal |
 
 mod args;
@@ -85,6 +85,7 @@ pub fn main() -> i32 {
         Command::History(a) => client::history(&cfg, a),
         Command::Commission(a) => client::commission(&cfg, a),
         Command::Plot(a) => offline::plot(&cfg, a),
+        Command::Fleet(a) => client::fleet(a),
         Command::Train(a) => match vessel_config(&cfg, a.vessel.as_deref()) {
             Ok(c) => estimator::train(&c, &a.into()),
             Err(e) => Err(e),
@@ -133,9 +134,11 @@ fn init_logging(command: &Command) {
     // `train` and `eval` run thousands of tests: the core's per-test lines would drown their
     // tables.
     let default = match command {
-        Command::Demo(_) | Command::Status(_) | Command::Trigger(_) | Command::History(_) => {
-            "error"
-        }
+        Command::Demo(_)
+        | Command::Status(_)
+        | Command::Trigger(_)
+        | Command::History(_)
+        | Command::Fleet(_) => "error",
         Command::Train(_) | Command::Eval(_) => "warn,helmwatch::core::monitor=error",
         _ => "info,zenoh=warn",
     };
