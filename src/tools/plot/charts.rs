@@ -13,6 +13,8 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
+/// A named line series: (legend, points, colour).
+type Series<'a> = (&'a str, &'a [(f64, f64)], RGBColor);
 
 fn draw_err<E: std::fmt::Display>(e: E) -> PlotError {
     PlotError::Draw(e.to_string())
@@ -624,12 +626,12 @@ pub(super) fn trace(svg: &mut String, size: (u32, u32), tr: &Trace) -> Result<()
             .max_light_lines(4)
             .draw()
             .map_err(draw_err)?;
-        let series: Vec<(&str, &Vec<(f64, f64)>, RGBColor)> = if i == 0 {
-            vec![("heading (unwrapped)", &heading, BLUE)]
+        let series: Vec<Series> = if i == 0 {
+            vec![("heading (unwrapped)", &heading[..], BLUE)]
         } else {
             vec![
-                ("rudder angle", &rudder, BLACK),
-                ("excitation (0 when none)", &excitation, RED),
+                ("rudder angle", &rudder[..], BLACK),
+                ("excitation (0 when none)", &excitation[..], RED),
             ]
         };
         for (name, pts, color) in series {
