@@ -53,6 +53,8 @@ const FLOORS: &[&str] = &[
     "tools::eval",
     "tools::demo",
     "tools::bench",
+    "tools::plot",
+    "tools::fleet",
     "tools",
     // The command line.
     "cli",

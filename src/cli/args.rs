@@ -53,6 +53,45 @@ pub(crate) enum Command {
     History(HistoryArgs),
     /// Client: a vessel's commissioning (`fdi/commission`); with --start, begin it again.
     Commission(CommissionArgs),
+    /// Draw a report (Bode pair or Nyquist), a report history or a recording as SVG.
+    Plot(PlotArgs),
+    /// Client: every vessel whose daemon is alive, its state, alarm and last decision, live.
+    Fleet(FleetArgs),
+}
+
+#[derive(Debug, Args)]
+pub(crate) struct FleetArgs {
+    /// Endpoint of a daemon or of a router that reaches the fleet (repeatable).
+    #[arg(long, value_name = "ENDPOINT", default_value = "tcp/127.0.0.1:7447")]
+    pub(crate) connect: Vec<String>,
+    /// Print one JSON object per change instead of a table.
+    #[arg(long)]
+    pub(crate) json: bool,
+    /// Stop after this many seconds (default: until Ctrl-C).
+    #[arg(long)]
+    pub(crate) duration_s: Option<f64>,
+}
+
+#[derive(Debug, Args)]
+pub(crate) struct PlotArgs {
+    /// A report (`probe --json`), a report history (`history --json`, or one report per
+    /// line) or a recording (JSON lines {"key", "payload"}); `-` for standard input.
+    pub(crate) input: PathBuf,
+    /// The SVG file to write.
+    #[arg(long, value_name = "FILE.svg")]
+    pub(crate) out: PathBuf,
+    /// What the input is: report, history or recording (default: detected).
+    #[arg(long)]
+    pub(crate) kind: Option<crate::tools::plot::InputKind>,
+    /// A recording's vessel (default: the first in it).
+    #[arg(long)]
+    pub(crate) vessel: Option<String>,
+    /// Width of the picture [px].
+    #[arg(long, default_value_t = 1000)]
+    pub(crate) width: u32,
+    /// Height of the picture [px].
+    #[arg(long, default_value_t = 760)]
+    pub(crate) height: u32,
 }
 
 /// How a client reaches a daemon.

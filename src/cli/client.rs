@@ -1,9 +1,10 @@
-//! The daemon's clients over Zenoh: `status`, `trigger`, `history`, `commission`. Each opens a peer session
+//! The daemon's clients over Zenoh: `status`, `trigger`, `history`, `commission`, and `fleet`
+//! (every vessel at once, live: [`crate::tools::fleet`]). Each opens a peer session
 //! (multicast off) to `--connect`, asks, prints a table (or the JSON with `--json`) and closes
 //! the session. Exit codes: 0 answered (a refused trigger included: the refusal is the
 //! answer), 64 bad arguments, 69 no answer within `--timeout-s` (no daemon for the vessel).
 
-use super::args::{ClientArgs, CommissionArgs, HistoryArgs, TriggerArgs};
+use super::args::{ClientArgs, CommissionArgs, FleetArgs, HistoryArgs, TriggerArgs};
 use super::service::runtime;
 use super::{fail, Failure, EX_UNAVAILABLE, EX_USAGE};
 use crate::config::Config;
@@ -285,5 +286,60 @@ pub(crate) fn status(cfg: &Config, a: ClientArgs) -> Result<(), Failure> {
                 "no daemon monitors vessel {v}"
             )))
         }
+    })
+}
+
+/// `helmwatch fleet`: the table redrawn on every change (cleared first on a terminal), or one
+/// JSON object per change; until Ctrl-C or `--duration-s`. Exit 69 when no session opens.
+pub(crate) fn fleet(a: FleetArgs) -> Result<(), Failure> {
+    use crate::tools::fleet::{watch, FleetError};
+    use std::io::{IsTerminal, Write};
+    for e in &a.connect {
+        crate::shells::net::check_endpoint("--connect", e).map_err(|e| fail(EX_USAGE)(e.into()))?;
+    }
+    let limit = match a.duration_s {
+        Some(s) if s.is_finite() && s > 0.0 && s <= 1e7 => Some(Duration::from_secs_f64(s)),
+        Some(s) => {
+            return Err(fail(EX_USAGE)(anyhow::anyhow!(
+                "--duration-s: (0, 1e7] seconds, not {s}"
+            )))
+        }
+        None => None,
+    };
+    let zcfg =
+        crate::shells::net::loopback_peer(&[], &a.connect).map_err(|e| fail(EX_USAGE)(e.into()))?;
+    let terminal = std::io::stdout().is_terminal();
+    let stop = async move {
+        match limit {
+            Some(d) => {
+                tokio::select! {
+                    _ = tokio::time::sleep(d) => {}
+                    _ = tokio::signal::ctrl_c() => {}
+                }
+            }
+            None => {
+                let _ = tokio::signal::ctrl_c().await;
+            }
+        }
+    };
+    let json = a.json;
+    block(async move {
+        watch(zcfg, stop, |view, change| {
+            let mut out = std::io::stdout().lock();
+            let _ = if json {
+                writeln!(out, "{}", view.change_json(change))
+            } else if terminal {
+                write!(out, "\x1b[2J\x1b[H{}", view.table())
+            } else {
+                writeln!(out, "{}", view.table())
+            };
+            let _ = out.flush();
+        })
+        .await
+        .map(|_| ())
+        .map_err(|e| match e {
+            FleetError::Session(_) => fail(EX_UNAVAILABLE)(e.into()),
+            FleetError::Subscribe { .. } => fail(EX_UNAVAILABLE)(e.into()),
+        })
     })
 }

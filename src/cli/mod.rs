@@ -10,10 +10,10 @@
 //! | file | subcommands |
 //! |---|---|
 //! | [`args`] | the schema of every subcommand |
-//! | [`offline`] | `simulate`, `probe`, `replay`, `check-config`, `eval --fdi` |
+//! | [`offline`] | `simulate`, `probe`, `replay`, `check-config`, `eval --fdi`, `plot` |
 //! | [`service`] | `run`, `ship`, `demo`, `bench` |
 //! | [`estimator`] | `train`, `eval` |
-//! | [`client`] | `status`, `trigger`, `history`: a daemon's client over Zenoh |
+//! | [`client`] | `status`, `trigger`, `history`, `commission`, `fleet`: clients over Zenoh |
 //! | [`print`] | reports on a terminal |
 //! | [`logging`] | the journal under systemd, standard error otherwise |
 
@@ -86,6 +86,8 @@ pub fn main() -> i32 {
         Command::Trigger(a) => client::trigger(&cfg, a),
         Command::History(a) => client::history(&cfg, a),
         Command::Commission(a) => client::commission(&cfg, a),
+        Command::Plot(a) => offline::plot(&cfg, a),
+        Command::Fleet(a) => client::fleet(a),
         Command::Train(a) => match vessel_config(&cfg, a.vessel.as_deref()) {
             Ok(c) => estimator::train(&c, &a.into()),
             Err(e) => Err(e),
@@ -135,9 +137,11 @@ fn init_logging(command: &Command) {
     // `train` and `eval` run thousands of tests: the core's per-test lines would drown their
     // tables.
     let default = match command {
-        Command::Demo(_) | Command::Status(_) | Command::Trigger(_) | Command::History(_) => {
-            "error"
-        }
+        Command::Demo(_)
+        | Command::Status(_)
+        | Command::Trigger(_)
+        | Command::History(_)
+        | Command::Fleet(_) => "error",
         Command::Train(_) | Command::Eval(_) => "warn,helmwatch::core::monitor=error",
         _ => "info,zenoh=warn",
     };

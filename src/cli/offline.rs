@@ -1,7 +1,8 @@
-//! The offline subcommands: `simulate`, `probe`, `replay`, `check-config` and `eval --fdi`.
+//! The offline subcommands: `simulate`, `probe`, `replay`, `check-config`, `eval --fdi` and
+//! `plot`.
 //! Each parses nothing itself (see [`super::args`]), calls one floor below and prints.
 
-use super::args::{EvalArgs, ProbeArgs, ReplayArgs, ShipArgs, SimulateArgs};
+use super::args::{EvalArgs, PlotArgs, ProbeArgs, ReplayArgs, ShipArgs, SimulateArgs};
 use super::print::{print_baseline, print_estimate, print_features};
 use super::{fail, Failure, EX_CONFIG, EX_DATAERR, EX_IOERR, EX_SOFTWARE, EX_USAGE};
 use crate::config::Config;
@@ -191,5 +192,48 @@ pub(crate) fn eval_fdi(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
     run_suite(cfg, std::sync::Arc::new(est), &o);
     println!();
     println!("suite done in {:.1} s", t0.elapsed().as_secs_f64());
+    Ok(())
+}
+
+/// `helmwatch plot`: exit 65 when the input is not what its kind needs, 64 for a bad size or
+/// vessel, 74 when a file cannot be read or written.
+pub(crate) fn plot(cfg: &Config, a: PlotArgs) -> Result<(), Failure> {
+    use crate::tools::plot::{as_text, detect, plot, read_input, PlotError, PlotOptions};
+    for (key, v) in [("--width", a.width), ("--height", a.height)] {
+        if !(200..=10_000).contains(&v) {
+            return Err(fail(EX_USAGE)(anyhow::anyhow!(
+                "{key}: 200 to 10000 pixels, not {v}"
+            )));
+        }
+    }
+    if let Some(v) = &a.vessel {
+        crate::core::config::check_vessel_name("--vessel", v)
+            .map_err(|e| fail(EX_USAGE)(e.into()))?;
+    }
+    let bytes = read_input(&a.input)
+        .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", a.input.display())))?;
+    let code = |e: PlotError| match e {
+        PlotError::Data(_) => fail(EX_DATAERR)(anyhow::anyhow!("{}: {e}", a.input.display())),
+        PlotError::Draw(_) => fail(EX_SOFTWARE)(e.into()),
+    };
+    let text = as_text(&bytes).map_err(code)?;
+    let kind = match a.kind {
+        Some(k) => k,
+        None => detect(text).map_err(code)?,
+    };
+    let opts = PlotOptions {
+        width_px: a.width,
+        height_px: a.height,
+        vessel: a.vessel.clone(),
+    };
+    let svg = plot(cfg, text, kind, &opts).map_err(code)?;
+    std::fs::write(&a.out, svg)
+        .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", a.out.display())))?;
+    eprintln!(
+        "helmwatch: {} ({}) drawn to {}",
+        a.input.display(),
+        kind.name(),
+        a.out.display()
+    );
     Ok(())
 }

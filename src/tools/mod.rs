@@ -1,8 +1,12 @@
 //! Offline tools: the estimator's training database and trainers ([`training`]), the
-//! evaluation suites ([`eval`]), the demo ([`demo`]) and the daemon benchmark ([`bench`]).
+//! evaluation suites ([`eval`]), the demo ([`demo`]), the daemon benchmark ([`bench`]) and
+//! the SVG pictures of `helmwatch plot` ([`plot`]), the live fleet table of `helmwatch fleet`
+//! ([`fleet`]).
 //! Nothing here runs in the daemon.
 
 pub mod bench;
 pub mod demo;
 pub mod eval;
+pub mod fleet;
+pub mod plot;
 pub mod training;

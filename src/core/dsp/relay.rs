@@ -311,6 +311,31 @@ fn servo_first_harmonic(h: f64, omega: f64, tr: f64, rate: f64) -> Complex64 {
     integral * (4.0 / (2.0 * half))
 }
 
+/// The servo's describing function `S(omega)` for a relay command `+-h_rad` (clamped to the
+/// servo's angle limit, as in the loop): the first harmonic of its exact periodic response
+/// over the square wave's, `-i 4h / pi` (module documentation). `S(omega) G(i omega)` is the
+/// linear part the relay sees; it meets `-1/N(A)` at the limit cycle.
+///
+/// Errors: `h_rad`, `omega` or the servo's parameters not positive and finite.
+pub fn servo_describing_function(
+    h_rad: f64,
+    omega: f64,
+    servo: &ServoConfig,
+) -> Result<Complex64, DspError> {
+    check_positive("h_rad", h_rad)?;
+    check_positive("omega", omega)?;
+    let (tr, rate, max_angle) = (
+        servo.time_constant_s,
+        servo.max_rate_rad_s(),
+        servo.max_angle_rad(),
+    );
+    check_positive("servo.time_constant_s", tr)?;
+    check_positive("servo.max_rate", rate)?;
+    check_positive("servo.max_angle", max_angle)?;
+    let h = h_rad.min(max_angle);
+    Ok(servo_first_harmonic(h, omega, tr, rate) / Complex64::new(0.0, -4.0 * h / PI))
+}
+
 /// Describing-function prediction `(omega_u [rad/s], first-harmonic heading amplitude
 /// [rad])` of the relay limit cycle (module documentation).
 ///
@@ -601,6 +626,24 @@ mod tests {
         let s = servo_first_harmonic(h, omega, tr, 4.0 * DEG) / Complex64::new(0.0, -4.0 * h / PI);
         let lag = Complex64::new(1.0, 0.0) / Complex64::new(1.0, omega * tr);
         assert!((s - lag).norm() < 1e-12, "{s} vs {lag}");
+    }
+
+    #[test]
+    fn servo_describing_function_is_the_lag_when_not_rate_limited() {
+        let servo = ServoConfig {
+            max_angle_deg: 30.0,
+            max_rate_deg_s: 4.0,
+            time_constant_s: 2.0,
+        };
+        let (h, omega) = (1.0 * DEG, 0.05);
+        let s = servo_describing_function(h, omega, &servo).unwrap();
+        let lag = Complex64::new(1.0, 0.0) / Complex64::new(1.0, omega * 2.0);
+        assert!((s - lag).norm() < 1e-12, "{s} vs {lag}");
+        // Rate limited: more lag than the linear servo.
+        let s = servo_describing_function(8.0 * DEG, 0.5, &servo).unwrap();
+        assert!(s.arg() < Complex64::new(1.0, 0.5 * 2.0).inv().arg());
+        assert!(servo_describing_function(0.0, omega, &servo).is_err());
+        assert!(servo_describing_function(h, f64::NAN, &servo).is_err());
     }
 
     #[test]

@@ -1,0 +1,353 @@
+//! `helmwatch plot`: what a test measured, drawn as SVG (plotters' SVG backend).
+//!
+//! | input | picture |
+//! |---|---|
+//! | a CLFRT report | Bode pair: the measured gain [dB] and phase [deg] at the tones with their 90 % intervals, over the nominal and the estimated ship's `b / (j w (j w + a))` |
+//! | an HBT report | Nyquist plane: the loop the relay sees, servo describing function times ship `S(w) G(j w)` (solid), and the ship alone `G(j w)` (dashed), nominal and estimated, the relay's `-1/N(A)` locus, the measured limit cycle on it (a circle), the measured response `G(j w_u)` (a cross), the describing-function predictions (triangles) |
+//! | a report history | the residuals against `t_end`: chi2 (circles, one per report) with `fdi.chi2-threshold`, and `z_speed`, `z_disp`, `z_rate` |
+//! | a recording | heading, rudder and excitation against time (an HBT limit cycle's time trace) |
+//!
+//! The nominal ship is the configuration's `[ship]` at its nominal speed and displacement; the
+//! estimated one is the same model at the report's `estimate`; `(a, b)` from `(u, D)` through
+//! [`crate::core::model::ShipConfig::nomoto`]. The relay's height and hysteresis come from the
+//! configuration's `[hbt]` (the height clamped to `servo.max-angle-deg`, as the relay is).
+//!
+//! Markers: only the measured points are circles (one per tone in each panel of a Bode pair,
+//! one per HBT report, one per report in a history's chi2 panel), so a reader of the SVG can
+//! count them.
+//!
+//! The kind of input is detected ([`detect`]) unless forced: the whole input as one JSON
+//! object with `records` is a history (`helmwatch history --json`), with `key` and `payload`
+//! a recording, with `method` and `features` a report (`helmwatch probe --json`); otherwise
+//! its first non-empty line decides: `key` and `payload` a recording (JSON lines), `records`
+//! or `method` and `residuals` a history (one report or one history reply per line).
+//! Recordings are read through [`recording::Trace::collect`], which takes any iterator of
+//! `RecordLine`s: [`recording::json_lines`] is one source; another format (MCAP) plugs in
+//! as another iterator.
+
+mod charts;
+pub mod recording;
+
+use crate::config::Config;
+use crate::core::wire::{Method, Report};
+use serde_json::Value;
+
+/// What an input holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InputKind {
+    /// One report (`fdi/report` payload).
+    Report,
+    /// Reports over time: JSON lines of reports, or of history replies.
+    History,
+    /// A recording: JSON lines `{"key", "payload"}`.
+    Recording,
+}
+
+impl InputKind {
+    /// The name on the command line (`--kind`).
+    pub fn name(self) -> &'static str {
+        match self {
+            InputKind::Report => "report",
+            InputKind::History => "history",
+            InputKind::Recording => "recording",
+        }
+    }
+}
+
+impl std::str::FromStr for InputKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "report" => Ok(InputKind::Report),
+            "history" => Ok(InputKind::History),
+            "recording" => Ok(InputKind::Recording),
+            other => Err(format!(
+                "unknown kind {other:?}: report, history or recording"
+            )),
+        }
+    }
+}
+
+/// Why a plot failed.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    /// The input is not what its kind needs (exit 65).
+    #[error("{0}")]
+    Data(String),
+    /// plotters failed to draw (exit 70).
+    #[error("drawing: {0}")]
+    Draw(String),
+}
+
+/// The picture's size and what to take from a recording.
+#[derive(Debug, Clone)]
+pub struct PlotOptions {
+    /// Width [px].
+    pub width_px: u32,
+    /// Height [px].
+    pub height_px: u32,
+    /// A recording's vessel (default: the first one in it).
+    pub vessel: Option<String>,
+}
+
+impl Default for PlotOptions {
+    fn default() -> Self {
+        Self {
+            width_px: 1000,
+            height_px: 760,
+            vessel: None,
+        }
+    }
+}
+
+fn data(msg: impl Into<String>) -> PlotError {
+    PlotError::Data(msg.into())
+}
+
+fn is_obj_with(v: &Value, keys: &[&str]) -> bool {
+    v.as_object()
+        .is_some_and(|o| keys.iter().all(|k| o.contains_key(*k)))
+}
+
+/// The kind of `text` (module documentation), or why it has none.
+pub fn detect(text: &str) -> Result<InputKind, PlotError> {
+    if let Ok(v) = serde_json::from_str::<Value>(text) {
+        if is_obj_with(&v, &["records"]) {
+            return Ok(InputKind::History);
+        }
+        if is_obj_with(&v, &["key", "payload"]) {
+            return Ok(InputKind::Recording);
+        }
+        if is_obj_with(&v, &["method", "features"]) {
+            return Ok(InputKind::Report);
+        }
+    }
+    let first = text
+        .lines()
+        .find(|l| !l.trim().is_empty())
+        .ok_or_else(|| data("the input is empty"))?;
+    let v: Value = serde_json::from_str(first)
+        .map_err(|e| data(format!("the first line is not JSON: {e}")))?;
+    if is_obj_with(&v, &["key", "payload"]) {
+        Ok(InputKind::Recording)
+    } else if is_obj_with(&v, &["records"]) || is_obj_with(&v, &["method", "residuals"]) {
+        Ok(InputKind::History)
+    } else {
+        Err(data(
+            "neither a report, a report history nor a recording (use --kind to say which)",
+        ))
+    }
+}
+
+/// One report from `text` (a JSON object, pretty-printed or not).
+pub fn parse_report(text: &str) -> Result<Report, PlotError> {
+    serde_json::from_str(text).map_err(|e| data(format!("not a report: {e}")))
+}
+
+/// The reports of a history: JSON lines, each a report or a history reply (`{"vessel",
+/// "records"}`, whose `report` records are taken), or the whole text one of those. Returns
+/// the vessel when a reply names it.
+pub fn parse_history(text: &str) -> Result<(Option<String>, Vec<Report>), PlotError> {
+    let mut vessel = None;
+    let mut reports = Vec::new();
+    let mut take = |v: Value, line: usize| -> Result<(), PlotError> {
+        if let Some(records) = v.get("records").and_then(Value::as_array) {
+            if let Some(name) = v.get("vessel").and_then(Value::as_str) {
+                vessel.get_or_insert_with(|| name.to_string());
+            }
+            for r in records {
+                if r.get("kind").and_then(Value::as_str) == Some("report") {
+                    let p = r.get("payload").cloned().unwrap_or(Value::Null);
+                    reports.push(
+                        serde_json::from_value(p)
+                            .map_err(|e| data(format!("line {line}: a record: {e}")))?,
+                    );
+                }
+            }
+        } else {
+            reports.push(
+                serde_json::from_value(v)
+                    .map_err(|e| data(format!("line {line}: not a report: {e}")))?,
+            );
+        }
+        Ok(())
+    };
+    if let Ok(v) = serde_json::from_str::<Value>(text) {
+        take(v, 1)?;
+    } else {
+        for (i, line) in text.lines().enumerate() {
+            if line.trim().is_empty() {
+                continue;
+            }
+            let v: Value = serde_json::from_str(line)
+                .map_err(|e| data(format!("line {}: not JSON: {e}", i + 1)))?;
+            take(v, i + 1)?;
+        }
+    }
+    Ok((vessel, reports))
+}
+
+/// The SVG of `text` read as `kind`, with the nominal ship of `cfg`.
+pub fn plot(
+    cfg: &Config,
+    text: &str,
+    kind: InputKind,
+    opts: &PlotOptions,
+) -> Result<String, PlotError> {
+    let size = (opts.width_px, opts.height_px);
+    let mut svg = String::new();
+    match kind {
+        InputKind::Report => {
+            let r = parse_report(text)?;
+            plot_report(cfg, &r, size, &mut svg)?;
+        }
+        InputKind::History => {
+            let (vessel, reports) = parse_history(text)?;
+            if reports.is_empty() {
+                return Err(data("no report in the history"));
+            }
+            let points = history_points(&reports);
+            let title = match vessel {
+                Some(v) => format!("{v}: residuals of {} reports", reports.len()),
+                None => format!("residuals of {} reports", reports.len()),
+            };
+            charts::history(&mut svg, size, &title, &points, cfg.fdi.chi2_threshold)?;
+        }
+        InputKind::Recording => {
+            let trace =
+                recording::Trace::collect(recording::json_lines(text), opts.vessel.as_deref())?;
+            charts::trace(&mut svg, size, &trace)?;
+        }
+    }
+    Ok(svg)
+}
+
+/// A report's picture: Bode pair (CLFRT) or Nyquist plane (HBT).
+pub fn plot_report(
+    cfg: &Config,
+    r: &Report,
+    size: (u32, u32),
+    svg: &mut String,
+) -> Result<(), PlotError> {
+    let ship = &cfg.ship;
+    let nominal = ship.nomoto(ship.nominal_speed_mps, ship.nominal_displacement_t);
+    let estimated = r
+        .estimate
+        .map(|e| ship.nomoto(e.speed_mps, e.displacement_t));
+    match r.method {
+        Method::Clfrt => {
+            let f = r.features.clfrt().ok_or_else(|| {
+                data(format!(
+                    "report {}: no CLFRT features (outcome {:?}{})",
+                    r.test,
+                    r.outcome,
+                    r.reason
+                        .as_ref()
+                        .map(|x| format!(": {x}"))
+                        .unwrap_or_default()
+                ))
+            })?;
+            if f.tones.is_empty() {
+                return Err(data(format!("report {}: no tones", r.test)));
+            }
+            let title = format!("CLFRT {}: heading / rudder", r.test);
+            charts::bode(svg, size, &title, &f.tones, nominal, estimated)
+        }
+        Method::Hbt => {
+            let f = r.features.hbt().ok_or_else(|| {
+                data(format!(
+                    "report {}: no HBT features (outcome {:?})",
+                    r.test, r.outcome
+                ))
+            })?;
+            let relay = charts::Relay {
+                height_rad: cfg.hbt.relay_height_rad().min(cfg.servo.max_angle_rad()),
+                hysteresis_rad: cfg.hbt.hysteresis_rad(),
+            };
+            let predict = |ab: (f64, f64)| {
+                crate::core::dsp::relay::limit_cycle_describing_function(
+                    ab.0,
+                    ab.1,
+                    relay.height_rad,
+                    relay.hysteresis_rad,
+                    &cfg.servo,
+                )
+                .ok()
+            };
+            let title = format!("HBT {}: limit cycle (describing function)", r.test);
+            charts::nyquist(
+                svg,
+                size,
+                &title,
+                &charts::NyquistInput {
+                    relay,
+                    servo: cfg.servo.clone(),
+                    omega_u_rad_s: f.omega_u_rad_s,
+                    amplitude_rad: f.amplitude_rad,
+                    response: f.response_gain.zip(f.response_phase_rad),
+                    nominal,
+                    estimated,
+                    predicted_nominal: predict(nominal),
+                    predicted_estimated: estimated.and_then(predict),
+                },
+            )
+        }
+    }
+}
+
+/// One report's residuals for the history chart (`None` where the report has none).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HistoryPoint {
+    /// The report's `t_end` [s].
+    pub t_end: f64,
+    /// Its method.
+    pub method: Method,
+    /// `residuals.decision.chi2`.
+    pub chi2: Option<f64>,
+    /// `residuals.parameters.z_speed`.
+    pub z_speed: Option<f64>,
+    /// `residuals.parameters.z_displacement`.
+    pub z_disp: Option<f64>,
+    /// `residuals.actuator.z_gain`: the servo's rate shortfall `z_rate` (docs/fdi.md).
+    pub z_rate: Option<f64>,
+}
+
+/// The residuals of `reports`, in their order.
+pub fn history_points(reports: &[Report]) -> Vec<HistoryPoint> {
+    let num = |v: &Value, path: &[&str]| {
+        path.iter()
+            .try_fold(v, |v, k| v.get(*k))
+            .and_then(Value::as_f64)
+            .filter(|x| x.is_finite())
+    };
+    reports
+        .iter()
+        .map(|r| HistoryPoint {
+            t_end: r.t_end,
+            method: r.method,
+            chi2: num(&r.residuals, &["decision", "chi2"]),
+            z_speed: num(&r.residuals, &["parameters", "z_speed"]),
+            z_disp: num(&r.residuals, &["parameters", "z_displacement"]),
+            z_rate: num(&r.residuals, &["actuator", "z_gain"]),
+        })
+        .collect()
+}
+
+/// Reads `path` (`-`: standard input) as text.
+pub fn read_input(path: &std::path::Path) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    let mut bytes = Vec::new();
+    if path.as_os_str() == "-" {
+        std::io::stdin().read_to_end(&mut bytes)?;
+    } else {
+        bytes = std::fs::read(path)?;
+    }
+    Ok(bytes)
+}
+
+/// `bytes` as text, or why they are not (a binary recording format is not read yet).
+pub fn as_text(bytes: &[u8]) -> Result<&str, PlotError> {
+    std::str::from_utf8(bytes).map_err(|_| {
+        data("the input is not UTF-8 text (binary recordings are not read by plot yet)")
+    })
+}
