@@ -1,10 +1,11 @@
 //! Shells: the core meets the world. The Zenoh session settings ([`net`]), the daemon
-//! ([`daemon`]) with its state directory ([`state`]) and report history ([`history`]), the simulated ship as a Zenoh peer
+//! ([`daemon`]) with its state directory ([`state`]) and report history ([`history`]) and MCAP recordings ([`recording`]), the simulated ship as a Zenoh peer
 //! ([`shipnode`]) and the service manager ([`systemd`]).
 
 pub mod daemon;
 pub mod history;
 pub mod net;
+pub mod recording;
 pub mod shipnode;
 pub mod state;
 pub mod systemd;
