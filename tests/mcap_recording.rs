@@ -203,6 +203,15 @@ async fn the_recording_holds_what_the_daemon_saw_and_replays_to_the_same_reports
         said["vessels/self/navigation/headingTrue"] + 1, // + the `none` at shutdown
     );
     assert!(heading_times.windows(2).all(|w| w[0] < w[1]));
+    let bytes: u64 = files
+        .iter()
+        .map(|f| std::fs::metadata(f).unwrap().len())
+        .sum();
+    let hours = (heading_times[heading_times.len() - 1] - heading_times[0]) / 3600.0;
+    println!(
+        "recorded {bytes} bytes over {hours:.2} ship hours: {:.1} MiB per hour",
+        bytes as f64 / hours / (1 << 20) as f64
+    );
     assert!(heading_times[0] >= t0 && heading_times[0] < t0 + 60.0);
     // The analysis records: one grid point per 0.1 s of each completed test's analysis
     // (CLFRT: 2 windows of 600 s, 12000 points; HBT: a few relay periods).

@@ -474,7 +474,7 @@ fn list(dir: &Path) -> Result<Vec<(PathBuf, u64)>, RecordingError> {
         }
     }
     // Names sort in time: `helmwatch-<UTC stamp>-<n>`; `n` breaks ties within a second.
-    files.sort_by(|a, b| sort_key(&a.0).cmp(&sort_key(&b.0)));
+    files.sort_by_key(|a| sort_key(&a.0));
     Ok(files)
 }
 
