@@ -36,8 +36,8 @@ pub(crate) enum Command {
     /// Daemon and simulated ship in one process over Zenoh on loopback, accelerated time:
     /// a few nominal tests, then a displacement fault; prints each decision as it arrives.
     Demo(DemoArgs),
-    /// Run the monitor core over a recording (JSON lines, as `simulate` writes) and print
-    /// its reports.
+    /// Run the monitor core over a recording (JSON lines, as `simulate` writes, or the
+    /// daemon's MCAP recordings) and print its reports.
     Replay(ReplayArgs),
     /// Print the daemon's benchmark figures (lockstep speed, vessels kept up with, memory).
     Bench(BenchArgs),
@@ -281,7 +281,8 @@ pub(crate) struct DemoArgs {
 
 #[derive(Debug, Args)]
 pub(crate) struct ReplayArgs {
-    /// The recording (JSON lines {"key": .., "payload": ..}); `-` for standard input.
+    /// The recording (JSON lines {"key": .., "payload": ..}, or an MCAP file of the daemon's,
+    /// told by its magic bytes); `-` for standard input.
     pub(crate) file: PathBuf,
     /// Print each report as one JSON line (the `fdi/report` payload).
     #[arg(long)]

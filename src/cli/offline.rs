@@ -101,13 +101,20 @@ pub(crate) fn probe(cfg: &Config, a: ProbeArgs) -> Result<(), Failure> {
 
 pub(crate) fn replay(cfg: &Config, a: ReplayArgs) -> Result<(), Failure> {
     use crate::core::monitor::Output;
-    let reader: Box<dyn std::io::BufRead> = if a.file.as_os_str() == "-" {
+    use std::io::BufRead;
+    let mut reader: Box<dyn std::io::BufRead> = if a.file.as_os_str() == "-" {
         Box::new(std::io::BufReader::new(std::io::stdin()))
     } else {
         let f = std::fs::File::open(&a.file)
             .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", a.file.display())))?;
         Box::new(std::io::BufReader::new(f))
     };
+    // An MCAP recording (the daemon's `[daemon] record`) starts with its magic bytes.
+    let mcap = crate::shells::recording::is_mcap(
+        reader
+            .fill_buf()
+            .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", a.file.display())))?,
+    );
     let json = a.json;
     // Vessels with a `[vessel.<name>]` table are replayed with their own configuration.
     let own = cfg
@@ -116,7 +123,7 @@ pub(crate) fn replay(cfg: &Config, a: ReplayArgs) -> Result<(), Failure> {
         .map(|v| Ok((v.clone(), cfg.for_vessel(v)?.core())))
         .collect::<Result<Vec<_>, crate::config::ConfigError>>()
         .map_err(|e| fail(EX_CONFIG)(e.into()))?;
-    let sum = crate::drivers::replay::replay_fleet(&cfg.core(), &own, reader, |vessel, out| {
+    let on_output = |vessel: &str, out: &Output| {
         if let Output::Report(r) = out {
             if json {
                 if let Ok(line) = serde_json::to_string(r) {
@@ -139,7 +146,12 @@ pub(crate) fn replay(cfg: &Config, a: ReplayArgs) -> Result<(), Failure> {
                 println!("  decision: {:?}; {}", r.decision, r.message);
             }
         }
-    })
+    };
+    let sum = if mcap {
+        crate::shells::recording::replay_mcap(&cfg.core(), &own, reader, on_output)
+    } else {
+        crate::drivers::replay::replay_fleet(&cfg.core(), &own, reader, on_output)
+    }
     .map_err(|e| fail(EX_IOERR)(e.into()))?;
     tracing::info!(
         lines = sum.lines,

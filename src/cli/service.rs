@@ -47,7 +47,9 @@ pub(crate) fn run_daemon(cfg: &Config, a: RunArgs) -> Result<(), Failure> {
                     DaemonError::Config(_) | DaemonError::Estimator(_) => EX_CONFIG,
                     DaemonError::Open(_) | DaemonError::Metrics(_) => EX_UNAVAILABLE,
                     DaemonError::Declare { .. } => EX_SOFTWARE,
-                    DaemonError::State(_) | DaemonError::History(_) => EX_CANTCREAT,
+                    DaemonError::State(_) | DaemonError::History(_) | DaemonError::Recording(_) => {
+                        EX_CANTCREAT
+                    }
                 };
                 fail(code)(e.into())
             })?;

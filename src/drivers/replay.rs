@@ -1,7 +1,8 @@
 //! Replay: the monitor core over a recording, in the recording's order, without a clock.
 //!
 //! A recording is JSON lines `{"key": "vessels/<v>/<path>", "payload": {...}}` (the output of
-//! `helmwatch simulate` and of `helmwatch ship --record`). Each line on an input stream key is
+//! `helmwatch simulate` and of `helmwatch ship --record`), or the daemon's MCAP recordings
+//! (read in `shells::recording`, which feeds the same [`Replayer`] message by message). Each line on an input stream key is
 //! decoded and fed to the core of its vessel (one core per vessel found, created on first
 //! sight); lines on other keys (excitations, reports) are skipped. After each sample every
 //! output is handed to the caller. Silence is noticed on the recording's own clock: after a
@@ -70,53 +71,106 @@ pub fn replay_fleet(
     reader: impl BufRead,
     mut on_output: impl FnMut(&str, &Output),
 ) -> Result<ReplaySummary, ReplayError> {
-    // Models loaded and the multisine designed once per configuration (a failed design is
-    // the monitor's to report, per test).
-    let parts = |c: &CoreConfig| -> Result<_, ReplayError> {
-        Ok((
-            Monitor::design_multisine(c).ok(),
-            crate::core::estimator::Estimator::from_config(c)?,
-        ))
-    };
-    let (multisine, estimator) = parts(cfg)?;
-    let own = own
-        .iter()
-        .map(|(v, c)| Ok((v.as_str(), (c, parts(c)?))))
-        .collect::<Result<HashMap<_, _>, ReplayError>>()?;
-    let mut cores: HashMap<String, (Keys, Monitor)> = HashMap::new();
-    let mut sum = ReplaySummary::default();
+    let mut r = Replayer::new(cfg, own)?;
     for line in reader.lines() {
         let line = line?;
-        sum.lines += 1;
         if line.trim().is_empty() {
+            r.sum.lines += 1;
             continue;
         }
-        let Ok(rec) = serde_json::from_str::<RecordLine>(&line) else {
-            sum.bad_lines += 1;
-            continue;
+        match serde_json::from_str::<RecordLine>(&line) {
+            Ok(rec) => r.feed(&rec.key, Payload::Value(rec.payload), &mut on_output)?,
+            Err(_) => {
+                r.sum.lines += 1;
+                r.sum.bad_lines += 1;
+            }
+        }
+    }
+    Ok(r.finish())
+}
+
+/// A sample's payload as a recording holds it.
+#[derive(Debug)]
+pub enum Payload<'a> {
+    /// Already parsed (JSON lines).
+    Value(serde_json::Value),
+    /// The bytes as received (an MCAP recording), decoded as the daemon decodes them.
+    Bytes(&'a [u8]),
+}
+
+/// What both models loaded and the multisine designed once per configuration share.
+type Parts = (
+    Option<crate::core::dsp::multisine::Multisine>,
+    Option<std::sync::Arc<crate::core::estimator::Estimator>>,
+);
+
+/// The replay engine: one core per vessel, fed one recorded publication at a time in the
+/// recording's order. [`replay_fleet`] drives it over JSON lines; an MCAP reader (in the
+/// shells, where the `mcap` crate is) drives it over an MCAP file's messages.
+#[derive(Debug)]
+pub struct Replayer {
+    cfg: CoreConfig,
+    parts: Parts,
+    own: HashMap<String, (CoreConfig, Parts)>,
+    cores: HashMap<String, (Keys, Monitor)>,
+    sum: ReplaySummary,
+}
+
+impl Replayer {
+    /// Loads the models and designs the multisine once per configuration (`cfg` for every
+    /// vessel not named in `own`).
+    pub fn new(cfg: &CoreConfig, own: &[(String, CoreConfig)]) -> Result<Self, ReplayError> {
+        // A failed design is the monitor's to report, per test.
+        let parts = |c: &CoreConfig| -> Result<Parts, ReplayError> {
+            Ok((
+                Monitor::design_multisine(c).ok(),
+                crate::core::estimator::Estimator::from_config(c)?,
+            ))
         };
-        let Some(vessel) = rec
-            .key
+        Ok(Self {
+            parts: parts(cfg)?,
+            cfg: cfg.clone(),
+            own: own
+                .iter()
+                .map(|(v, c)| Ok((v.clone(), (c.clone(), parts(c)?))))
+                .collect::<Result<HashMap<_, _>, ReplayError>>()?,
+            cores: HashMap::new(),
+            sum: ReplaySummary::default(),
+        })
+    }
+
+    /// One recorded publication on `key` (a line or a message): fed to its vessel's core if
+    /// it is an input stream, skipped otherwise; `on_output(vessel, output)` then sees every
+    /// output except excitations.
+    pub fn feed(
+        &mut self,
+        key: &str,
+        payload: Payload<'_>,
+        on_output: &mut impl FnMut(&str, &Output),
+    ) -> Result<(), ReplayError> {
+        let sum = &mut self.sum;
+        sum.lines += 1;
+        let Some(vessel) = key
             .strip_prefix("vessels/")
             .and_then(|r| r.split_once('/'))
             .map(|(v, _)| v)
         else {
             sum.skipped += 1;
-            continue;
+            return Ok(());
         };
-        if !cores.contains_key(vessel) {
+        if !self.cores.contains_key(vessel) {
             if crate::core::config::check_vessel_name("vessel", vessel).is_err() {
                 sum.skipped += 1;
-                continue;
+                return Ok(());
             }
-            if cores.len() >= MAX_VESSELS {
+            if self.cores.len() >= MAX_VESSELS {
                 return Err(ReplayError::TooManyVessels);
             }
-            let (c, ms, est) = match own.get(vessel) {
-                Some((c, (ms, est))) => (*c, ms, est),
-                None => (cfg, &multisine, &estimator),
+            let (c, (ms, est)) = match self.own.get(vessel) {
+                Some((c, p)) => (c, p),
+                None => (&self.cfg, &self.parts),
             };
-            cores.insert(
+            self.cores.insert(
                 vessel.to_string(),
                 (
                     Keys::new(vessel),
@@ -124,15 +178,19 @@ pub fn replay_fleet(
                 ),
             );
         }
-        let Some((keys, monitor)) = cores.get_mut(vessel) else {
-            continue;
+        let Some((keys, monitor)) = self.cores.get_mut(vessel) else {
+            return Ok(());
         };
-        let Some(stream) = keys.stream_of(&rec.key) else {
+        let Some(stream) = keys.stream_of(key) else {
             sum.skipped += 1;
-            continue;
+            return Ok(());
         };
-        match wire::decode_value(stream, rec.payload) {
-            Err(_) => {
+        let decoded = match payload {
+            Payload::Value(v) => wire::decode_value(stream, v).map_err(|_| ()),
+            Payload::Bytes(b) => wire::decode(stream, b).map_err(|_| ()),
+        };
+        match decoded {
+            Err(()) => {
                 monitor.count_malformed(stream);
                 sum.rejected += 1;
             }
@@ -154,9 +212,25 @@ pub fn replay_fleet(
             }
             on_output(vessel, &out);
         }
+        Ok(())
     }
-    sum.vessels = cores.len() as u64;
-    Ok(sum)
+
+    /// The counts of the replay so far.
+    pub fn summary(&self) -> &ReplaySummary {
+        &self.sum
+    }
+
+    /// Counts a line or message that is not a recorded publication.
+    pub fn bad_record(&mut self) {
+        self.sum.lines += 1;
+        self.sum.bad_lines += 1;
+    }
+
+    /// Ends the replay: its counts.
+    pub fn finish(mut self) -> ReplaySummary {
+        self.sum.vessels = self.cores.len() as u64;
+        self.sum
+    }
 }
 
 #[cfg(test)]

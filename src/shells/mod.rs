@@ -1,5 +1,5 @@
 //! Shells: the core meets the world. The Zenoh session settings ([`net`]), the daemon
-//! ([`daemon`]) with its state directory ([`state`]) and report history ([`history`]), the simulated ship as a Zenoh peer
+//! ([`daemon`]) with its state directory ([`state`]), report history ([`history`]) and MCAP recordings ([`recording`]), the simulated ship as a Zenoh peer
 //! ([`shipnode`]), the service manager ([`systemd`]) and the daemon's metrics endpoint
 //! ([`metrics`]).
 
@@ -7,6 +7,7 @@ pub mod daemon;
 pub mod history;
 pub mod metrics;
 pub mod net;
+pub mod recording;
 pub mod shipnode;
 pub mod state;
 pub mod systemd;

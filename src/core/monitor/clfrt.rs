@@ -389,6 +389,8 @@ pub(crate) struct ClfrtRun {
     ramp: (f64, f64),
     analyser: ToneAnalyser,
     scratch: [Vec<f64>; 3],
+    /// Whether `scratch` holds the analysis's heading, rudder and reference.
+    analysed: bool,
     /// Wave-yaw band [rad/s], its transform and scratch.
     wave: ((f64, f64), Spectrum, Vec<f64>),
     /// The servo check (none when disabled).
@@ -431,6 +433,7 @@ impl ClfrtRun {
             ramp: (0.0, t_start_s),
             analyser: ToneAnalyser::new(),
             scratch: [Vec::new(), Vec::new(), Vec::new()],
+            analysed: false,
             wave: (
                 (cfg.fdi.wave_band_rad_s[0], cfg.fdi.wave_band_rad_s[1]),
                 Spectrum::new(),
@@ -439,6 +442,16 @@ impl ClfrtRun {
             check,
             baseline: (cfg.baseline.clone(), cfg.ship.clone()),
         }
+    }
+
+    /// After the analysis: its grid `(t0, dt)` and the resampled continuous heading, rudder
+    /// and the multisine reference on it (what the tone analysis used).
+    pub(crate) fn analysis_series(&self) -> Option<(f64, f64, [&[f64]; 3])> {
+        if !self.analysed {
+            return None;
+        }
+        let [h, d, r] = &self.scratch;
+        Some((self.measure_start_s, self.dt_s, [h, d, r]))
     }
 
     /// Whether samples at `t` are needed for the analysis.
@@ -571,6 +584,7 @@ impl ClfrtRun {
 
     fn analyse(&mut self) -> Result<Measured, AbortReason> {
         let n = self.window_samples * self.windows as usize;
+        self.analysed = true;
         let [h, d, r] = &mut self.scratch;
         let t0 = self.measure_start_s;
         self.heading

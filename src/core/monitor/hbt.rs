@@ -187,6 +187,8 @@ pub(crate) struct HbtRun {
     rudder: Record,
     /// Resampled heading and rudder.
     scratch: [Vec<f64>; 2],
+    /// First time of the analysis grid, once analysed [s] (the grid of `scratch`).
+    grid_t0_s: Option<f64>,
     /// Wave-yaw band [rad/s], its transform and scratch.
     wave: ((f64, f64), Spectrum, Vec<f64>),
     /// The baseline's filter and the ship that turns its a and b into speed and displacement.
@@ -231,6 +233,7 @@ impl HbtRun {
             heading: Record::with_capacity(capacity),
             rudder: Record::with_capacity(capacity),
             scratch: [Vec::new(), Vec::new()],
+            grid_t0_s: None,
             wave: (
                 (cfg.fdi.wave_band_rad_s[0], cfg.fdi.wave_band_rad_s[1]),
                 Spectrum::new(),
@@ -239,6 +242,14 @@ impl HbtRun {
             baseline: (cfg.baseline.clone(), cfg.ship.clone()),
             servo_rate: (nominal_slew_rad_s(cfg), Vec::new()),
         }
+    }
+
+    /// After the analysis: its grid `(t0, dt)` and the resampled continuous heading and rudder
+    /// it used (the rudder may be shorter: the span both records cover).
+    pub(crate) fn analysis_series(&self) -> Option<(f64, f64, &[f64], &[f64])> {
+        let t0 = self.grid_t0_s?;
+        let [h, d] = &self.scratch;
+        Some((t0, self.dt_s, h, d))
     }
 
     /// The trim the relay is centred on (0 before it is measured) [rad].
@@ -409,6 +420,7 @@ impl HbtRun {
         let first = measured.first().copied().unwrap_or(t_now);
         let t0 = (first - 2.0 * self.dt_s).max(self.relay_start_s.unwrap_or(first));
         let n = ((t_now - t0) / self.dt_s).floor() as usize + 1;
+        self.grid_t0_s = Some(t0);
         let [h, d] = &mut self.scratch;
         self.heading
             .resample(t0, self.dt_s, n, self.max_gap_s, h)

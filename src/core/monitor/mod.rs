@@ -99,6 +99,67 @@ pub enum Output {
     Report(Box<Report>),
     /// On `notifications/steering/fdi`, when the alarm state changes.
     Notification(Notification),
+    /// The resampled series a completed test's analysis used, just before its report; only
+    /// when asked for ([`Monitor::set_analysis_output`]: recordings). Not on the wire.
+    Analysis(Box<AnalysisRecord>),
+}
+
+/// The records one completed test's analysis used, on its uniform grid `t0_s + i dt_s`.
+///
+/// `heading_rad` is the continuous (unwrapped) heading, `rudder_rad` the measured rudder,
+/// both resampled by linear interpolation (the alignment by `t`); `excitation_rad` is, for
+/// CLFRT, the multisine reference the tone analysis used and, for HBT, the relay command the
+/// monitor sent, held from one excitation to the next. The HBT rudder may be shorter than the
+/// heading (the span both records cover).
+#[derive(Debug, Clone, PartialEq)]
+pub struct AnalysisRecord {
+    /// The test's id.
+    pub test: String,
+    /// Its method.
+    pub method: Method,
+    /// First grid time (ship time) [s].
+    pub t0_s: f64,
+    /// Grid step [s].
+    pub dt_s: f64,
+    /// Continuous heading on the grid [rad].
+    pub heading_rad: Vec<f64>,
+    /// Rudder on the grid [rad].
+    pub rudder_rad: Vec<f64>,
+    /// Excitation on the grid [rad].
+    pub excitation_rad: Vec<f64>,
+}
+
+impl AnalysisRecord {
+    /// Number of grid points every series covers.
+    pub fn len(&self) -> usize {
+        self.heading_rad
+            .len()
+            .min(self.rudder_rad.len())
+            .min(self.excitation_rad.len())
+    }
+
+    /// Whether no grid point has all three series.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// The value held at each grid time `t0 + i dt` (`i < n`) from `(t, value)` steps in
+/// increasing `t` (the first value before the first step; empty without steps).
+fn hold_on_grid(steps: &[(f64, f64)], t0: f64, dt: f64, n: usize) -> Vec<f64> {
+    if steps.is_empty() {
+        return Vec::new();
+    }
+    let mut j = 0usize;
+    (0..n)
+        .map(|i| {
+            let tg = t0 + i as f64 * dt;
+            while j + 1 < steps.len() && steps[j + 1].0 <= tg + 1e-9 {
+                j += 1;
+            }
+            steps[j].1
+        })
+        .collect()
 }
 
 /// What a finished test measured, by method: the analysis, from which the report's typed
@@ -164,6 +225,9 @@ struct Run {
     speed_sum_mps: f64,
     speed_n: u64,
     kind: RunKind,
+    /// The excitations sent, `(t, value)`, when analysis records are asked for (bounded by
+    /// `sent_capacity`).
+    sent: Vec<(f64, f64)>,
 }
 
 #[derive(Debug)]
@@ -227,6 +291,8 @@ pub struct Monitor {
     estimator: Option<(Arc<Estimator>, EstimatorScratch)>,
     /// Residuals, decision, alarm state and isolation over the completed tests.
     fdi: Fdi,
+    /// Queue an [`Output::Analysis`] before each completed test's report.
+    analysis_output: bool,
 }
 
 impl Monitor {
@@ -303,7 +369,21 @@ impl Monitor {
             multisine,
             estimator,
             fdi,
+            analysis_output: false,
         }
+    }
+
+    /// Asks for an [`Output::Analysis`] before each completed test's report (the driver
+    /// records it); off by default. It changes no other output.
+    pub fn set_analysis_output(&mut self, on: bool) {
+        self.analysis_output = on;
+    }
+
+    /// Most excitations a test keeps for its analysis record: its longest duration at twice
+    /// the nominal rate.
+    fn sent_capacity(&self) -> usize {
+        ((self.cfg.safety.max_test_duration_s + 60.0) * self.cfg.sensors.rate_hz * 2.0).ceil()
+            as usize
     }
 
     /// The vessel's alarm state (the worst of the methods' decision tracks).
@@ -592,6 +672,7 @@ impl Monitor {
             speed_sum_mps: 0.0,
             speed_n: 0,
             kind,
+            sent: Vec::new(),
         });
         self.stats.tests_started += 1;
         self.steady.since = None;
@@ -701,6 +782,11 @@ impl Monitor {
         if self.last_heading_t() == Some(t) && !self.excitation_sent_at(t) {
             self.emit_excitation(t, ExcitationMode::None, 0.0);
         }
+        if self.analysis_output && outcome == Outcome::Completed {
+            if let Some(a) = analysis_record(&run) {
+                self.outputs.push_back(Output::Analysis(Box::new(a)));
+            }
+        }
         let report = Report {
             test: run.id.clone(),
             method: run.method,
@@ -739,6 +825,14 @@ impl Monitor {
 
     fn push_excitation(&mut self, t: f64, mode: ExcitationMode, value: f64, test: Option<String>) {
         self.last_excitation = Some((t, mode, value));
+        if self.analysis_output && test.is_some() {
+            let cap = self.sent_capacity();
+            if let Some(run) = &mut self.run {
+                if run.sent.len() < cap {
+                    run.sent.push((t, value));
+                }
+            }
+        }
         self.outputs.push_back(Output::Excitation(Excitation {
             t,
             mode,
@@ -773,6 +867,30 @@ impl Monitor {
             reason,
         }));
     }
+}
+
+/// The analysis record of a run whose analysis completed.
+fn analysis_record(run: &Run) -> Option<AnalysisRecord> {
+    let (t0, dt, h, d, e) = match &run.kind {
+        RunKind::Hbt(k) => {
+            let (t0, dt, h, d) = k.analysis_series()?;
+            let e = hold_on_grid(&run.sent, t0, dt, h.len());
+            (t0, dt, h.to_vec(), d.to_vec(), e)
+        }
+        RunKind::Clfrt(k) => {
+            let (t0, dt, [h, d, r]) = k.analysis_series()?;
+            (t0, dt, h.to_vec(), d.to_vec(), r.to_vec())
+        }
+    };
+    Some(AnalysisRecord {
+        test: run.id.clone(),
+        method: run.method,
+        t0_s: t0,
+        dt_s: dt,
+        heading_rad: h,
+        rudder_rad: d,
+        excitation_rad: e,
+    })
 }
 
 impl Monitor {

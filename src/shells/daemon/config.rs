@@ -36,6 +36,19 @@ pub struct DaemonConfig {
     /// The metrics endpoint: `IP:PORT` to serve OpenMetrics text on (`GET /metrics`), e.g.
     /// `127.0.0.1:9464` (port 0: any free port, see `Daemon::metrics_addr`); empty = off.
     pub metrics_listen: String,
+    /// Record every input sample, excitation, status, report, notification and each completed
+    /// test's resampled analysis records into MCAP files in `<state-dir>/recordings/`
+    /// (Foxglove, Lichtblick; `helmwatch replay` reads them). Needs a state directory.
+    pub record: bool,
+    /// Most disk space the recordings take, the open segment included [MiB]; the oldest files
+    /// are deleted first. 1 to 1000000, at least `recordings-segment-mb`.
+    pub recordings_max_mb: u32,
+    /// Most recording files kept, the open segment included; 2 to 100000.
+    pub recordings_max_files: u32,
+    /// A segment is finished (and a new one opened) once it holds this much [MiB]; 1 to 4096.
+    pub recordings_segment_mb: u32,
+    /// ... or once it has been open this long (wall time) [s]; (0, 604800].
+    pub recordings_segment_s: f64,
 }
 
 impl Default for DaemonConfig {
@@ -51,11 +64,27 @@ impl Default for DaemonConfig {
             history_days: 365.0,
             history_max_records: 1_000_000,
             metrics_listen: String::new(),
+            record: false,
+            recordings_max_mb: 2048,
+            recordings_max_files: 200,
+            recordings_segment_mb: 64,
+            recordings_segment_s: 3600.0,
         }
     }
 }
 
 impl DaemonConfig {
+    /// The recordings' bounds in bytes and seconds.
+    pub fn recording_limits(&self) -> crate::shells::recording::Limits {
+        const MIB: u64 = 1 << 20;
+        crate::shells::recording::Limits {
+            max_bytes: u64::from(self.recordings_max_mb) * MIB,
+            max_files: self.recordings_max_files,
+            segment_bytes: u64::from(self.recordings_segment_mb) * MIB,
+            segment_s: self.recordings_segment_s,
+        }
+    }
+
     /// Checks the section's limits; the error names the key and its allowed range.
     pub fn check(&self) -> Result<(), ConfigError> {
         if self.vessels.is_empty() || self.vessels.len() > 100_000 {
@@ -91,6 +120,30 @@ impl DaemonConfig {
                 "\"\" (off) or IP:PORT, port 0 to 65535, e.g. \"127.0.0.1:9464\"",
             ));
         }
+        check_count(
+            "daemon.recordings-max-mb",
+            self.recordings_max_mb,
+            1,
+            1_000_000,
+        )?;
+        check_count(
+            "daemon.recordings-max-files",
+            self.recordings_max_files,
+            2,
+            100_000,
+        )?;
+        check_count(
+            "daemon.recordings-segment-mb",
+            self.recordings_segment_mb,
+            1,
+            4096.min(self.recordings_max_mb),
+        )?;
+        check_range_open_low(
+            "daemon.recordings-segment-s",
+            self.recordings_segment_s,
+            0.0,
+            604_800.0,
+        )?;
         check_range_open_low("daemon.tick-s", self.tick_s, 0.0, 10.0)?;
         check_range("daemon.stats-period-s", self.stats_period_s, 0.0, 86400.0)?;
         check_range_open_low(

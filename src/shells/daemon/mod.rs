@@ -37,16 +37,18 @@ use crate::core::wire::Method;
 use crate::core::wire::{Keys, Stream, TriggerReply};
 use crate::shells::history::History;
 use crate::shells::metrics::{Metrics, VesselMetrics};
+use crate::shells::recording::Recorder;
 use crate::shells::state::StateDir;
 use config::DaemonConfig;
 use std::collections::HashMap;
 use std::future::Future;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
+use std::sync::Mutex;
 use std::time::{Duration, Instant};
 use tokio::sync::{mpsc, oneshot};
 use tokio_util::sync::CancellationToken;
-use vessel::{restore, Publishers, VesselTask};
+use vessel::{restore, Publishers, Recording, VesselTask};
 use zenoh::bytes::Encoding;
 use zenoh::key_expr::KeyExpr;
 use zenoh::liveliness::LivelinessToken;
@@ -68,6 +70,9 @@ pub enum DaemonError {
     /// The history database cannot be opened, even afresh.
     #[error(transparent)]
     History(#[from] crate::shells::history::HistoryError),
+    /// The recordings directory cannot be used.
+    #[error(transparent)]
+    Recording(#[from] crate::shells::recording::RecordingError),
     /// The estimator's model files are missing, invalid, or not for this configuration.
     #[error(transparent)]
     Estimator(#[from] crate::core::estimator::model::ModelError),
@@ -221,6 +226,8 @@ pub struct Daemon {
     tokens: Vec<LivelinessToken>,
     /// The metrics endpoint's bound address and its task, when `daemon.metrics-listen` is set.
     metrics: Option<(std::net::SocketAddr, tokio::task::JoinHandle<()>)>,
+    /// The MCAP recorder, when `daemon.record`: its segment is finished at stop.
+    recorder: Option<Arc<Mutex<Recorder>>>,
 }
 
 impl std::fmt::Debug for Daemon {
@@ -308,6 +315,23 @@ impl Daemon {
             }
             None => None,
         };
+        let recorder = match (cfg.record, &cfg.state_dir) {
+            (false, _) => None,
+            (true, None) => {
+                return Err(crate::core::config::fail(
+                    "daemon.record",
+                    "true",
+                    "false without a state directory (daemon.state-dir or run --state-dir)",
+                )
+                .into())
+            }
+            (true, Some(dir)) => {
+                let dir = std::path::Path::new(dir).join("recordings");
+                let r = Recorder::open(&dir, cfg.recording_limits())?;
+                tracing::info!(dir = %dir.display(), "recording into MCAP files");
+                Some(Arc::new(Mutex::new(r)))
+            }
+        };
         let session = zenoh::open(zcfg)
             .await
             .map_err(|e| DaemonError::Open(e.to_string()))?;
@@ -334,6 +358,7 @@ impl Daemon {
             let commission_key = KeyExpr::try_from(keys.commission())
                 .map_err(DaemonError::declare("commission key", name))?;
             let mut monitor = Monitor::with_parts(core, name, multisine.clone(), estimator.clone());
+            monitor.set_analysis_output(recorder.is_some());
             let restored = state
                 .as_ref()
                 .and_then(|dir| restore(dir, name, &mut monitor));
@@ -357,6 +382,8 @@ impl Daemon {
                     .then(|| Duration::from_secs_f64(cfg.stats_period_s)),
                 shutdown_timeout: Duration::from_secs_f64(cfg.shutdown_timeout_s),
                 publish_errors: 0,
+                recorder: recorder.clone(),
+                recording: Recording::new(&keys),
             };
             vessel_tasks.push(tokio::spawn(task.run(cancel.clone())));
             senders.push(tx);
@@ -511,6 +538,7 @@ impl Daemon {
             history_queryable,
             tokens,
             metrics,
+            recorder,
         })
     }
 
@@ -584,6 +612,25 @@ impl Daemon {
             }
         }
         let _ = tokio::time::timeout(limit, self.trigger_task).await;
+        if let Some(rec) = &self.recorder {
+            // Every vessel task has written its last messages: finish the file.
+            let mut r = rec
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+            match tokio::task::block_in_place(|| r.rotate()) {
+                Ok(()) => {
+                    let s = r.stats();
+                    tracing::info!(
+                        files = s.finished.len(),
+                        deleted = s.deleted,
+                        errors = s.errors,
+                        messages = s.messages.values().sum::<u64>(),
+                        "recording finished"
+                    );
+                }
+                Err(e) => tracing::error!("finishing the recording: {e}"),
+            }
+        }
         if let Some(task) = history_task {
             let _ = tokio::time::timeout(limit, task).await;
         }

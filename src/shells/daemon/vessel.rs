@@ -10,8 +10,10 @@ use crate::core::monitor::input::RejectReason;
 use crate::core::monitor::{Monitor, Output};
 use crate::core::wire::{self, Input, Keys};
 use crate::shells::history::{History, Kind};
+use crate::shells::recording::{self, Recorder};
 use crate::shells::state::{Loaded, StateDir};
-use std::sync::Arc;
+use std::collections::BTreeMap;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use tokio::sync::mpsc;
 use tokio_util::sync::CancellationToken;
@@ -124,6 +126,47 @@ pub(super) struct VesselTask {
     pub(super) seen_aborts: AbortCounts,
     /// The last accepted heading's `t` and arrival, until its excitation is published.
     pub(super) pending_heading: Option<(f64, Instant)>,
+    /// The daemon's recorder (shared by the vessels), when `daemon.record`.
+    pub(super) recorder: Option<Arc<Mutex<Recorder>>>,
+    /// What this vessel recorded: the channels' names and the messages written on each.
+    pub(super) recording: Recording,
+}
+
+/// One vessel's side of the recording: its channels' names and its counts.
+#[derive(Debug, Default)]
+pub(super) struct Recording {
+    /// The input streams' keys, by [`wire::Stream::index`].
+    inputs: Vec<String>,
+    excitation: String,
+    status: String,
+    report: String,
+    notification: String,
+    analysis: String,
+    /// Ship time of the last input sample (a malformed one is recorded at it) [s].
+    last_input_t: f64,
+    /// Messages written, per channel.
+    counts: BTreeMap<String, u64>,
+    /// Messages that could not be written.
+    errors: u64,
+}
+
+impl Recording {
+    pub(super) fn new(keys: &Keys) -> Self {
+        Self {
+            inputs: wire::Stream::BY_INDEX
+                .iter()
+                .map(|&s| keys.stream(s))
+                .collect(),
+            excitation: keys.excitation(),
+            status: keys.status(),
+            report: keys.report(),
+            notification: keys.notification(),
+            analysis: recording::analysis_key(keys),
+            last_input_t: 0.0,
+            counts: BTreeMap::new(),
+            errors: 0,
+        }
+    }
 }
 
 impl VesselTask {
@@ -193,7 +236,16 @@ impl VesselTask {
                 payload,
                 arrived,
             } => {
-                match wire::decode(stream, &payload) {
+                let decoded = wire::decode(stream, &payload);
+                if self.recorder.is_some() {
+                    if let Ok(i) = &decoded {
+                        self.recording.last_input_t = i.t();
+                    }
+                    let topic = self.recording.inputs[stream.index()].clone();
+                    let t = self.recording.last_input_t;
+                    self.record_message(&topic, recording::Kind::Input(stream), t, &payload);
+                }
+                match decoded {
                     Err(e) => {
                         self.shared
                             .metrics
@@ -270,18 +322,73 @@ impl VesselTask {
         }
     }
 
-    /// Drains the core and publishes every output on its key, in order.
+    /// Writes one message into the recording (when recording) and counts it.
+    fn record_message(&mut self, topic: &str, kind: recording::Kind, t: f64, payload: &[u8]) {
+        let Some(rec) = &self.recorder else { return };
+        // A poisoned lock only means another vessel's task panicked while writing: the
+        // recorder itself is still consistent (a failed write abandons its segment).
+        let mut r = rec
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        match r.write(topic, kind, t, payload) {
+            Ok(()) => match self.recording.counts.get_mut(topic) {
+                Some(n) => *n += 1,
+                None => {
+                    self.recording.counts.insert(topic.to_string(), 1);
+                }
+            },
+            Err(e) => {
+                self.recording.errors += 1;
+                if self.recording.errors.is_power_of_two() {
+                    tracing::error!(vessel = %self.name, count = self.recording.errors, "recording: {e}");
+                }
+            }
+        }
+    }
+
+    /// Records a completed test's analysis: one message per grid point.
+    fn record_analysis(&mut self, a: &crate::core::monitor::AnalysisRecord) {
+        let topic = self.recording.analysis.clone();
+        for i in 0..a.len() {
+            let t = a.t0_s + i as f64 * a.dt_s;
+            let point = serde_json::json!({
+                "test": a.test,
+                "method": a.method,
+                "t": t,
+                "heading": a.heading_rad[i],
+                "rudder": a.rudder_rad[i],
+                "excitation": a.excitation_rad[i],
+            });
+            if let Ok(b) = serde_json::to_vec(&point) {
+                self.record_message(&topic, recording::Kind::Analysis, t, &b);
+            }
+        }
+    }
+
+    /// Drains the core and publishes every output on its key, in order (recording each first,
+    /// when recording).
     async fn publish_outputs(&mut self) {
         while let Some(out) = self.monitor.poll_output() {
             let mut excitation_of: Option<Instant> = None;
-            let (publisher, bytes) = match &out {
+            let (kind, t) = match &out {
+                Output::Excitation(e) => (recording::Kind::Excitation, e.t),
+                Output::Status(s) => (recording::Kind::Status, s.t),
+                Output::Report(r) => (recording::Kind::Report, r.t_end),
+                Output::Notification(_) => (recording::Kind::Notification, self.last_report_t),
+                Output::Analysis(a) => {
+                    self.record_analysis(a);
+                    continue;
+                }
+            };
+            let bytes = match &out {
+                Output::Analysis(_) => continue,
                 Output::Excitation(e) => {
                     // The latency is measured to this put's return (below).
                     excitation_of = self
                         .pending_heading
-                        .take_if(|(t, _)| *t == e.t)
+                        .take_if(|(ht, _)| *ht == e.t)
                         .map(|(_, at)| at);
-                    (&self.pubs.excitation, serde_json::to_vec(e))
+                    serde_json::to_vec(e)
                 }
                 Output::Status(s) => {
                     if s.state == wire::MonitorState::Settling {
@@ -292,7 +399,7 @@ impl VesselTask {
                         }
                     }
                     tracing::info!(vessel = %self.name, t = s.t, state = ?s.state, test = ?s.test, reason = ?s.reason, "status");
-                    (&self.pubs.status, serde_json::to_vec(s))
+                    serde_json::to_vec(s)
                 }
                 Output::Report(r) => {
                     // The decision is on disk before anyone hears of it.
@@ -318,14 +425,32 @@ impl VesselTask {
                         reason = ?r.reason,
                         "report"
                     );
-                    (&self.pubs.report, serde_json::to_vec(r))
+                    serde_json::to_vec(r)
                 }
                 Output::Notification(n) => {
                     self.record(Kind::Notification, self.last_report_t, n);
                     self.shared.metrics.alarm(n.state);
                     tracing::warn!(vessel = %self.name, state = ?n.state, "notification: {}", n.message);
-                    (&self.pubs.notification, serde_json::to_vec(n))
+                    serde_json::to_vec(n)
                 }
+            };
+            if self.recorder.is_some() {
+                if let Ok(b) = &bytes {
+                    let topic = match kind {
+                        recording::Kind::Excitation => &self.recording.excitation,
+                        recording::Kind::Status => &self.recording.status,
+                        recording::Kind::Report => &self.recording.report,
+                        _ => &self.recording.notification,
+                    }
+                    .clone();
+                    self.record_message(&topic, kind, t, b);
+                }
+            }
+            let publisher = match kind {
+                recording::Kind::Excitation => &self.pubs.excitation,
+                recording::Kind::Status => &self.pubs.status,
+                recording::Kind::Report => &self.pubs.report,
+                _ => &self.pubs.notification,
             };
             let result = match bytes {
                 Ok(b) => publisher.put(b).await.map_err(|e| e.to_string()),
@@ -362,6 +487,10 @@ impl VesselTask {
             },
             "excitation_clamped": s.excitation_clamped,
             "publish_errors": self.publish_errors,
+            "recorded": {
+                "messages": self.recording.counts,
+                "errors": self.recording.errors,
+            },
         })
     }
 
