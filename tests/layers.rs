@@ -43,6 +43,8 @@ const FLOORS: &[&str] = &[
     "shells::systemd",
     "shells::state",
     "shells::history",
+    "shells::recording",
+    "shells::metrics",
     "shells::daemon",
     "shells::shipnode",
     "shells",
