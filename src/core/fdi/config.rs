@@ -65,8 +65,13 @@ pub struct FdiConfig {
     pub cusum_h: f64,
     /// GLR rule: the longest window of tests (of one method) whose mean is tested.
     pub glr_window: u32,
-    /// GLR rule: the limit of each window's statistic (chi-square, 2 degrees of freedom).
+    /// GLR rule: the limit of each window's statistic (chi-square, 2 degrees of freedom),
+    /// windows of two tests or more.
     pub glr_threshold: f64,
+    /// GLR rule: the limit of the newest test alone (its chi-square).
+    pub glr_single_threshold: f64,
+    /// GLR rule: in windows of two tests or more, each test's z is clipped to this norm.
+    pub glr_clip: f64,
     /// Name the second parameter cause too when its GLR cost is within this margin [chi2].
     pub isolation_margin: f64,
     /// One fault at a time: a servo check over its limit names `steering_actuator` alone (a
@@ -132,6 +137,8 @@ impl Default for FdiConfig {
             cusum_h: 5.0,
             glr_window: 3,
             glr_threshold: 25.0,
+            glr_single_threshold: 60.0,
+            glr_clip: 4.0,
             isolation_margin: 0.0,
             single_fault: true,
             wave_band_rad_s: [0.4, 2.0],
@@ -193,6 +200,13 @@ impl FdiConfig {
         check_range_open_low("fdi.cusum-h", self.cusum_h, 0.0, 1000.0)?;
         check_count("fdi.glr-window", self.glr_window, 1, 20)?;
         check_range_open_low("fdi.glr-threshold", self.glr_threshold, 0.0, 1000.0)?;
+        check_range_open_low(
+            "fdi.glr-single-threshold",
+            self.glr_single_threshold,
+            0.0,
+            10000.0,
+        )?;
+        check_range("fdi.glr-clip", self.glr_clip, 1.0, 100.0)?;
         check_range("fdi.isolation-margin", self.isolation_margin, 0.0, 1000.0)?;
         let increasing = |key: &str, p: [f64; 2], hi: f64| -> Result<(), ConfigError> {
             check_range(key, p[0], 0.0, hi)?;

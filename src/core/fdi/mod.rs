@@ -227,7 +227,7 @@ pub struct TrackOutcome {
     /// Exceeding tests in a row.
     pub exceed_run: u32,
     /// GLR rule: the largest window statistic and its window length [tests].
-    pub glr: Option<(f64, usize)>,
+    pub glr: Option<GlrLook>,
 }
 
 impl TrackOutcome {
@@ -240,10 +240,10 @@ impl TrackOutcome {
             "exceed_run": self.exceed_run,
             "state": self.state,
         });
-        if let (Some((t, n)), Some(o)) = (self.glr, v.as_object_mut()) {
+        if let (Some(g), Some(o)) = (self.glr, v.as_object_mut()) {
             o.insert(
                 "glr".into(),
-                json!({ "statistic": t, "window": n, "threshold": cfg.glr_threshold }),
+                json!({ "statistic": g.statistic, "window": g.window, "threshold": g.threshold }),
             );
         }
         v
@@ -288,10 +288,60 @@ pub struct Track {
 /// (1 + c)` is the reference offset's error shared by every test of the window (it does not
 /// average out), so the mean of n tests has variance `(1/n + c) / (1 + c)` per component and
 /// `T_n` is chi-square with the components' count of degrees of freedom for a healthy ship.
-fn glr_statistic<const M: usize>(window: &VecDeque<[f64; M]>, c: f64) -> Option<(f64, usize)> {
-    (1..=window.len())
-        .map(|n| (glr_window_statistic(window, n, c), n))
-        .max_by(|a, b| a.0.total_cmp(&b.0))
+///
+/// Two guards against the residuals' heavy tails (a healthy second-order hull gave single HBT
+/// tests at chi2 27 and 44 in 5755): the newest test alone (n = 1) is an alarm only over
+/// `fdi.glr-single-threshold`, and in the longer windows each test counts with its z clipped
+/// to the norm `fdi.glr-clip`, so no one test carries a window. The look returned is the one
+/// nearest its limit (largest `T / h`).
+fn glr_statistic<const M: usize>(
+    window: &VecDeque<[f64; M]>,
+    c: f64,
+    cfg: &FdiConfig,
+) -> Option<GlrLook> {
+    let last = window.back()?;
+    let single = GlrLook {
+        statistic: last.iter().map(|v| v * v).sum(),
+        window: 1,
+        threshold: cfg.glr_single_threshold,
+    };
+    let clipped: VecDeque<[f64; M]> = window
+        .iter()
+        .map(|z| {
+            let norm = z.iter().map(|v| v * v).sum::<f64>().sqrt();
+            let k = if norm > cfg.glr_clip {
+                cfg.glr_clip / norm
+            } else {
+                1.0
+            };
+            z.map(|v| v * k)
+        })
+        .collect();
+    (2..=window.len())
+        .map(|n| GlrLook {
+            statistic: glr_window_statistic(&clipped, n, c),
+            window: n,
+            threshold: cfg.glr_threshold,
+        })
+        .chain(std::iter::once(single))
+        .max_by(|a, b| (a.statistic / a.threshold).total_cmp(&(b.statistic / b.threshold)))
+}
+
+/// The GLR rule's look nearest its limit at one test.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GlrLook {
+    /// `T_n`.
+    pub statistic: f64,
+    /// `n` [tests].
+    pub window: usize,
+    /// Its limit: `fdi.glr-single-threshold` for one test, `fdi.glr-threshold` for more.
+    pub threshold: f64,
+}
+
+impl GlrLook {
+    fn over(self) -> bool {
+        self.statistic > self.threshold
+    }
 }
 
 /// `T_n` of the last `n` entries of `window` (see [`glr_statistic`]).
@@ -417,16 +467,15 @@ impl Track {
                     push_window(&mut self.glr_actuator, [z[0]], cap);
                 }
                 let p = zp
-                    .and_then(|_| glr_statistic(&self.glr_param, offset_var))
-                    .filter(|t| t.0.is_finite());
+                    .and_then(|_| glr_statistic(&self.glr_param, offset_var, cfg))
+                    .filter(|t| t.statistic.is_finite());
                 let a = za
-                    .and_then(|_| glr_statistic(&self.glr_actuator, 0.0))
-                    .filter(|t| t.0.is_finite());
-                glr = [p, a]
-                    .into_iter()
-                    .flatten()
-                    .max_by(|x, y| x.0.total_cmp(&y.0));
-                let over = |t: Option<(f64, usize)>| t.is_some_and(|t| t.0 > cfg.glr_threshold);
+                    .and_then(|_| glr_statistic(&self.glr_actuator, 0.0, cfg))
+                    .filter(|t| t.statistic.is_finite());
+                glr = [p, a].into_iter().flatten().max_by(|x, y| {
+                    (x.statistic / x.threshold).total_cmp(&(y.statistic / y.threshold))
+                });
+                let over = |t: Option<GlrLook>| t.is_some_and(GlrLook::over);
                 (
                     over(p) || q_param > cfg.chi2_threshold,
                     over(a) || q_act.is_some_and(|q| q > cfg.chi2_threshold),
@@ -436,7 +485,7 @@ impl Track {
         };
         // Under the GLR rule a single test over the chi-square limit is an alert; the alarm
         // needs a window over the GLR limit.
-        let glr_over = glr.is_some_and(|t| t.0 > cfg.glr_threshold);
+        let glr_over = glr.is_some_and(GlrLook::over);
         let exceeded = param_exceeds || act_exceeds;
         if exceeded {
             self.exceed_run += 1;

@@ -435,9 +435,22 @@ fn the_glr_statistic_is_the_windowed_mean_worked_by_hand() {
     assert!((glr_window_statistic(&w, 1, 0.0) - 8.0).abs() < 1e-12);
     assert!((glr_window_statistic(&w, 2, 0.0) - 14.5).abs() < 1e-12);
     assert!((glr_window_statistic(&w, 3, 0.0) - 40.0 / 3.0).abs() < 1e-12);
-    let (t, n) = glr_statistic(&w, 0.0).unwrap();
-    assert_eq!(n, 2);
-    assert!((t - 14.5).abs() < 1e-12);
+    // The look nearest its limit: n = 2 (14.5 / 25) before n = 3 (13.3 / 25) and the newest
+    // test alone (8 / 60).
+    let g = glr_statistic(&w, 0.0, &cfg()).unwrap();
+    assert_eq!((g.window, g.threshold), (2, 25.0));
+    assert!((g.statistic - 14.5).abs() < 1e-12);
+    // Clipped to |z| <= 2: (3, 0) counts as (2, 0), (2, 2) as (1.41, 1.41); n = 2: mean
+    // (1.71, 0.71), 2 * 3.41 = 6.83; n = 3: mean (1.47, 0.47), 3 * 2.39 = 7.16, the larger.
+    let clip = FdiConfig {
+        glr_clip: 2.0,
+        ..cfg()
+    };
+    let g = glr_statistic(&w, 0.0, &clip).unwrap();
+    let h = 2f64.sqrt();
+    let want = 3.0 * (((3.0 + h) / 3.0).powi(2) + (h / 3.0).powi(2));
+    assert_eq!(g.window, 3);
+    assert!((g.statistic - want).abs() < 1e-12, "{} {want}", g.statistic);
     // With a shared offset error of relative variance 1/8, three tests' mean has variance
     // (1/3 + 1/8) / (1 + 1/8) per component: 13.33 * 1.125 / 0.4583 / 3 = 10.91.
     let t3 = glr_window_statistic(&w, 3, 0.125);
@@ -478,11 +491,11 @@ fn the_glr_window_is_calibrated_for_a_commissioned_reference() {
 #[test]
 fn glr_alarms_on_one_overwhelming_test_or_a_persistent_small_shift() {
     let c = glr_cfg();
-    // One test with q = 36 > 25: alarm at once.
+    // One test with q = 72 > 60: alarm at once.
     let mut t = Track::default();
-    let o = t.update(&c, Some(&p(0.0, 6.0, 0.0)), None);
+    let o = t.update(&c, Some(&p(0.0, 8.5, 0.0)), None);
     assert_eq!(o.state, TrackState::Alarm);
-    assert_eq!(o.glr.map(|g| g.1), Some(1));
+    assert_eq!(o.glr.map(|g| g.window), Some(1));
     // z = (0, 3.2) every test: q = 10.24 < 13.82 and T_2 = 20.5 < 25 stay normal; the third
     // test's T_3 = 30.7 raises the alarm (the chi-square rule with persistence never would).
     let mut t = Track::default();
@@ -492,7 +505,7 @@ fn glr_alarms_on_one_overwhelming_test_or_a_persistent_small_shift() {
     }
     let o = t.update(&c, Some(&p(0.0, 3.2, 0.0)), None);
     assert_eq!(o.state, TrackState::Alarm);
-    assert_eq!(o.glr.map(|g| g.1), Some(3));
+    assert_eq!(o.glr.map(|g| g.window), Some(3));
     assert_eq!(o.isolation, vec![Cause::DisplacementOrRudderEffectiveness]);
     let mut chi = Track::default();
     for _ in 0..3 {
@@ -522,7 +535,26 @@ fn the_glr_window_restarts_with_another_reference() {
     // Commissioned now: the window holds this test alone, T = 10.24.
     let o = t.update_against(&c, Some(&p(0.0, 3.2, 0.0)), None, Some(0.125));
     assert_eq!(o.state, TrackState::Normal);
-    assert_eq!(o.glr.map(|g| g.1), Some(1));
+    assert_eq!(o.glr.map(|g| g.window), Some(1));
+}
+
+/// A healthy ship's outlier (the second-order hull gave HBT tests at chi2 44): an alert, not
+/// an alarm; without the clip the next ordinary test would carry the pair over the limit.
+#[test]
+fn one_outlier_does_not_carry_a_glr_window() {
+    let run = |glr_clip: f64| {
+        let c = FdiConfig {
+            glr_clip,
+            ..glr_cfg()
+        };
+        let mut t = Track::default();
+        t.update(&c, Some(&p(0.2, -0.3, 0.0)), None);
+        let o = t.update(&c, Some(&p(0.0, 6.63, 0.0)), None);
+        assert_eq!(o.state, TrackState::Alert);
+        t.update(&c, Some(&p(0.0, 0.5, 0.0)), None).state
+    };
+    assert_eq!(run(4.0), TrackState::Normal);
+    assert_eq!(run(100.0), TrackState::Alarm);
 }
 
 /// On wide design limits (commissioning) the residual is the model's bias on this ship, the
@@ -535,7 +567,7 @@ fn the_glr_does_not_average_a_bias_on_wide_design_limits() {
     for _ in 0..6 {
         let o = t.update_against(&c, Some(&p(2.1, 2.1, 0.0)), None, None);
         assert_eq!(o.state, TrackState::Normal);
-        assert_eq!(o.glr.map(|g| g.1), Some(1));
+        assert_eq!(o.glr.map(|g| g.window), Some(1));
     }
     let mut t = Track::default();
     let states: Vec<TrackState> = (0..3)
