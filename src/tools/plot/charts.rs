@@ -82,6 +82,21 @@ fn legend_line(color: RGBColor) -> impl Fn((i32, i32)) -> PathElement<(i32, i32)
 }
 
 /// A small square (legends of measured points: circles are kept for the data).
+/// Draws a chart's series labels (one style for every chart).
+fn legend<'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, SVGBackend<'a>, CT>,
+    position: SeriesLabelPosition,
+) -> Result<(), PlotError> {
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(position)
+        .label_font((FONT, 13))
+        .draw()
+        .map_err(draw_err)
+}
+
 fn legend_square(color: RGBColor) -> impl Fn((i32, i32)) -> Rectangle<(i32, i32)> {
     move |(x, y)| Rectangle::new([(x + 6, y - 3), (x + 12, y + 3)], color.filled())
 }
@@ -215,14 +230,7 @@ pub(super) fn bode(
             .map_err(draw_err)?
             .label("measured at the tones, 90 % interval")
             .legend(legend_square(MEASURED));
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::LowerLeft)
-            .label_font((FONT, 13))
-            .draw()
-            .map_err(draw_err)?;
+        legend(&mut chart, SeriesLabelPosition::LowerLeft)?;
     }
     root.present().map_err(draw_err)
 }
@@ -420,14 +428,7 @@ pub(super) fn nyquist(
             n.amplitude_rad.to_degrees()
         ))
         .legend(legend_square(MEASURED));
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::LowerRight)
-        .label_font((FONT, 13))
-        .draw()
-        .map_err(draw_err)?;
+    legend(&mut chart, SeriesLabelPosition::LowerRight)?;
     root.present().map_err(draw_err)
 }
 
@@ -508,13 +509,7 @@ pub(super) fn history(
         .label(format!("chi2, {}", m.name()))
         .legend(legend_square(color));
     }
-    top.configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperLeft)
-        .label_font((FONT, 13))
-        .draw()
-        .map_err(draw_err)?;
+    legend(&mut top, SeriesLabelPosition::UpperLeft)?;
 
     let mut bottom = ChartBuilder::on(&lower)
         .margin(12)
@@ -564,14 +559,7 @@ pub(super) fn history(
         .map_err(draw_err)?
         .label("z_rate (servo)")
         .legend(legend_square(c_rate));
-    bottom
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperLeft)
-        .label_font((FONT, 13))
-        .draw()
-        .map_err(draw_err)?;
+    legend(&mut bottom, SeriesLabelPosition::UpperLeft)?;
     root.present().map_err(draw_err)
 }
 
@@ -644,14 +632,7 @@ pub(super) fn trace(svg: &mut String, size: (u32, u32), tr: &Trace) -> Result<()
                 .label(name)
                 .legend(legend_line(color));
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperRight)
-            .label_font((FONT, 13))
-            .draw()
-            .map_err(draw_err)?;
+        legend(&mut chart, SeriesLabelPosition::UpperRight)?;
     }
     root.present().map_err(draw_err)
 }
