@@ -363,3 +363,74 @@ fn recording_is_detected_and_bad_input_is_refused() {
     assert!(!out.exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The daemon's MCAP recording of a stretch plots exactly as the JSON-lines recording of the
+/// same samples: the same SVG, byte for byte (the MCAP reader feeds the same trace).
+#[test]
+fn an_mcap_recording_plots_as_its_json_lines() {
+    use helmwatch::core::wire::{Keys, RecordLine, Stream};
+    use helmwatch::shells::recording::{Kind, Limits, Recorder};
+    let cfg = Config::default();
+    let mut rec = Vec::new();
+    helmwatch::sim::record(
+        &cfg.sim(),
+        &Scenario::nominal(&cfg.sim(), 2),
+        60.0,
+        "self",
+        &mut rec,
+    )
+    .unwrap();
+    let text = String::from_utf8(rec).unwrap();
+    let dir = std::env::temp_dir().join(format!("helmwatch-plot-mcap-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let limits = Limits {
+        max_bytes: 1 << 30,
+        max_files: 10,
+        segment_bytes: 1 << 29,
+        segment_s: 3600.0,
+    };
+    let mut recorder = Recorder::open(&dir, limits).unwrap();
+    let keys = Keys::new("self");
+    let mut written = 0;
+    for line in text.lines() {
+        let l: RecordLine = serde_json::from_str(line).unwrap();
+        let Some(&s) = Stream::BY_INDEX.iter().find(|&&s| keys.stream(s) == l.key) else {
+            continue;
+        };
+        let t = l.payload["t"].as_f64().unwrap();
+        let bytes = serde_json::to_vec(&l.payload).unwrap();
+        recorder.write(&l.key, Kind::Input(s), t, &bytes).unwrap();
+        written += 1;
+    }
+    assert!(written > 600, "{written}");
+    recorder.finish().unwrap();
+    let file = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|x| x == "mcap"))
+        .expect("a finished recording");
+    let bytes = std::fs::read(&file).unwrap();
+    let opts = PlotOptions::default();
+    let from_mcap = helmwatch::tools::plot::plot_mcap(&bytes, &opts).unwrap();
+    let from_lines = plot(&cfg, &text, InputKind::Recording, &opts).unwrap();
+    assert_eq!(from_mcap, from_lines);
+    let svg = parse(&from_mcap);
+    assert!(svg
+        .polylines
+        .iter()
+        .any(|(c, p)| c == "#0000FF" && p.len() == 600));
+    // The binary takes the file as it is.
+    let out = dir.join("trace.svg");
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_helmwatch"))
+        .args([
+            "plot",
+            file.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), from_lines);
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -210,7 +210,9 @@ pub(crate) fn eval_fdi(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
 /// `helmwatch plot`: exit 65 when the input is not what its kind needs, 64 for a bad size or
 /// vessel, 74 when a file cannot be read or written.
 pub(crate) fn plot(cfg: &Config, a: PlotArgs) -> Result<(), Failure> {
-    use crate::tools::plot::{as_text, detect, plot, read_input, PlotError, PlotOptions};
+    use crate::tools::plot::{
+        as_text, detect, plot, plot_mcap, read_input, InputKind, PlotError, PlotOptions,
+    };
     for (key, v) in [("--width", a.width), ("--height", a.height)] {
         if !(200..=10_000).contains(&v) {
             return Err(fail(EX_USAGE)(anyhow::anyhow!(
@@ -228,17 +230,27 @@ pub(crate) fn plot(cfg: &Config, a: PlotArgs) -> Result<(), Failure> {
         PlotError::Data(_) => fail(EX_DATAERR)(anyhow::anyhow!("{}: {e}", a.input.display())),
         PlotError::Draw(_) => fail(EX_SOFTWARE)(e.into()),
     };
-    let text = as_text(&bytes).map_err(code)?;
-    let kind = match a.kind {
-        Some(k) => k,
-        None => detect(text).map_err(code)?,
-    };
     let opts = PlotOptions {
         width_px: a.width,
         height_px: a.height,
         vessel: a.vessel.clone(),
     };
-    let svg = plot(cfg, text, kind, &opts).map_err(code)?;
+    let (kind, svg) = if crate::shells::recording::is_mcap(&bytes) {
+        if a.kind.is_some_and(|k| k != InputKind::Recording) {
+            return Err(code(PlotError::Data(
+                "an MCAP file is a recording (--kind recording)".into(),
+            )));
+        }
+        let svg = plot_mcap(&bytes, &opts).map_err(code)?;
+        (InputKind::Recording, svg)
+    } else {
+        let text = as_text(&bytes).map_err(code)?;
+        let kind = match a.kind {
+            Some(k) => k,
+            None => detect(text).map_err(code)?,
+        };
+        (kind, plot(cfg, text, kind, &opts).map_err(code)?)
+    };
     std::fs::write(&a.out, svg)
         .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", a.out.display())))?;
     eprintln!(

@@ -222,6 +222,14 @@ pub fn plot(
     Ok(svg)
 }
 
+/// The SVG of an MCAP recording (`daemon.record`): the same trace as a JSON-lines one.
+pub fn plot_mcap(bytes: &[u8], opts: &PlotOptions) -> Result<String, PlotError> {
+    let mut svg = String::new();
+    let trace = recording::Trace::collect(recording::mcap_lines(bytes), opts.vessel.as_deref())?;
+    charts::trace(&mut svg, (opts.width_px, opts.height_px), &trace)?;
+    Ok(svg)
+}
+
 /// A report's picture: Bode pair (CLFRT) or Nyquist plane (HBT).
 pub fn plot_report(
     cfg: &Config,

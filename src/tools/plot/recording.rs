@@ -45,6 +45,27 @@ pub fn json_lines(text: &str) -> impl Iterator<Item = Result<RecordLine, PlotErr
         })
 }
 
+/// The messages of an MCAP recording (the daemon's, `daemon.record`) as recording lines; a
+/// message whose payload is not JSON, or a damaged file, is an error naming it.
+pub fn mcap_lines(bytes: &[u8]) -> impl Iterator<Item = Result<RecordLine, PlotError>> + '_ {
+    mcap::io::MessageReader::new(bytes)
+        .enumerate()
+        .map(|(i, m)| {
+            let m = m.map_err(|e| data(format!("MCAP message {}: {e}", i + 1)))?;
+            let payload = serde_json::from_slice(&m.data).map_err(|e| {
+                data(format!(
+                    "MCAP message {} on {}: not JSON: {e}",
+                    i + 1,
+                    m.channel.topic
+                ))
+            })?;
+            Ok(RecordLine {
+                key: m.channel.topic.clone(),
+                payload,
+            })
+        })
+}
+
 impl Trace {
     /// The trace of `vessel` (default: the vessel of the first `vessels/<v>/...` key).
     /// Errors: a line the source could not read, or no heading of the vessel.
