@@ -10,7 +10,7 @@ mod common;
 use common::{daemon_config, endpoint};
 use helmwatch::config::Config;
 use helmwatch::shells::daemon::Daemon;
-use helmwatch::shells::net::{zenoh_config, ZenohConfig, ZenohMode};
+use helmwatch::shells::net::{loopback, ZenohMode};
 use helmwatch::shells::shipnode::{ShipNode, ShipNodeOptions};
 use helmwatch::sim::Scenario;
 use serde_json::Value;
@@ -23,18 +23,7 @@ const LIMIT: Duration = Duration::from_secs(120);
 /// A session of `mode` on loopback, multicast off, listening on `listen` or connecting to
 /// `connect`.
 fn zcfg(mode: ZenohMode, listen: &[String], connect: &[String]) -> zenoh::Config {
-    zenoh_config(
-        &ZenohConfig {
-            mode,
-            listen: listen.to_vec(),
-            connect: connect.to_vec(),
-            multicast_scouting: false,
-            config_file: None,
-        },
-        &[],
-        &[],
-    )
-    .unwrap()
+    loopback(mode, listen, connect).unwrap()
 }
 
 /// A client of the router.

@@ -87,9 +87,18 @@ pub fn zenoh_config(
 /// A peer configuration on loopback: listens on `listen` (may be empty), connects to
 /// `connect`, multicast scouting off. For tests, the demo and benchmarks.
 pub fn loopback_peer(listen: &[String], connect: &[String]) -> Result<zenoh::Config, NetError> {
+    loopback(ZenohMode::Peer, listen, connect)
+}
+
+/// [`loopback_peer`] in any mode (a router, a client of one).
+pub fn loopback(
+    mode: ZenohMode,
+    listen: &[String],
+    connect: &[String],
+) -> Result<zenoh::Config, NetError> {
     zenoh_config(
         &ZenohConfig {
-            mode: ZenohMode::Peer,
+            mode,
             listen: listen.to_vec(),
             connect: connect.to_vec(),
             multicast_scouting: false,
