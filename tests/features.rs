@@ -543,3 +543,92 @@ fn hbt_hands_back_without_a_rudder_swing() {
         }
     }
 }
+
+/// `|1 / (1 + L(jw))|` of the simulated loop: the first-order ship at (u, D), the servo's
+/// first-order lag, the autopilot's PID (pole placement at the nominal ship, fixed gains)
+/// behind its critically damped wave filter. Computed here from the configuration's numbers,
+/// independently of the simulator's code.
+fn fixed_gain_sensitivity(cfg: &Config, u: f64, d: f64, w: f64) -> f64 {
+    use rustfft::num_complex::Complex64 as C;
+    let s = C::new(0.0, w);
+    let (a, b) = cfg.ship.nomoto(u, d);
+    let (a0, b0) = cfg
+        .ship
+        .nomoto(cfg.ship.nominal_speed_mps, cfg.ship.nominal_displacement_t);
+    let (k, t) = (b0 / a0, 1.0 / a0);
+    let ap = &cfg.autopilot;
+    let wn = ap.natural_frequency_rad_s;
+    let kp = t / k * wn * wn;
+    let td = t / (k * kp) * (2.0 * ap.damping * wn - 1.0 / t);
+    let ti = ap.integral_time_factor / wn;
+    let c = kp * (1.0 + 1.0 / (ti * s) + td * s);
+    let f = 1.0 / ((1.0 + s / ap.wave_filter_rad_s) * (1.0 + s / ap.wave_filter_rad_s));
+    let p = b / (s * (s + a));
+    let servo = 1.0 / (1.0 + s * cfg.servo.time_constant_s);
+    (1.0 / (1.0 + c * f * p * servo)).norm()
+}
+
+/// An autopilot with gains fixed at the nominal ship, at the fast and light corner: the loop
+/// amplifies the fastest tone (analytic sensitivity ~13 there, under the sizing's limit at
+/// the others). Without the sizing every test saturates the rudder; with it the test
+/// completes, only that tone is lowered, and the tones' gains still match the ship.
+#[test]
+fn clfrt_sizes_the_tone_a_fixed_gain_autopilot_amplifies() {
+    let mut cfg = Config::default();
+    cfg.autopilot.speed_scheduling = false;
+    let (u, d) = (10.0, 4000.0);
+    let omegas: Vec<f64> = cfg.clfrt.tone_frequencies_rad_s();
+    let sens: Vec<f64> = omegas
+        .iter()
+        .map(|&w| fixed_gain_sensitivity(&cfg, u, d, w))
+        .collect();
+    assert!(sens[2] > 10.0 && sens[2] < 16.0, "{sens:?}");
+    assert!(sens[0] < 1.0 && sens[1] < 1.0, "{sens:?}");
+    let runs = par_map(vec![1u64, 2], |seed| {
+        let sc = Scenario {
+            speed_mps: u,
+            displacement_t: d,
+            sea: SeaState::Calm,
+            faults: vec![],
+            seed,
+        };
+        let mut off = cfg.clone();
+        off.clfrt.resize_max = 0;
+        let run = |c: &Config| {
+            let opts = ProbeOptions::new(&c.core(), Method::Clfrt);
+            run_probe(&c.core(), &c.sim(), &sc, &opts).unwrap().report
+        };
+        (run(&off), run(&cfg))
+    });
+    for (off, on) in runs {
+        assert_eq!(off.outcome, Outcome::Aborted, "{:?}", off.reason);
+        assert!(
+            off.reason
+                .as_deref()
+                .unwrap_or("")
+                .contains("rudder saturated"),
+            "{:?}",
+            off.reason
+        );
+        assert_eq!(on.outcome, Outcome::Completed, "{:?}", on.reason);
+        let scales = on
+            .features
+            .clfrt()
+            .unwrap()
+            .amplitude_scales
+            .clone()
+            .unwrap();
+        assert_eq!(&scales[..2], &[1.0, 1.0]);
+        assert!(scales[2] > 0.0 && scales[2] < 0.3, "{scales:?}");
+        assert!(
+            on.message.contains("tones sized to the loop"),
+            "{}",
+            on.message
+        );
+        for tone in tones(&on) {
+            let (g, p) = nomoto_response(u, d, tone.omega);
+            assert!((tone.gain / g - 1.0).abs() < 0.05, "{} vs {g}", tone.gain);
+            assert!(dphase(tone.phase, p).abs() < 0.05, "{} vs {p}", tone.phase);
+        }
+    }
+}

@@ -111,6 +111,26 @@ pub struct ClfrtConfig {
     pub servo_check_periods: u32,
     /// Servo check: periods of raised-cosine fade-in, and again of fade-out, around them.
     pub servo_check_fade_periods: u32,
+    /// Excitation sizing: a tone whose rudder amplitude exceeds this many times its own is
+    /// lowered (the loop amplifies it).
+    pub resize_gain: f64,
+    /// Excitation sizing: a tone's gain is judged this many standard errors below its
+    /// estimate.
+    pub resize_confidence: f64,
+    /// Excitation sizing: correlation time of the rudder's own motion in the fit [s] (the
+    /// standard error counts one sample per this).
+    pub resize_correlation_s: f64,
+    /// Excitation sizing: the factor each resize applies to such a tone, (0, 0.95].
+    pub resize_factor: f64,
+    /// Excitation sizing: time between looks at the tones' rudder amplitudes [s].
+    pub resize_wait_s: f64,
+    /// Excitation sizing: resizes at most per test (0 disables the sizing).
+    pub resize_max: u32,
+    /// Excitation sizing: no resize within this time of the measurement's start [s], so
+    /// the loop settles at the new amplitude before it is measured.
+    pub resize_settle_s: f64,
+    /// Excitation sizing: raised-cosine ramp of a resize [s].
+    pub resize_ramp_s: f64,
 }
 
 impl Default for ClfrtConfig {
@@ -127,6 +147,14 @@ impl Default for ClfrtConfig {
             servo_check_amplitude_deg: 5.0,
             servo_check_periods: 10,
             servo_check_fade_periods: 1,
+            resize_gain: 2.5,
+            resize_confidence: 2.0,
+            resize_correlation_s: 5.0,
+            resize_factor: 0.25,
+            resize_wait_s: 10.0,
+            resize_max: 2,
+            resize_settle_s: 240.0,
+            resize_ramp_s: 10.0,
         }
     }
 }
@@ -189,6 +217,24 @@ impl ClfrtConfig {
             self.servo_check_fade_periods,
             0,
             10,
+        )?;
+        check_range_open_low("clfrt.resize-gain", self.resize_gain, 0.0, 100.0)?;
+        check_range("clfrt.resize-confidence", self.resize_confidence, 0.0, 10.0)?;
+        check_range_open_low(
+            "clfrt.resize-correlation-s",
+            self.resize_correlation_s,
+            0.0,
+            600.0,
+        )?;
+        check_range_open_low("clfrt.resize-factor", self.resize_factor, 0.0, 0.95)?;
+        check_range("clfrt.resize-wait-s", self.resize_wait_s, 0.0, 3600.0)?;
+        check_count("clfrt.resize-max", self.resize_max, 0, 10)?;
+        check_range("clfrt.resize-ramp-s", self.resize_ramp_s, 0.0, 600.0)?;
+        check_range(
+            "clfrt.resize-settle-s",
+            self.resize_settle_s,
+            self.resize_ramp_s,
+            self.settle_windows as f64 * self.window_s,
         )?;
         if self.servo_check_enabled() {
             let settle_s = self.settle_windows as f64 * self.window_s;

@@ -285,6 +285,22 @@ impl Multisine {
             * self.amplitude_rad
     }
 
+    /// The excitation with tone `i` scaled by `weights[i]` (a missing weight counts 1): what
+    /// the test plays once its sizing has lowered some tones [rad].
+    pub fn value_weighted(&self, t_rel_s: f64, weights: &[f64]) -> f64 {
+        if !t_rel_s.is_finite() {
+            return 0.0;
+        }
+        let t = t_rel_s.rem_euclid(self.window_s);
+        self.omegas
+            .iter()
+            .zip(&self.phases)
+            .enumerate()
+            .map(|(i, (w, p))| weights.get(i).copied().unwrap_or(1.0) * (w * t + p).sin())
+            .sum::<f64>()
+            * self.amplitude_rad
+    }
+
     /// Tone frequencies omega_i = 2 pi k_i / T_w [rad/s], in the order of the harmonics given.
     pub fn omegas(&self) -> &[f64] {
         &self.omegas
@@ -336,6 +352,30 @@ mod tests {
 
     fn default_design() -> Multisine {
         Multisine::design(600.0, &[3, 7, 17], 2.0 * DEG, 1).unwrap()
+    }
+
+    #[test]
+    fn weighted_value_is_the_sum_of_scaled_tones() {
+        let m = default_design();
+        for i in 0..200 {
+            let t = 7.3 * i as f64;
+            // Unit weights: bit for bit the plain value (what an unsized test plays).
+            assert_eq!(
+                m.value_weighted(t, &[1.0; 8]).to_bits(),
+                m.value(t).to_bits()
+            );
+            let want: f64 = [1.0, 0.5, 0.0625]
+                .iter()
+                .zip(m.omegas().iter().zip(m.phases()))
+                .map(|(k, (w, p))| k * 2.0 * DEG * (w * t.rem_euclid(600.0) + p).sin())
+                .sum();
+            assert_relative_eq!(
+                m.value_weighted(t, &[1.0, 0.5, 0.0625]),
+                want,
+                epsilon = 1e-15
+            );
+        }
+        assert_eq!(m.value_weighted(f64::NAN, &[1.0]), 0.0);
     }
 
     #[test]

@@ -762,7 +762,17 @@ impl Monitor {
                         ),
                     },
                 };
-                let msg = format!("{name} test completed; {est_text}; {}", a.summary);
+                let mut msg = format!("{name} test completed; {est_text}; {}", a.summary);
+                if let Some(scales) = features.clfrt().and_then(|c| c.amplitude_scales.as_ref()) {
+                    let pct: Vec<String> = scales
+                        .iter()
+                        .map(|s| format!("{:.0} %", 100.0 * s))
+                        .collect();
+                    msg.push_str(&format!(
+                        "; tones sized to the loop: {} of the design amplitude",
+                        pct.join(", ")
+                    ));
+                }
                 assessment = Some(a);
                 (Outcome::Completed, None, features, msg)
             }

@@ -250,6 +250,11 @@ pub struct ClfrtFeatures {
     pub servo_check: Option<ServoCheckFeatures>,
     /// Wave yaw over the measured windows [rad] (null when it could not be computed).
     pub wave_yaw_rad: Option<f64>,
+    /// Per tone (lowest first), the scale of its amplitude against `amplitude_rad` when the
+    /// test lowered tones the loop amplified, to keep the rudder off its limit (absent when
+    /// every tone played at the design amplitude).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub amplitude_scales: Option<Vec<f64>>,
     /// Mean speed-log reading over the test [m/s] (absent without speed samples).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub speed_log_mps: Option<f64>,
@@ -349,6 +354,7 @@ pub(crate) mod sample {
             crest_factor: 1.8,
             servo_check: None,
             wave_yaw_rad: None,
+            amplitude_scales: None,
             speed_log_mps: None,
             baseline: None,
             baseline_error: None,
@@ -425,6 +431,7 @@ mod tests {
         assert!(text.contains("\"wave_yaw_rad\":null"), "{text}");
         assert!(!text.contains("rudder_amplitude_rad"), "{text}");
         assert!(!text.contains("servo_rate"), "{text}");
+        assert!(text.contains("\"amplitude_scales\":[1.0,0.25]"), "{text}");
         let back: Features = serde_json::from_str(&text).unwrap();
         assert_eq!(back, f);
         assert_eq!(back.speed_log_mps(), Some(7.0));
@@ -473,6 +480,7 @@ mod tests {
                 failed: Some("rudder record short".into()),
             }),
             wave_yaw_rad: Some(0.003),
+            amplitude_scales: Some(vec![1.0, 0.25]),
             speed_log_mps: None,
             baseline: None,
             baseline_error: None,
