@@ -175,7 +175,7 @@ impl ClfrtReport {
 }
 
 /// The servo check in progress: its timeline, its rudder record, its result once measured.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 struct ServoCheckRun {
     /// Frequency w_s [rad/s] (on the sample grid of the measured periods).
     omega_rad_s: f64,
@@ -362,7 +362,7 @@ fn fit_own_rudder(rows: &[(f64, Complex64, Complex64)]) -> Option<[Complex64; 4]
 }
 
 /// State of one multisine test.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub(crate) struct ClfrtRun {
     multisine: Multisine,
     harmonics: Vec<u32>,
