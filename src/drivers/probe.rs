@@ -209,17 +209,16 @@ pub fn run_probe(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::Config;
 
     /// A clone taken in the middle of a test (its multisine analyser, relay and records
     /// under way) goes on exactly as the original: the same outputs, bit for bit.
     #[test]
     fn a_clone_goes_on_as_the_original() {
-        let mut cfg = Config::default();
-        cfg.scheduler.interval_s = 60.0;
-        let core = cfg.core();
-        let sc = Scenario::nominal(&cfg.sim(), 3);
-        let mut a = Lockstep::new(&core, &cfg.sim(), &sc).unwrap();
+        let mut core = CoreConfig::default();
+        core.scheduler.interval_s = 60.0;
+        let sim = SimConfig::default();
+        let sc = Scenario::nominal(&sim, 3);
+        let mut a = Lockstep::new(&core, &sim, &sc).unwrap();
         let mut out = Vec::new();
         // Into the first test (CLFRT), then clone.
         a.run_until(a.time_s() + 600.0, &mut out);
