@@ -39,7 +39,8 @@ pub(crate) enum Command {
     /// Run the monitor core over a recording (JSON lines, as `simulate` writes, or the
     /// daemon's MCAP recordings) and print its reports.
     Replay(ReplayArgs),
-    /// Print the daemon's benchmark figures (lockstep speed, vessels kept up with, memory).
+    /// Print the daemon's benchmark figures (lockstep speed, vessels kept up with, memory);
+    /// with --time-to-alarm, time to alarm and rudder travel per scheduler interval.
     Bench(BenchArgs),
     /// Regenerate the training database and every estimator model (bit for bit per seed).
     Train(TrainArgs),
