@@ -55,6 +55,7 @@ const FLOORS: &[&str] = &[
     "tools::eval",
     "tools::demo",
     "tools::bench",
+    "tools::time_to_alarm",
     "tools::plot",
     "tools::fleet",
     "tools",

@@ -39,7 +39,8 @@ pub(crate) enum Command {
     /// Run the monitor core over a recording (JSON lines, as `simulate` writes, or the
     /// daemon's MCAP recordings) and print its reports.
     Replay(ReplayArgs),
-    /// Print the daemon's benchmark figures (lockstep speed, vessels kept up with, memory).
+    /// Print the daemon's benchmark figures (lockstep speed, vessels kept up with, memory);
+    /// with --time-to-alarm, time to alarm and rudder travel per scheduler interval.
     Bench(BenchArgs),
     /// Regenerate the training database and every estimator model (bit for bit per seed).
     Train(TrainArgs),
@@ -303,6 +304,29 @@ pub(crate) struct BenchArgs {
     /// Internal: measure one fleet size in this process and print it as JSON.
     #[arg(long, hide = true)]
     pub(crate) one_fleet: Option<usize>,
+    /// Instead: time to alarm per fault and rudder travel added per hour, per scheduler
+    /// interval, in virtual time (the monitor core in lockstep with the simulated ship, the
+    /// scheduler on; docs/fdi.md).
+    #[arg(long)]
+    pub(crate) time_to_alarm: bool,
+    /// With --time-to-alarm: seeded runs per interval.
+    #[arg(long, default_value_t = 12)]
+    pub(crate) runs: usize,
+    /// With --time-to-alarm: seed of the runs.
+    #[arg(long, default_value_t = 1)]
+    pub(crate) seed: u64,
+    /// With --time-to-alarm: sea state (default: the configuration's).
+    #[arg(long)]
+    pub(crate) sea: Option<SeaState>,
+    /// With --time-to-alarm: scheduler intervals studied [s].
+    #[arg(long, value_delimiter = ',', default_values_t = vec![1800.0, 3600.0, 7200.0])]
+    pub(crate) intervals: Vec<f64>,
+    /// With --time-to-alarm: ship hours after the onset within which an alarm counts.
+    #[arg(long, default_value_t = 24.0)]
+    pub(crate) cap_h: f64,
+    /// With --time-to-alarm: worker threads (default: every core).
+    #[arg(long)]
+    pub(crate) threads: Option<usize>,
 }
 
 /// The simulated ship of one run.

@@ -134,8 +134,8 @@ pub(crate) fn fail(code: i32) -> impl FnOnce(anyhow::Error) -> Failure {
 /// overrides the default filter of `command`.
 fn init_logging(command: &Command) {
     // The demo prints to standard output; its default log level keeps standard error quiet.
-    // `train` and `eval` run thousands of tests: the core's per-test lines would drown their
-    // tables.
+    // `train`, `eval` and `bench --time-to-alarm` run thousands of tests: the core's per-test
+    // lines would drown their tables.
     let default = match command {
         Command::Demo(_)
         | Command::Status(_)
@@ -143,6 +143,7 @@ fn init_logging(command: &Command) {
         | Command::History(_)
         | Command::Fleet(_) => "error",
         Command::Train(_) | Command::Eval(_) => "warn,helmwatch::core::monitor=error",
+        Command::Bench(b) if b.time_to_alarm => "warn,helmwatch::core::monitor=error",
         _ => "info,zenoh=warn",
     };
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()

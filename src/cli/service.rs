@@ -148,6 +148,9 @@ pub(crate) fn demo(cfg: &Config, a: DemoArgs) -> Result<(), Failure> {
 
 pub(crate) fn bench(cfg: &Config, config: Option<&Path>, a: BenchArgs) -> Result<(), Failure> {
     use crate::tools::bench;
+    if a.time_to_alarm {
+        return time_to_alarm(cfg, &a);
+    }
     let rt = runtime()?;
     let window = std::time::Duration::from_secs_f64(a.window_s.clamp(1.0, 600.0));
     if let Some(n) = a.one_fleet {
@@ -180,5 +183,44 @@ pub(crate) fn bench(cfg: &Config, config: Option<&Path>, a: BenchArgs) -> Result
     let best = bench::fleet_sizes(&exe, config, &a.fleet, a.window_s, &mut std::io::stdout())
         .map_err(|e| fail(EX_OSERR)(e.into()))?;
     println!("vessels kept up with at 10 Hz: {best} (largest size tried that passed)");
+    Ok(())
+}
+
+/// `helmwatch bench --time-to-alarm`: exit 64 for a bad interval, run count or cap, 70 when
+/// a run fails.
+fn time_to_alarm(cfg: &Config, a: &BenchArgs) -> Result<(), Failure> {
+    use crate::tools::time_to_alarm::{bench_faults, print, run, TimeToAlarmOptions};
+    let usage = |e: crate::core::config::ConfigError| fail(EX_USAGE)(e.into());
+    for &i in &a.intervals {
+        crate::core::config::check_range("--intervals", i, 0.0, 30.0 * 86400.0).map_err(usage)?;
+    }
+    crate::core::config::check_range_open_low("--cap-h", a.cap_h, 0.0, 24.0 * 366.0)
+        .map_err(usage)?;
+    if a.runs == 0 || a.intervals.is_empty() {
+        return Err(fail(EX_USAGE)(anyhow::anyhow!(
+            "--runs and --intervals: at least one each"
+        )));
+    }
+    let o = TimeToAlarmOptions {
+        seed: a.seed,
+        runs: a.runs,
+        sea: a.sea.unwrap_or(cfg.sea.state),
+        intervals_s: a.intervals.clone(),
+        cap_s: a.cap_h * 3600.0,
+        threads: a
+            .threads
+            .unwrap_or_else(crate::tools::training::database::default_threads)
+            .max(1),
+    };
+    let faults = bench_faults().map_err(|e| fail(EX_SOFTWARE)(anyhow::anyhow!(e)))?;
+    let started = std::time::Instant::now();
+    let per = run(cfg, &o, &faults).map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
+    let mut out = std::io::stdout();
+    print(cfg, &o, &faults, &per, &mut out).map_err(|e| fail(EX_IOERR)(e.into()))?;
+    println!(
+        "\nbench --time-to-alarm done in {:.1} s of wall time ({} threads)",
+        started.elapsed().as_secs_f64(),
+        o.threads
+    );
     Ok(())
 }

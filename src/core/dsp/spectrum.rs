@@ -182,6 +182,19 @@ impl std::fmt::Debug for Spectrum {
     }
 }
 
+/// A clone keeps the current plan and buffers; the planner's cache of other lengths starts
+/// empty (a planner cannot be cloned; it plans the same transform again when asked).
+impl Clone for Spectrum {
+    fn clone(&self) -> Self {
+        Self {
+            planner: FftPlanner::new(),
+            fft: self.fft.clone(),
+            buf: self.buf.clone(),
+            scratch: self.scratch.clone(),
+        }
+    }
+}
+
 impl Default for Spectrum {
     fn default() -> Self {
         Self::new()

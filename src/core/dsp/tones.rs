@@ -108,7 +108,7 @@ pub type ToneEstimate = crate::core::wire::features::ToneFeatures;
 
 /// Reusable state for [`analyse_tones`]: FFT plans and buffers (no allocation per call once
 /// the record length is fixed, apart from the returned vector).
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct ToneAnalyser {
     /// FFT plan cache and its output buffer.
     spectrum: Spectrum,

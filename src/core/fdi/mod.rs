@@ -824,6 +824,15 @@ impl Fdi {
         json!({ "clfrt": per(Method::Clfrt), "hbt": per(Method::Hbt) })
     }
 
+    /// Every method has its own reference, or commissioning is off (`fdi.commissioning-tests`
+    /// = 0): decisions from now on rest on what commissioning set.
+    pub fn commissioned(&self) -> bool {
+        let s = self.cfg.commissioning();
+        self.commissioning
+            .iter()
+            .all(|c| s.tests == 0 || c.reference.is_some())
+    }
+
     /// One line per method: "CLFRT commissioning 2 of 5, HBT commissioned (...)".
     pub fn commissioning_text(&self) -> String {
         let s = self.cfg.commissioning();

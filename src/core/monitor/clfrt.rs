@@ -195,7 +195,7 @@ impl ClfrtReport {
 }
 
 /// The servo check in progress: its timeline, its rudder record, its result once measured.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 struct ServoCheckRun {
     /// Frequency w_s [rad/s] (on the sample grid of the measured periods).
     omega_rad_s: f64,
@@ -621,7 +621,7 @@ impl Sizing {
 }
 
 /// State of one multisine test.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub(crate) struct ClfrtRun {
     multisine: Multisine,
     harmonics: Vec<u32>,

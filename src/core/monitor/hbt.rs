@@ -134,7 +134,7 @@ impl HbtReport {
 }
 
 /// State of one relay test.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub(crate) struct HbtRun {
     /// Relay height [rad].
     h_rad: f64,

@@ -213,7 +213,7 @@ struct Steady {
 }
 
 /// A test in progress.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 struct Run {
     id: String,
     method: Method,
@@ -230,7 +230,7 @@ struct Run {
     sent: Vec<(f64, f64)>,
 }
 
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 enum RunKind {
     Hbt(Box<hbt::HbtRun>),
     Clfrt(Box<clfrt::ClfrtRun>),
@@ -249,7 +249,7 @@ pub(crate) struct Step {
 }
 
 /// The monitor of one vessel. See the module documentation for the driving order.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct Monitor {
     /// The configuration, checked.
     cfg: CoreConfig,

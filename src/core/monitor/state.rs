@@ -77,6 +77,11 @@ impl Monitor {
         self.fdi.commissioning_status()
     }
 
+    /// Both methods are commissioned (or commissioning is off).
+    pub fn commissioned(&self) -> bool {
+        self.fdi.commissioned()
+    }
+
     /// "CLFRT commissioning 2 of 5, HBT commissioned (...)".
     pub fn commissioning_text(&self) -> String {
         self.fdi.commissioning_text()

@@ -234,7 +234,7 @@ fn num(v: &serde_json::Value, path: &[&str]) -> f64 {
 }
 
 /// `(median, 99th percentile, max)` of the finite values.
-fn quantiles(mut v: Vec<f64>) -> Option<(f64, f64, f64)> {
+pub(crate) fn quantiles(mut v: Vec<f64>) -> Option<(f64, f64, f64)> {
     v.retain(|x| x.is_finite());
     if v.is_empty() {
         return None;

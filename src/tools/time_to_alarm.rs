@@ -1,0 +1,613 @@
+//! `helmwatch bench --time-to-alarm`: how long after a fault's onset the alarm comes, and how
+//! much rudder travel the scheduled tests add, per scheduler interval. The figures the
+//! scheduler's defaults are chosen from (docs/fdi.md, "Time to alarm and the scheduler's
+//! interval").
+//!
+//! One *run* is one seeded ship at its nominal speed and displacement in the chosen sea,
+//! driven by [`Lockstep`] (the simulated ship and the same monitor core as the daemon, in
+//! virtual time) with the scheduler on as configured (`[scheduler]`, its `interval-s` set to
+//! the interval under study) and the configured `[fdi]` and estimator:
+//!
+//! 1. *Commissioning*: the healthy ship runs until both methods are commissioned
+//!    (`fdi.commissioning-tests` completed tests each, [`Monitor::commissioned`]); the
+//!    report that completes it ends at the *onset* `t_0`.
+//! 2. *Faults*: the run is cloned at `t_0` once per fault, the fault injected from `t_0`
+//!    ([`crate::sim::Ship::inject`]), and each clone runs until the first notification in
+//!    state `alarm`, or `cap_s` of ship time after `t_0`. Every clone sees the same ship, sea
+//!    and noise up to `t_0` (what a separate run per fault with the same seed would see).
+//!
+//! Per fault and run: `tests` = completed reports (either method) from `t_0` to the alarm,
+//! the alarm's report included; `hours` = `(t_end of that report - t_0) / 3600`; the cause is
+//! right when the report's isolation is exactly the fault's cause. A heading drift must not
+//! alarm: its alarms are counted.
+//!
+//! Rudder travel: `sum |delta_k - delta_(k-1)|` of the simulated *true* rudder angle (the
+//! blade, [`crate::sim::Truth::delta_rad`]; the measured one carries white noise that would
+//! dominate the sum) over the window `[t_a, t_0]`, `t_a` the end of the first test, so the
+//! window holds whole test cycles (interval, steady wait, test). The same seed with the
+//! scheduler off (the autopilot alone) over the same window gives the autopilot's own travel;
+//! the difference per hour is the travel the tests add [deg/h]. Without a test in the run
+//! (scheduler off) the window is the whole run.
+//!
+//! Deterministic: the same options give the same table (each run seeded, [`par_map`] keeps
+//! the order).
+
+use crate::config::Config;
+use crate::core::dsp::multisine::Multisine;
+use crate::core::estimator::Estimator;
+use crate::core::model::SeaState;
+use crate::core::monitor::{Monitor, Output};
+use crate::core::wire::{AlarmState, Cause, Outcome};
+use crate::drivers::probe::Lockstep;
+use crate::sim::{Fault, FaultKind, Scenario, SimError};
+use crate::tools::eval::fdi::{quantiles, scenarios};
+use crate::tools::training::database::par_map;
+use std::io::Write;
+use std::sync::Arc;
+
+/// A fault of the bench: what is injected at the onset and which cause must be named.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BenchFault {
+    /// Name in the table.
+    pub name: String,
+    /// The fault (its onset is set when injected).
+    pub fault: Fault,
+    /// The cause the isolation must name; `None`: it must not alarm.
+    pub expected: Option<Cause>,
+}
+
+/// The faults of the bench, in print order: the fault scenarios of `eval --fdi`
+/// ([`scenarios`]) and a heading drift of 1 deg/min, which must not alarm.
+pub fn bench_faults() -> Result<Vec<BenchFault>, String> {
+    let order = [
+        "displacement +20 %",
+        "displacement -20 %",
+        "displacement +10 %",
+        "displacement -10 %",
+        "rudder effectiveness -30 %",
+        "servo rate 2 deg/s",
+        "speed log +0.5 m/s",
+    ];
+    let all = scenarios();
+    let mut out = Vec::with_capacity(order.len() + 1);
+    for name in order {
+        let sc = all
+            .iter()
+            .find(|s| s.name == name)
+            .ok_or_else(|| format!("no fault scenario `{name}`"))?;
+        let spec = sc.fault.ok_or_else(|| format!("`{name}` has no fault"))?;
+        out.push(BenchFault {
+            name: name.to_string(),
+            fault: spec.parse::<Fault>().map_err(|e| e.to_string())?,
+            expected: sc.expected,
+        });
+    }
+    out.push(BenchFault {
+        name: "heading drift 1 deg/min (must not alarm)".into(),
+        fault: Fault::new(FaultKind::HeadingDriftDegPerMin, 1.0, 0.0).map_err(|e| e.to_string())?,
+        expected: None,
+    });
+    Ok(out)
+}
+
+/// Options of the bench.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TimeToAlarmOptions {
+    /// Seed of the runs (run `k` of every interval has the same ship seed).
+    pub seed: u64,
+    /// Runs per interval.
+    pub runs: usize,
+    /// Sea state of every run.
+    pub sea: SeaState,
+    /// Scheduler intervals studied [s].
+    pub intervals_s: Vec<f64>,
+    /// Ship time after the onset within which an alarm counts [s].
+    pub cap_s: f64,
+    /// Worker threads.
+    pub threads: usize,
+}
+
+impl Default for TimeToAlarmOptions {
+    fn default() -> Self {
+        Self {
+            seed: 1,
+            runs: 12,
+            sea: SeaState::Moderate,
+            intervals_s: vec![1800.0, 3600.0, 7200.0],
+            cap_s: 24.0 * 3600.0,
+            threads: 1,
+        }
+    }
+}
+
+/// The alarm of one fault run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Alarm {
+    /// Completed tests from the onset to the alarm, its report included.
+    pub tests: usize,
+    /// Ship hours from the onset to the end of the alarm's report [h].
+    pub hours: f64,
+    /// The alarm report's isolation.
+    pub isolation: Vec<Cause>,
+}
+
+/// One fault injected into one commissioned run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FaultRun {
+    /// The first alarm within the cap, if any.
+    pub alarm: Option<Alarm>,
+    /// Completed tests from the onset to the alarm or the cap.
+    pub tests: usize,
+    /// Aborted tests in the same span.
+    pub aborted: usize,
+}
+
+/// Rudder travel over one window.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Travel {
+    /// Window length [h].
+    pub hours: f64,
+    /// Travel with the run's scheduler [deg].
+    pub with_tests_deg: f64,
+    /// Travel of the same ship with the scheduler off, the autopilot alone [deg].
+    pub autopilot_deg: f64,
+    /// Tests completed or aborted in the window, the first test's excluded.
+    pub tests: usize,
+}
+
+impl Travel {
+    /// The travel the tests add per hour [deg/h].
+    pub fn added_deg_per_h(&self) -> f64 {
+        (self.with_tests_deg - self.autopilot_deg) / self.hours
+    }
+}
+
+/// One seeded run at one interval: its commissioning, its travel, each fault.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SeedRun {
+    /// Ship seed.
+    pub seed: u64,
+    /// Onset: end of the report that completed commissioning [s]; `None` if it never did.
+    pub onset_s: Option<f64>,
+    /// Tests reported before the onset (commissioning and any that did not count for it).
+    pub commissioning_reports: usize,
+    /// Alarm notifications before the onset (false alarms of the healthy ship).
+    pub alarms_before_onset: usize,
+    /// Rudder travel over the commissioning window.
+    pub travel: Travel,
+    /// Per fault of the bench, in order (empty when not commissioned).
+    pub faults: Vec<FaultRun>,
+}
+
+/// Why the bench could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum TimeToAlarmError {
+    /// The simulated ship.
+    #[error(transparent)]
+    Sim(#[from] SimError),
+    /// The estimator's models.
+    #[error("estimator: {0}")]
+    Estimator(String),
+    /// Anything else.
+    #[error("{0}")]
+    Other(String),
+}
+
+/// Sums the absolute increments of the true rudder angle, tick by tick [rad].
+#[derive(Debug, Clone, Copy, Default)]
+struct TravelMeter {
+    last_rad: Option<f64>,
+    total_rad: f64,
+}
+
+impl TravelMeter {
+    fn sample(&mut self, ls: &Lockstep) {
+        let d = ls.ship.truth().delta_rad;
+        if let Some(l) = self.last_rad {
+            self.total_rad += (d - l).abs();
+        }
+        self.last_rad = Some(d);
+    }
+}
+
+/// Ship time cap of commissioning [s]: three times the tests it needs, each a whole cycle.
+fn commissioning_cap_s(cfg: &Config) -> f64 {
+    let tests = 2.0 * f64::from(cfg.fdi.commissioning_tests.max(1));
+    let cycle =
+        cfg.scheduler.interval_s + cfg.scheduler.steady_time_s + cfg.safety.max_test_duration_s;
+    3.0 * tests * cycle + cycle
+}
+
+/// The parts every run of one configuration shares: the estimator and the multisine.
+#[derive(Debug, Clone)]
+pub struct Parts {
+    estimator: Option<Arc<Estimator>>,
+    multisine: Option<Multisine>,
+}
+
+impl Parts {
+    /// The configured estimator (as the daemon loads it) and the designed multisine.
+    pub fn new(cfg: &Config) -> Result<Self, TimeToAlarmError> {
+        let core = cfg.core();
+        Ok(Self {
+            estimator: Estimator::from_config(&core)
+                .map_err(|e| TimeToAlarmError::Estimator(e.to_string()))?,
+            multisine: Monitor::design_multisine(&core).ok(),
+        })
+    }
+}
+
+/// One run at `cfg`'s scheduler: commissioning, its rudder travel against the autopilot
+/// alone, then each of `faults` from the onset for up to `cap_s` (see the module
+/// documentation).
+pub fn run_seed(
+    cfg: &Config,
+    parts: &Parts,
+    faults: &[BenchFault],
+    sea: SeaState,
+    seed: u64,
+    cap_s: f64,
+) -> Result<SeedRun, TimeToAlarmError> {
+    let mut scenario = Scenario::nominal(&cfg.sim(), seed);
+    scenario.sea = sea;
+    let build = |cfg: &Config| {
+        Lockstep::with_parts(
+            &cfg.core(),
+            &cfg.sim(),
+            &scenario,
+            parts.multisine.clone(),
+            parts.estimator.clone(),
+        )
+    };
+    let mut ls = build(cfg)?;
+    let t_start = ls.time_s();
+    let t_cap = t_start + commissioning_cap_s(cfg);
+    let mut meter = TravelMeter::default();
+    meter.sample(&ls);
+    let mut out = Vec::new();
+    let (mut reports, mut alarms) = (0usize, 0usize);
+    // Window start: the first report's end, and the meter's reading there.
+    let mut window_start: Option<(f64, f64)> = None;
+    let mut onset_s = None;
+    while onset_s.is_none() && ls.time_s() < t_cap {
+        ls.tick(&mut out, false);
+        meter.sample(&ls);
+        for o in out.drain(..) {
+            match o {
+                Output::Report(_) => {
+                    reports += 1;
+                    if window_start.is_none() {
+                        window_start = Some((ls.time_s(), meter.total_rad));
+                    }
+                    if ls.monitor.commissioned() && onset_s.is_none() {
+                        onset_s = Some(ls.time_s());
+                    }
+                }
+                Output::Notification(n) if n.state == AlarmState::Alarm => alarms += 1,
+                _ => {}
+            }
+        }
+    }
+    let t_end = ls.time_s();
+    let (t_a, travel_a) = window_start.unwrap_or((t_start, 0.0));
+    let with_tests_deg = (meter.total_rad - travel_a).to_degrees();
+    // The autopilot alone: the same ship, the scheduler off, over the same window.
+    let mut off_cfg = cfg.clone();
+    off_cfg.scheduler.enabled = false;
+    let mut off = build(&off_cfg)?;
+    let mut off_meter = TravelMeter::default();
+    off_meter.sample(&off);
+    let mut off_at_a = 0.0;
+    while off.time_s() < t_end {
+        if off.time_s() <= t_a {
+            off_at_a = off_meter.total_rad;
+        }
+        off.tick(&mut out, false);
+        off_meter.sample(&off);
+        out.clear();
+    }
+    let travel = Travel {
+        hours: (t_end - t_a) / 3600.0,
+        with_tests_deg,
+        autopilot_deg: (off_meter.total_rad - off_at_a).to_degrees(),
+        tests: reports.saturating_sub(1),
+    };
+    let mut run = SeedRun {
+        seed,
+        onset_s,
+        commissioning_reports: reports,
+        alarms_before_onset: alarms,
+        travel,
+        faults: Vec::new(),
+    };
+    if let Some(t0) = onset_s {
+        run.faults = faults
+            .iter()
+            .map(|f| run_fault(ls.clone(), f.fault, t0, cap_s))
+            .collect();
+    }
+    Ok(run)
+}
+
+/// Injects `fault` into the commissioned run `ls` at `t0` and runs to the first alarm or
+/// `t0 + cap_s`.
+fn run_fault(mut ls: Lockstep, fault: Fault, t0: f64, cap_s: f64) -> FaultRun {
+    ls.ship.inject(fault);
+    let mut out = Vec::new();
+    let mut run = FaultRun {
+        alarm: None,
+        tests: 0,
+        aborted: 0,
+    };
+    let mut last_isolation = Vec::new();
+    let mut last_end = t0;
+    while ls.time_s() < t0 + cap_s {
+        ls.tick(&mut out, false);
+        // A tick's report before its notification, whatever their order in the queue.
+        for o in &out {
+            if let Output::Report(r) = o {
+                if r.outcome == Outcome::Completed {
+                    run.tests += 1;
+                    last_isolation.clone_from(&r.isolation);
+                    last_end = r.t_end;
+                } else {
+                    run.aborted += 1;
+                }
+            }
+        }
+        let alarmed = out
+            .iter()
+            .any(|o| matches!(o, Output::Notification(n) if n.state == AlarmState::Alarm));
+        out.clear();
+        if alarmed {
+            run.alarm = Some(Alarm {
+                tests: run.tests,
+                hours: (last_end - t0) / 3600.0,
+                isolation: last_isolation,
+            });
+            break;
+        }
+    }
+    run
+}
+
+/// The bench's runs: per interval (outer, in order), `o.runs` seeded runs.
+pub fn run(
+    cfg: &Config,
+    o: &TimeToAlarmOptions,
+    faults: &[BenchFault],
+) -> Result<Vec<Vec<SeedRun>>, TimeToAlarmError> {
+    let parts = Parts::new(cfg)?;
+    let jobs: Vec<(usize, u64)> = (0..o.intervals_s.len())
+        .flat_map(|i| (0..o.runs).map(move |k| (i, k as u64)))
+        .collect();
+    let results = par_map(jobs.len(), o.threads, |j| {
+        let (i, k) = jobs[j];
+        let mut c = cfg.clone();
+        c.scheduler.interval_s = o.intervals_s[i];
+        run_seed(
+            &c,
+            &parts,
+            faults,
+            o.sea,
+            o.seed.wrapping_mul(1_000_003).wrapping_add(k),
+            o.cap_s,
+        )
+    });
+    let mut per = vec![Vec::with_capacity(o.runs); o.intervals_s.len()];
+    for (j, r) in results.into_iter().enumerate() {
+        per[jobs[j].0].push(r?);
+    }
+    Ok(per)
+}
+
+fn median_max(v: Vec<f64>, digits: usize) -> String {
+    match quantiles(v) {
+        Some((m, _, mx)) => format!("{m:.digits$} / {mx:.digits$}"),
+        None => "-".into(),
+    }
+}
+
+/// Prints the bench's tables (markdown) to `out`: a header with the options and the
+/// configuration, time to alarm per fault and interval, rudder travel per interval.
+pub fn print(
+    cfg: &Config,
+    o: &TimeToAlarmOptions,
+    faults: &[BenchFault],
+    per: &[Vec<SeedRun>],
+    out: &mut impl Write,
+) -> std::io::Result<()> {
+    let f = &cfg.fdi;
+    let s = &cfg.scheduler;
+    let cap_h = o.cap_s / 3600.0;
+    writeln!(
+        out,
+        "# Time to alarm and rudder travel per scheduler interval\n\n\
+         seed {}, {} runs per interval, {} sea, ship at {} m/s and {} t; scheduler methods [{}] in turn, \
+         steady-time-s {}, interval-s as below; fdi rule {}, chi2-threshold {}, persistence {}, \
+         commissioning-tests {} per method; estimator {}; faults from the end of commissioning, alarms counted within {cap_h} ship hours",
+        o.seed,
+        o.runs,
+        o.sea.name(),
+        cfg.ship.nominal_speed_mps,
+        cfg.ship.nominal_displacement_t,
+        s.methods.iter().map(|m| m.name()).collect::<Vec<_>>().join(", "),
+        s.steady_time_s,
+        f.rule.name(),
+        f.chi2_threshold,
+        f.persistence,
+        f.commissioning_tests,
+        match (&cfg.estimator.enabled, &cfg.estimator.models_dir) {
+            (false, _) => "off".to_string(),
+            (true, Some(d)) => format!("models-dir {d}"),
+            (true, None) => "the embedded models".to_string(),
+        },
+    )?;
+    writeln!(out)?;
+    writeln!(
+        out,
+        "| fault | interval [s] | alarmed within {cap_h} h | tests to alarm (median / max) | hours to alarm (median / max) | right cause at the alarm | aborted tests |"
+    )?;
+    writeln!(out, "|---|---|---|---|---|---|---|")?;
+    for (fi, bf) in faults.iter().enumerate() {
+        for (ii, runs) in per.iter().enumerate() {
+            let frs: Vec<&FaultRun> = runs.iter().filter_map(|r| r.faults.get(fi)).collect();
+            let alarms: Vec<&Alarm> = frs.iter().filter_map(|r| r.alarm.as_ref()).collect();
+            let right = match bf.expected {
+                Some(c) => format!(
+                    "{} of {}",
+                    alarms
+                        .iter()
+                        .filter(|a| a.isolation.len() == 1 && a.isolation[0] == c)
+                        .count(),
+                    alarms.len()
+                ),
+                None => "-".into(),
+            };
+            let alarmed = if bf.expected.is_some() {
+                format!("{} of {}", alarms.len(), frs.len())
+            } else {
+                format!("{} of {} (false alarms)", alarms.len(), frs.len())
+            };
+            writeln!(
+                out,
+                "| {} | {:.0} | {alarmed} | {} | {} | {right} | {} |",
+                bf.name,
+                o.intervals_s[ii],
+                median_max(alarms.iter().map(|a| a.tests as f64).collect(), 0),
+                median_max(alarms.iter().map(|a| a.hours).collect(), 1),
+                frs.iter().map(|r| r.aborted).sum::<usize>(),
+            )?;
+        }
+    }
+    writeln!(out)?;
+    writeln!(
+        out,
+        "Rudder travel (sum of |d delta| of the true rudder) from the end of the first test to the end of commissioning, per ship hour:\n"
+    )?;
+    writeln!(
+        out,
+        "| interval [s] | window [h] (median) | tests per hour | autopilot alone [deg/h] | with the tests [deg/h] | added by the tests [deg/h] (median / max) |"
+    )?;
+    writeln!(out, "|---|---|---|---|---|---|")?;
+    for (ii, runs) in per.iter().enumerate() {
+        let tr: Vec<Travel> = runs.iter().map(|r| r.travel).collect();
+        let med = |v: Vec<f64>| quantiles(v).map_or(f64::NAN, |q| q.0);
+        writeln!(
+            out,
+            "| {:.0} | {:.1} | {:.3} | {:.0} | {:.0} | {} |",
+            o.intervals_s[ii],
+            med(tr.iter().map(|t| t.hours).collect()),
+            med(tr.iter().map(|t| t.tests as f64 / t.hours).collect()),
+            med(tr.iter().map(|t| t.autopilot_deg / t.hours).collect()),
+            med(tr.iter().map(|t| t.with_tests_deg / t.hours).collect()),
+            median_max(tr.iter().map(Travel::added_deg_per_h).collect(), 0),
+        )?;
+    }
+    let mut notes = Vec::new();
+    for (ii, runs) in per.iter().enumerate() {
+        for r in runs {
+            if r.onset_s.is_none() {
+                notes.push(format!(
+                    "interval {:.0} s, seed {}: not commissioned within {} reports; no fault runs",
+                    o.intervals_s[ii], r.seed, r.commissioning_reports
+                ));
+            }
+            if r.alarms_before_onset > 0 {
+                notes.push(format!(
+                    "interval {:.0} s, seed {}: {} alarm(s) of the healthy ship during commissioning",
+                    o.intervals_s[ii], r.seed, r.alarms_before_onset
+                ));
+            }
+        }
+    }
+    if !notes.is_empty() {
+        writeln!(out)?;
+        for n in notes {
+            writeln!(out, "- {n}")?;
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A short schedule: two commissioning tests per method, a minute between tests.
+    fn short(persistence: u32) -> Config {
+        let mut cfg = Config::default();
+        cfg.fdi.commissioning_tests = 2;
+        cfg.fdi.persistence = persistence;
+        cfg.scheduler.interval_s = 60.0;
+        cfg
+    }
+
+    fn gross() -> BenchFault {
+        BenchFault {
+            name: "displacement +50 %".into(),
+            fault: Fault::new(FaultKind::DisplacementPct, 50.0, 0.0).unwrap(),
+            expected: Some(Cause::DisplacementOrRudderEffectiveness),
+        }
+    }
+
+    /// The chi-square rule with persistence p alarms at the p-th exceeding test of one method
+    /// in a row. A gross fault exceeds on every test of both methods, and the scheduler runs
+    /// them in turn from the onset: the alarm comes at test 2p - 1 after the onset. Each test
+    /// starts at least `interval-s` after the previous end (the first after the onset, the end
+    /// of commissioning) and ends within `steady-time-s` + `max-test-duration-s` of that.
+    #[test]
+    fn a_gross_fault_alarms_at_the_test_the_rule_gives() {
+        for p in [1u32, 2] {
+            let cfg = short(p);
+            let parts = Parts::new(&cfg).unwrap();
+            let run = run_seed(&cfg, &parts, &[gross()], SeaState::Calm, 7, 12.0 * 3600.0).unwrap();
+            assert!(run.onset_s.is_some(), "persistence {p}: not commissioned");
+            assert_eq!(run.alarms_before_onset, 0);
+            let fr = &run.faults[0];
+            let alarm = fr.alarm.as_ref().expect("no alarm");
+            let k = (2 * p - 1) as usize;
+            assert_eq!(alarm.tests, k, "persistence {p}");
+            assert_eq!(fr.tests, k);
+            let lo = k as f64 * cfg.scheduler.interval_s / 3600.0;
+            let hi = k as f64
+                * (cfg.scheduler.interval_s
+                    + cfg.scheduler.steady_time_s
+                    + cfg.safety.max_test_duration_s)
+                / 3600.0;
+            assert!(
+                alarm.hours > lo && alarm.hours < hi,
+                "persistence {p}: {} h outside ({lo}, {hi})",
+                alarm.hours
+            );
+            assert_eq!(
+                alarm.isolation,
+                vec![Cause::DisplacementOrRudderEffectiveness]
+            );
+        }
+    }
+
+    /// With the scheduler off the run and the autopilot-alone run are the same ship: the
+    /// tests add exactly nothing (and no commissioning, so no fault runs). With it on they
+    /// add travel in a calm sea, where the autopilot alone barely moves the rudder.
+    #[test]
+    fn travel_added_is_zero_without_tests_and_positive_with_them() {
+        let mut off = short(2);
+        off.scheduler.enabled = false;
+        let parts = Parts::new(&off).unwrap();
+        let run = run_seed(&off, &parts, &[gross()], SeaState::Calm, 7, 3600.0).unwrap();
+        assert_eq!(run.onset_s, None);
+        assert_eq!(run.commissioning_reports, 0);
+        assert!(run.faults.is_empty());
+        assert!(run.travel.hours > 1.0);
+        assert!(run.travel.autopilot_deg > 0.0);
+        assert_eq!(run.travel.with_tests_deg, run.travel.autopilot_deg);
+        assert_eq!(run.travel.added_deg_per_h(), 0.0);
+
+        let on = short(2);
+        let run = run_seed(&on, &parts, &[], SeaState::Calm, 7, 3600.0).unwrap();
+        assert!(run.onset_s.is_some());
+        assert_eq!(run.travel.tests, run.commissioning_reports - 1);
+        assert!(run.travel.added_deg_per_h() > 0.0, "{:?}", run.travel);
+    }
+}
