@@ -327,6 +327,14 @@ mod tests {
     fn servo_check_keys_are_checked() {
         let e = Config::from_toml_str("[clfrt]\nservo-check-periods = 2\n").unwrap_err();
         assert!(e.to_string().contains("clfrt.servo-check-periods"), "{e}");
+        // The sizing's keys name themselves and their range.
+        let e = Config::from_toml_str("[clfrt]\nresize-factor = 1.0\n").unwrap_err();
+        assert!(
+            e.to_string().contains("clfrt.resize-factor") && e.to_string().contains("(0, 0.95]"),
+            "{e}"
+        );
+        let e = Config::from_toml_str("[clfrt]\nresize-settle-s = 5\n").unwrap_err();
+        assert!(e.to_string().contains("clfrt.resize-settle-s"), "{e}");
         // 60 periods of 10.5 s do not fit in the 590 s settle window.
         let e = Config::from_toml_str("[clfrt]\nservo-check-periods = 60\n").unwrap_err();
         assert!(e.to_string().contains("clfrt.servo-check-periods"), "{e}");

@@ -230,11 +230,12 @@ impl ClfrtConfig {
         check_range("clfrt.resize-wait-s", self.resize_wait_s, 0.0, 3600.0)?;
         check_count("clfrt.resize-max", self.resize_max, 0, 10)?;
         check_range("clfrt.resize-ramp-s", self.resize_ramp_s, 0.0, 600.0)?;
+        // Beyond the settle windows it only means no sizing.
         check_range(
             "clfrt.resize-settle-s",
             self.resize_settle_s,
             self.resize_ramp_s,
-            self.settle_windows as f64 * self.window_s,
+            72000.0,
         )?;
         if self.servo_check_enabled() {
             let settle_s = self.settle_windows as f64 * self.window_s;
