@@ -553,20 +553,26 @@ mod tests {
 
     /// The chi-square rule with persistence p alarms at the p-th exceeding test of one method
     /// in a row. A gross fault exceeds on every test of both methods, and the scheduler runs
-    /// them in turn from the onset: the alarm comes at test 2p - 1 after the onset. Each test
+    /// them in turn from the onset: the alarm comes at test 2p - 1 after the onset when the
+    /// one-test limits are out of reach, at the first test with the default limits (D + 50 %
+    /// is overwhelming evidence). Each test
     /// starts at least `interval-s` after the previous end (the first after the onset, the end
     /// of commissioning) and ends within `steady-time-s` + `max-test-duration-s` of that.
     #[test]
     fn a_gross_fault_alarms_at_the_test_the_rule_gives() {
-        for p in [1u32, 2] {
-            let cfg = short(p);
+        for (p, single) in [(1u32, false), (2, false), (2, true)] {
+            let mut cfg = short(p);
+            if !single {
+                cfg.fdi.chi2_single_threshold = 1e6;
+                cfg.fdi.actuator_single_threshold = 1e6;
+            }
             let parts = Parts::new(&cfg).unwrap();
             let run = run_seed(&cfg, &parts, &[gross()], SeaState::Calm, 7, 12.0 * 3600.0).unwrap();
             assert!(run.onset_s.is_some(), "persistence {p}: not commissioned");
             assert_eq!(run.alarms_before_onset, 0);
             let fr = &run.faults[0];
             let alarm = fr.alarm.as_ref().expect("no alarm");
-            let k = (2 * p - 1) as usize;
+            let k = if single { 1 } else { (2 * p - 1) as usize };
             assert_eq!(alarm.tests, k, "persistence {p}");
             assert_eq!(fr.tests, k);
             let lo = k as f64 * cfg.scheduler.interval_s / 3600.0;

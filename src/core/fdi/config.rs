@@ -57,6 +57,12 @@ pub struct FdiConfig {
     pub chi2_threshold: f64,
     /// Exceeding tests in a row (of one method) before the alarm (chi-square rule).
     pub persistence: u32,
+    /// Chi-square rule: one test whose parameter chi-square exceeds this is an alarm by
+    /// itself (overwhelming evidence; healthy ships of the family reached 44 in 5755 tests).
+    pub chi2_single_threshold: f64,
+    /// Chi-square rule: one test whose servo-check chi-square `z_rate^2` exceeds this is an
+    /// alarm by itself (healthy family: at most 2.2; a 2 deg/s servo: 31 to 37).
+    pub actuator_single_threshold: f64,
     /// Non-exceeding tests in a row that clear an alarm.
     pub clear_after: u32,
     /// CUSUM reference value k [sigma].
@@ -138,6 +144,8 @@ impl Default for FdiConfig {
             glr_window: 3,
             glr_threshold: 25.0,
             glr_single_threshold: 60.0,
+            chi2_single_threshold: 60.0,
+            actuator_single_threshold: 25.0,
             glr_clip: 4.0,
             isolation_margin: 0.0,
             single_fault: true,
@@ -195,6 +203,18 @@ impl FdiConfig {
     pub fn check(&self) -> Result<(), ConfigError> {
         check_range_open_low("fdi.chi2-threshold", self.chi2_threshold, 0.0, 1000.0)?;
         check_count("fdi.persistence", self.persistence, 1, 20)?;
+        for (key, v) in [
+            ("fdi.chi2-single-threshold", self.chi2_single_threshold),
+            ("fdi.actuator-single-threshold", self.actuator_single_threshold),
+        ] {
+            if !(v.is_finite() && v >= self.chi2_threshold && v <= 1e6) {
+                return Err(crate::core::config::fail(
+                    key,
+                    v,
+                    &format!("[fdi.chi2-threshold = {}, 1e6]", self.chi2_threshold),
+                ));
+            }
+        }
         check_count("fdi.clear-after", self.clear_after, 1, 1000)?;
         check_range("fdi.cusum-k", self.cusum_k, 0.0, 10.0)?;
         check_range_open_low("fdi.cusum-h", self.cusum_h, 0.0, 1000.0)?;

@@ -44,7 +44,8 @@
 //!
 //! Chi-square rule: `q = z_speed^2 + z_disp^2` (m = 2) and `q_act = z_rate^2`
 //! (compared with the same limit: conservative for one degree of freedom); a test *exceeds* when either is above `fdi.chi2-threshold` (13.82:
-//! 0.1 % for m = 2). CUSUM rule: a two-sided CUSUM per normalised residual,
+//! 0.1 % for m = 2); a test whose `q` exceeds `fdi.chi2-single-threshold` (60) or whose `q_act`
+//! exceeds `fdi.actuator-single-threshold` (25) is an alarm by itself (overwhelming evidence). CUSUM rule: a two-sided CUSUM per normalised residual,
 //! `S+ = max(0, S+ + z - k)`, `S- = max(0, S- - z - k)`; a test exceeds when any sum is above
 //! `h`. GLR rule: the mean of the last n tests' z (n = 1 to `fdi.glr-window`), squared and
 //! scaled to its variance, `T_n = |z_mean|^2 (1 + c) / (1/n + c)` (`c = 1/K` once
@@ -426,6 +427,10 @@ impl Track {
             };
         }
         let mut glr = None;
+        // Chi-square rule: one test of overwhelming evidence is an alarm by itself.
+        let overwhelming = cfg.rule == DecisionRule::ChiSquare
+            && (q_param > cfg.chi2_single_threshold
+                || q_act.is_some_and(|q| q > cfg.actuator_single_threshold));
         let (param_exceeds, act_exceeds, persistence) = match cfg.rule {
             DecisionRule::ChiSquare => (
                 q_param > cfg.chi2_threshold,
@@ -497,7 +502,10 @@ impl Track {
         let before = self.state;
         self.state = match (before, exceeded) {
             (_, true) if cfg.rule == DecisionRule::Glr && glr_over => TrackState::Alarm,
-            (_, true) if cfg.rule != DecisionRule::Glr && self.exceed_run >= persistence => {
+            (_, true)
+                if cfg.rule != DecisionRule::Glr
+                    && (self.exceed_run >= persistence || overwhelming) =>
+            {
                 TrackState::Alarm
             }
             (TrackState::Alarm, _) => {

@@ -18,6 +18,39 @@ fn p(speed: f64, disp: f64, g: f64) -> ParamResiduals {
 }
 
 #[test]
+fn one_overwhelming_test_is_an_alarm_by_itself() {
+    let c = cfg();
+    assert_eq!((c.chi2_single_threshold, c.actuator_single_threshold), (60.0, 25.0));
+    // q = 59: over 13.82, under 60: an alert only.
+    let mut t = Track::default();
+    let o = t.update(&c, Some(&p(0.0, 59f64.sqrt(), 0.0)), None);
+    assert_eq!(o.state, TrackState::Alert);
+    // q = 61: an alarm at the first test.
+    let mut t = Track::default();
+    let o = t.update(&c, Some(&p(5.0, 6.0, 0.0)), None);
+    assert_eq!((o.state, o.decision), (TrackState::Alarm, Decision::Fault));
+    // The servo check: z_rate^2 = 24 alerts, 26 alarms (named the actuator).
+    let mut t = Track::default();
+    let o = t.update(&c, None, Some([24f64.sqrt(), 0.0]));
+    assert_eq!(o.state, TrackState::Alert);
+    let mut t = Track::default();
+    let o = t.update(&c, None, Some([26f64.sqrt(), 0.0]));
+    assert_eq!(o.state, TrackState::Alarm);
+    assert_eq!(o.isolation, vec![Cause::SteeringActuator]);
+    // Other rules are not touched: the CUSUM and GLR have limits of their own.
+    let glr = FdiConfig {
+        rule: DecisionRule::Glr,
+        ..cfg()
+    };
+    let mut t = Track::default();
+    let o = t.update(&glr, Some(&p(5.0, 6.0, 0.0)), None);
+    assert_eq!(o.state, TrackState::Alarm, "61 is over the GLR's own 60 too");
+    let mut t = Track::default();
+    let o = t.update(&glr, Some(&p(0.0, 7.0, 0.0)), None);
+    assert_eq!(o.state, TrackState::Alert);
+}
+
+#[test]
 fn chi_square_alarm_needs_persistence_and_clears_after_nominal_tests() {
     let c = cfg();
     let mut t = Track::default();
@@ -280,9 +313,9 @@ fn notifications_follow_the_vessel_alarm_state() {
     assert!(a.notification.is_none());
     // Drive the HBT track by hand through its states; the vessel state is the worst track.
     let c = full.fdi.clone();
-    fdi.tracks[1].update(&c, Some(&p(0.0, 9.0, 0.0)), None);
+    fdi.tracks[1].update(&c, Some(&p(0.0, 7.0, 0.0)), None);
     assert_eq!(fdi.alarm_state(), AlarmState::Alert);
-    fdi.tracks[1].update(&c, Some(&p(0.0, 9.0, 0.0)), None);
+    fdi.tracks[1].update(&c, Some(&p(0.0, 7.0, 0.0)), None);
     assert_eq!(fdi.alarm_state(), AlarmState::Alarm);
 }
 

@@ -580,7 +580,10 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
     );
     let f = &cfg.fdi;
     let rule = match f.rule {
-        DecisionRule::ChiSquare => format!("persistence {}", f.persistence),
+        DecisionRule::ChiSquare => format!(
+            "persistence {}, one-test limits {} and {} (servo check)",
+            f.persistence, f.chi2_single_threshold, f.actuator_single_threshold
+        ),
         DecisionRule::Cusum => format!("k {}, h {}", f.cusum_k, f.cusum_h),
         DecisionRule::Glr => format!("window {}, threshold {}", f.glr_window, f.glr_threshold),
     };
