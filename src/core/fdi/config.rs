@@ -205,7 +205,10 @@ impl FdiConfig {
         check_count("fdi.persistence", self.persistence, 1, 20)?;
         for (key, v) in [
             ("fdi.chi2-single-threshold", self.chi2_single_threshold),
-            ("fdi.actuator-single-threshold", self.actuator_single_threshold),
+            (
+                "fdi.actuator-single-threshold",
+                self.actuator_single_threshold,
+            ),
         ] {
             if !(v.is_finite() && v >= self.chi2_threshold && v <= 1e6) {
                 return Err(crate::core::config::fail(

@@ -20,7 +20,10 @@ fn p(speed: f64, disp: f64, g: f64) -> ParamResiduals {
 #[test]
 fn one_overwhelming_test_is_an_alarm_by_itself() {
     let c = cfg();
-    assert_eq!((c.chi2_single_threshold, c.actuator_single_threshold), (60.0, 25.0));
+    assert_eq!(
+        (c.chi2_single_threshold, c.actuator_single_threshold),
+        (60.0, 25.0)
+    );
     // q = 59: over 13.82, under 60: an alert only.
     let mut t = Track::default();
     let o = t.update(&c, Some(&p(0.0, 59f64.sqrt(), 0.0)), None);
@@ -44,7 +47,11 @@ fn one_overwhelming_test_is_an_alarm_by_itself() {
     };
     let mut t = Track::default();
     let o = t.update(&glr, Some(&p(5.0, 6.0, 0.0)), None);
-    assert_eq!(o.state, TrackState::Alarm, "61 is over the GLR's own 60 too");
+    assert_eq!(
+        o.state,
+        TrackState::Alarm,
+        "61 is over the GLR's own 60 too"
+    );
     let mut t = Track::default();
     let o = t.update(&glr, Some(&p(0.0, 7.0, 0.0)), None);
     assert_eq!(o.state, TrackState::Alert);
