@@ -375,6 +375,21 @@ mod tests {
     }
 
     #[test]
+    fn the_mean_keys_are_checked() {
+        for (toml, key, range) in [
+            ("mean-window = 1", "fdi.mean-window", "0 (off) or [2, 20]"),
+            ("mean-window = 21", "fdi.mean-window", "0 (off) or [2, 20]"),
+            ("mean-threshold = 0", "fdi.mean-threshold", "(0, 1000]"),
+        ] {
+            let e = Config::from_toml_str(&format!("[fdi]\n{toml}\n")).unwrap_err();
+            let e = e.to_string();
+            assert!(e.contains(key) && e.contains(range), "{toml}: {e}");
+        }
+        let off = Config::from_toml_str("[fdi]\nmean-window = 0\n").unwrap();
+        assert_eq!(off.fdi.mean_window, 0);
+    }
+
+    #[test]
     fn baseline_keys_are_checked() {
         let e = Config::from_toml_str("[baseline]\nfilter-rad-s = 0\n").unwrap_err();
         assert!(e.to_string().contains("baseline.filter-rad-s"), "{e}");

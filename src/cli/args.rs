@@ -223,6 +223,10 @@ pub(crate) struct EvalArgs {
     /// Worker threads (default: every core).
     #[arg(long)]
     pub(crate) threads: Option<usize>,
+    /// With --fdi: also write every test's outcome (decision, residuals, the raw residuals
+    /// against the design) to this file as JSON lines.
+    #[arg(long, value_name = "FILE")]
+    pub(crate) outcomes: Option<std::path::PathBuf>,
 }
 
 #[derive(Debug, Args)]

@@ -195,6 +195,7 @@ pub(crate) fn eval_fdi(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
     };
     o.family = a.family;
     o.member = a.member.clone();
+    o.outcomes = a.outcomes.clone();
     if let Some(m) = a.method {
         o.methods = vec![m];
     }

@@ -63,6 +63,13 @@ pub struct FdiConfig {
     /// Chi-square rule: one test whose servo-check chi-square `z_rate^2` exceeds this is an
     /// alarm by itself (healthy family: at most 2.2; a 2 deg/s servo: 31 to 37).
     pub actuator_single_threshold: f64,
+    /// Chi-square rule: the mean of this many consecutive tests' parameter residuals (each
+    /// clipped to `glr-clip`, against one reference) is tested too (0: off). A persistent
+    /// shift too small for one test's limit adds up over them.
+    pub mean_window: u32,
+    /// Chi-square rule: the limit of that mean's statistic `T_n` (chi-square, 2 degrees of
+    /// freedom for a healthy ship); over it the alarm is raised at once.
+    pub mean_threshold: f64,
     /// Non-exceeding tests in a row that clear an alarm.
     pub clear_after: u32,
     /// CUSUM reference value k [sigma].
@@ -146,6 +153,8 @@ impl Default for FdiConfig {
             glr_single_threshold: 60.0,
             chi2_single_threshold: 60.0,
             actuator_single_threshold: 25.0,
+            mean_window: 3,
+            mean_threshold: 20.0,
             glr_clip: 4.0,
             isolation_margin: 0.0,
             single_fault: true,
@@ -218,6 +227,14 @@ impl FdiConfig {
                 ));
             }
         }
+        if self.mean_window == 1 || self.mean_window > 20 {
+            return Err(fail(
+                "fdi.mean-window",
+                self.mean_window,
+                "0 (off) or [2, 20] tests",
+            ));
+        }
+        check_range_open_low("fdi.mean-threshold", self.mean_threshold, 0.0, 1000.0)?;
         check_count("fdi.clear-after", self.clear_after, 1, 1000)?;
         check_range("fdi.cusum-k", self.cusum_k, 0.0, 10.0)?;
         check_range_open_low("fdi.cusum-h", self.cusum_h, 0.0, 1000.0)?;

@@ -45,7 +45,11 @@
 //! Chi-square rule: `q = z_speed^2 + z_disp^2` (m = 2) and `q_act = z_rate^2`
 //! (compared with the same limit: conservative for one degree of freedom); a test *exceeds* when either is above `fdi.chi2-threshold` (13.82:
 //! 0.1 % for m = 2); a test whose `q` exceeds `fdi.chi2-single-threshold` (60) or whose `q_act`
-//! exceeds `fdi.actuator-single-threshold` (25) is an alarm by itself (overwhelming evidence). CUSUM rule: a two-sided CUSUM per normalised residual,
+//! exceeds `fdi.actuator-single-threshold` (25) is an alarm by itself (overwhelming evidence);
+//! so is the mean of the method's last `fdi.mean-window` (3) tests' z (each clipped to
+//! `fdi.glr-clip`, all against one reference, never on wide design limits) when its
+//! statistic `T_n` (the GLR rule's, below, for that one n) exceeds `fdi.mean-threshold` (20):
+//! a small shift that persists. CUSUM rule: a two-sided CUSUM per normalised residual,
 //! `S+ = max(0, S+ + z - k)`, `S- = max(0, S- - z - k)`; a test exceeds when any sum is above
 //! `h`. GLR rule: the mean of the last n tests' z (n = 1 to `fdi.glr-window`), squared and
 //! scaled to its variance, `T_n = |z_mean|^2 (1 + c) / (1/n + c)` (`c = 1/K` once
@@ -227,7 +231,8 @@ pub struct TrackOutcome {
     pub exceeded: bool,
     /// Exceeding tests in a row.
     pub exceed_run: u32,
-    /// GLR rule: the largest window statistic and its window length [tests].
+    /// GLR rule: the largest window statistic and its window length [tests]; chi-square
+    /// rule: the mean of the last `fdi.mean-window` tests (reported as `mean`).
     pub glr: Option<GlrLook>,
 }
 
@@ -242,8 +247,12 @@ impl TrackOutcome {
             "state": self.state,
         });
         if let (Some(g), Some(o)) = (self.glr, v.as_object_mut()) {
+            let key = match cfg.rule {
+                DecisionRule::Glr => "glr",
+                _ => "mean",
+            };
             o.insert(
-                "glr".into(),
+                key.into(),
                 json!({ "statistic": g.statistic, "window": g.window, "threshold": g.threshold }),
             );
         }
@@ -306,18 +315,7 @@ fn glr_statistic<const M: usize>(
         window: 1,
         threshold: cfg.glr_single_threshold,
     };
-    let clipped: VecDeque<[f64; M]> = window
-        .iter()
-        .map(|z| {
-            let norm = z.iter().map(|v| v * v).sum::<f64>().sqrt();
-            let k = if norm > cfg.glr_clip {
-                cfg.glr_clip / norm
-            } else {
-                1.0
-            };
-            z.map(|v| v * k)
-        })
-        .collect();
+    let clipped: VecDeque<[f64; M]> = window.iter().map(|z| clip(*z, cfg.glr_clip)).collect();
     (2..=window.len())
         .map(|n| GlrLook {
             statistic: glr_window_statistic(&clipped, n, c),
@@ -326,6 +324,13 @@ fn glr_statistic<const M: usize>(
         })
         .chain(std::iter::once(single))
         .max_by(|a, b| (a.statistic / a.threshold).total_cmp(&(b.statistic / b.threshold)))
+}
+
+/// `z` scaled down to the norm `limit` when it is longer.
+fn clip<const M: usize>(z: [f64; M], limit: f64) -> [f64; M] {
+    let norm = z.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let k = if norm > limit { limit / norm } else { 1.0 };
+    z.map(|v| v * k)
 }
 
 /// The GLR rule's look nearest its limit at one test.
@@ -366,6 +371,43 @@ fn push_window<T>(w: &mut VecDeque<T>, v: T, cap: usize) {
 }
 
 impl Track {
+    /// Chi-square rule: the look at the mean of the last `fdi.mean-window` tests' parameter
+    /// residuals, once that many were measured against one reference (the window empties
+    /// when it changes; on wide design limits, `reference = None`, there is no window: the
+    /// residual there is the model's own bias on this ship, which a mean does not shrink).
+    /// Each test counts with its z clipped to `fdi.glr-clip`; the statistic is the GLR
+    /// rule's `T_n` for `n = fdi.mean-window` (see [`glr_statistic`]).
+    fn mean_look(
+        &mut self,
+        cfg: &FdiConfig,
+        zp: Option<[f64; 2]>,
+        reference: Option<f64>,
+    ) -> Option<GlrLook> {
+        if self.glr_reference.map(f64::to_bits) != reference.map(f64::to_bits) {
+            self.glr_param.clear();
+            self.glr_actuator.clear();
+            self.glr_reference = reference;
+        }
+        let z = zp?;
+        let c = reference?;
+        let n = cfg.mean_window as usize;
+        push_window(&mut self.glr_param, z, n);
+        if self.glr_param.len() < n {
+            return None;
+        }
+        let clipped: VecDeque<[f64; 2]> = self
+            .glr_param
+            .iter()
+            .map(|z| clip(*z, cfg.glr_clip))
+            .collect();
+        let statistic = glr_window_statistic(&clipped, n, c);
+        statistic.is_finite().then_some(GlrLook {
+            statistic,
+            window: n,
+            threshold: cfg.mean_threshold,
+        })
+    }
+
     /// The current state.
     pub fn state(&self) -> TrackState {
         self.state
@@ -431,12 +473,20 @@ impl Track {
         let overwhelming = cfg.rule == DecisionRule::ChiSquare
             && (q_param > cfg.chi2_single_threshold
                 || q_act.is_some_and(|q| q > cfg.actuator_single_threshold));
+        // Chi-square rule: the mean of the last `fdi.mean-window` tests (one reference).
+        let mut mean_over = false;
         let (param_exceeds, act_exceeds, persistence) = match cfg.rule {
-            DecisionRule::ChiSquare => (
-                q_param > cfg.chi2_threshold,
-                q_act.is_some_and(|q| q > cfg.chi2_threshold),
-                cfg.persistence,
-            ),
+            DecisionRule::ChiSquare => {
+                if cfg.mean_window >= 2 {
+                    glr = self.mean_look(cfg, zp, reference);
+                    mean_over = glr.is_some_and(GlrLook::over);
+                }
+                (
+                    q_param > cfg.chi2_threshold || mean_over,
+                    q_act.is_some_and(|q| q > cfg.chi2_threshold),
+                    cfg.persistence,
+                )
+            }
             DecisionRule::Cusum => {
                 let over = |sums: &mut [[f64; 2]], z: &[f64]| {
                     let mut over = false;
@@ -504,7 +554,7 @@ impl Track {
             (_, true) if cfg.rule == DecisionRule::Glr && glr_over => TrackState::Alarm,
             (_, true)
                 if cfg.rule != DecisionRule::Glr
-                    && (self.exceed_run >= persistence || overwhelming) =>
+                    && (self.exceed_run >= persistence || overwhelming || mean_over) =>
             {
                 TrackState::Alarm
             }
@@ -520,6 +570,14 @@ impl Track {
         };
         if before == TrackState::Normal && self.state != TrackState::Normal {
             self.episode = Episode::default();
+        }
+        if cfg.rule == DecisionRule::ChiSquare
+            && before != TrackState::Alarm
+            && self.state == TrackState::Alarm
+        {
+            // The mean's evidence is spent on this alarm: the alarm holds, or clears, on
+            // tests to come, not on the ones that raised it.
+            self.glr_param.clear();
         }
         if self.state == TrackState::Normal {
             self.episode = Episode::default();
@@ -1088,6 +1146,20 @@ impl Fdi {
         if let Some(obj) = residuals.as_object_mut() {
             if let Some(p) = &param {
                 obj.insert("parameters".into(), p.to_json());
+            }
+            if let Some((r, g)) = &raw {
+                // Against the design, before any reference: what commissioning samples.
+                obj.insert(
+                    "raw".into(),
+                    json!({
+                        "speed_mps": r.speed_mps,
+                        "displacement": r.displacement,
+                        "speed_sigma_mps": r.speed_sigma_mps,
+                        "displacement_sigma": r.displacement_sigma,
+                        "speed_log_mps": r.speed_log_mps,
+                        "dd_du_t_per_mps": g,
+                    }),
+                );
             }
             if let Some(z) = act {
                 obj.insert(

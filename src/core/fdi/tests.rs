@@ -537,7 +537,8 @@ fn glr_alarms_on_one_overwhelming_test_or_a_persistent_small_shift() {
     assert_eq!(o.state, TrackState::Alarm);
     assert_eq!(o.glr.map(|g| g.window), Some(1));
     // z = (0, 3.2) every test: q = 10.24 < 13.82 and T_2 = 20.5 < 25 stay normal; the third
-    // test's T_3 = 30.7 raises the alarm (the chi-square rule with persistence never would).
+    // test's T_3 = 30.7 raises the alarm (the chi-square rule with persistence alone never
+    // would; its mean of three tests, limit 20, does at the same test).
     let mut t = Track::default();
     for _ in 0..2 {
         let o = t.update(&c, Some(&p(0.0, 3.2, 0.0)), None);
@@ -547,11 +548,27 @@ fn glr_alarms_on_one_overwhelming_test_or_a_persistent_small_shift() {
     assert_eq!(o.state, TrackState::Alarm);
     assert_eq!(o.glr.map(|g| g.window), Some(3));
     assert_eq!(o.isolation, vec![Cause::DisplacementOrRudderEffectiveness]);
-    let mut chi = Track::default();
-    for _ in 0..3 {
+    let persistence_alone = FdiConfig {
+        mean_window: 0,
+        ..cfg()
+    };
+    let (mut chi, mut with_mean) = (Track::default(), Track::default());
+    for k in 1..=3 {
         assert_eq!(
-            chi.update(&cfg(), Some(&p(0.0, 3.2, 0.0)), None).state,
+            chi.update(&persistence_alone, Some(&p(0.0, 3.2, 0.0)), None)
+                .state,
             TrackState::Normal
+        );
+        let want = if k < 3 {
+            TrackState::Normal
+        } else {
+            TrackState::Alarm
+        };
+        assert_eq!(
+            with_mean
+                .update(&cfg(), Some(&p(0.0, 3.2, 0.0)), None)
+                .state,
+            want
         );
     }
     // A healthy scatter stays normal; a single test over 13.82 but under 25 is an alert.
@@ -638,4 +655,90 @@ fn a_servo_check_over_its_limit_names_the_actuator_alone_under_one_fault() {
     assert!(both
         .isolation
         .contains(&Cause::DisplacementOrRudderEffectiveness));
+}
+
+/// The chi-square rule's three-test mean: `T_3 = |mean z|^2 (1 + c) / (1/3 + c)`, worked by
+/// hand: a shift of |z| = 3 on every test under a reference commissioned with K = 8 tests
+/// (c = 1/8) gives T_3 = 9 x 1.125 / (1/3 + 1/8) = 22.09 > 20, while each test alone (chi2
+/// 9) stays under 13.82: the alarm comes at the third test, not before; |z| = 2.8 gives
+/// 19.24 and never alarms.
+#[test]
+fn the_chi_square_rule_adds_up_a_persistent_shift_over_three_tests() {
+    let c = cfg();
+    assert_eq!((c.mean_window, c.mean_threshold), (3, 20.0));
+    let k8 = Some(1.0 / 8.0);
+    let by_hand = |z: f64| z * z * 1.125 / (1.0 / 3.0 + 0.125);
+    assert!((by_hand(3.0) - 22.090_909).abs() < 1e-5);
+    let mut t = Track::default();
+    let shift = p(0.0, 3.0, 0.0);
+    for k in 1..=2 {
+        let o = t.update_against(&c, Some(&shift), None, k8);
+        assert_eq!(o.state, TrackState::Normal, "test {k}");
+        assert!(o.glr.is_none(), "no mean before three tests");
+    }
+    let o = t.update_against(&c, Some(&shift), None, k8);
+    assert_eq!((o.state, o.decision), (TrackState::Alarm, Decision::Fault));
+    let look = o.glr.unwrap();
+    assert_eq!(look.window, 3);
+    assert!((look.statistic - by_hand(3.0)).abs() < 1e-9);
+    assert_eq!(o.isolation, vec![Cause::DisplacementOrRudderEffectiveness]);
+    let j = o.to_json(&c);
+    assert_eq!(j["mean"]["window"], 3);
+    // |z| = 2.8: T_3 = 19.24 under 20, for as long as it lasts.
+    let mut t = Track::default();
+    for _ in 0..10 {
+        let o = t.update_against(&c, Some(&p(0.0, 2.8, 0.0)), None, k8);
+        assert_eq!(o.state, TrackState::Normal);
+        if let Some(g) = o.glr {
+            assert!((g.statistic - by_hand(2.8)).abs() < 1e-9);
+        }
+    }
+    // Off (`fdi.mean-window = 0`): |z| = 3 never alarms.
+    let off = FdiConfig {
+        mean_window: 0,
+        ..cfg()
+    };
+    let mut t = Track::default();
+    for _ in 0..10 {
+        let o = t.update_against(&off, Some(&shift), None, k8);
+        assert_eq!(o.state, TrackState::Normal);
+        assert!(o.glr.is_none());
+    }
+}
+
+/// The mean is taken under one reference only, never on wide design limits (there the
+/// residual is the model's bias on this ship, the same at every test), and each test counts
+/// with its z clipped to `fdi.glr-clip`.
+#[test]
+fn the_chi_square_mean_keeps_to_one_reference_and_clips_outliers() {
+    let c = cfg();
+    let shift = p(0.0, 3.0, 0.0);
+    // Wide limits: no mean, however long the shift lasts.
+    let mut t = Track::default();
+    for _ in 0..6 {
+        let o = t.update_against(&c, Some(&shift), None, None);
+        assert_eq!(o.state, TrackState::Normal);
+        assert!(o.glr.is_none());
+    }
+    // Two tests under the design, the third under the commissioned reference: the window
+    // starts again at the change, so the alarm waits for three tests of the new reference.
+    let mut t = Track::default();
+    t.update_against(&c, Some(&shift), None, Some(0.0));
+    t.update_against(&c, Some(&shift), None, Some(0.0));
+    for _ in 0..2 {
+        let o = t.update_against(&c, Some(&shift), None, Some(0.125));
+        assert_eq!(o.state, TrackState::Normal);
+    }
+    let o = t.update_against(&c, Some(&shift), None, Some(0.125));
+    assert_eq!(o.state, TrackState::Alarm);
+    // One outlier (|z| = 7.5, chi2 56: an alert, under the one-test limit of 60) and two
+    // ordinary tests: clipped to 4 the mean is (4 + 1 + 1) / 3 = 2, T_3 = 4 x 3 = 12 under
+    // the design (c = 0); unclipped it would be 3.17^2 x 3 = 30 and alarm.
+    let mut t = Track::default();
+    let o = t.update(&c, Some(&p(0.0, 7.5, 0.0)), None);
+    assert_eq!(o.state, TrackState::Alert);
+    t.update(&c, Some(&p(0.0, 1.0, 0.0)), None);
+    let o = t.update(&c, Some(&p(0.0, 1.0, 0.0)), None);
+    assert_eq!(o.state, TrackState::Normal);
+    assert!((o.glr.unwrap().statistic - 12.0).abs() < 1e-9);
 }

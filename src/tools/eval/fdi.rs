@@ -153,6 +153,8 @@ pub struct FdiEvalOptions {
     pub family: bool,
     /// With `family`: only members whose name contains this.
     pub member: Option<String>,
+    /// Write every test's outcome as JSON lines here (for analysis of the residuals).
+    pub outcomes: Option<std::path::PathBuf>,
 }
 
 impl Default for FdiEvalOptions {
@@ -169,6 +171,7 @@ impl Default for FdiEvalOptions {
             threads: 1,
             family: false,
             member: None,
+            outcomes: None,
         }
     }
 }
@@ -196,6 +199,9 @@ pub struct TestOutcome {
     pub q_actuator: f64,
     /// The method's normalised speed and displacement residuals (NaN without).
     pub z: [f64; 2],
+    /// The raw residuals against the design (`residuals.raw`: `e_u` [m/s], `e_D`, `s_u`
+    /// [m/s], `s_D`, `u_log` [m/s], `dD/du_log` [t per m/s]; NaN without).
+    pub raw: [f64; 6],
 }
 
 /// One run: the drawn ship and its tests.
@@ -260,6 +266,15 @@ fn outcome_of(r: &Report) -> TestOutcome {
             num(&r.residuals, &["parameters", "z_speed"]),
             num(&r.residuals, &["parameters", "z_displacement"]),
         ],
+        raw: [
+            "speed_mps",
+            "displacement",
+            "speed_sigma_mps",
+            "displacement_sigma",
+            "speed_log_mps",
+            "dd_du_t_per_mps",
+        ]
+        .map(|k| num(&r.residuals, &["raw", k])),
     }
 }
 
@@ -518,6 +533,46 @@ struct Row<'a> {
     index: usize,
 }
 
+/// Writes one JSON line per test of `runs` (commissioning and after it) for analysis.
+fn write_outcomes(
+    w: &mut impl std::io::Write,
+    label: &str,
+    method: Method,
+    sea: SeaState,
+    runs: &[RunOutcome],
+) {
+    let nan_null = |x: f64| x.is_finite().then_some(x);
+    for (k, r) in runs.iter().enumerate() {
+        let phases = [("commissioning", &r.commissioning), ("test", &r.tests)];
+        for (phase, tests) in phases {
+            for (i, t) in tests.iter().enumerate() {
+                let line = serde_json::json!({
+                    "row": label,
+                    "method": method.name(),
+                    "sea": sea.name(),
+                    "run": k,
+                    "speed_mps": nan_null(r.speed_mps),
+                    "displacement_t": nan_null(r.displacement_t),
+                    "phase": phase,
+                    "test": i,
+                    "completed": t.completed,
+                    "decision": t.decision,
+                    "isolation": t.isolation,
+                    "chi2": nan_null(t.q_param),
+                    "chi2_actuator": nan_null(t.q_actuator),
+                    "sea_index": nan_null(t.sea_index),
+                    "z": t.z.map(nan_null),
+                    "raw": t.raw.map(nan_null),
+                });
+                if let Err(e) = writeln!(w, "{line}") {
+                    eprintln!("outcomes not written: {e}");
+                    return;
+                }
+            }
+        }
+    }
+}
+
 /// The scenarios of the family suite: healthy with drift, then the faults of the acceptance.
 pub fn family_scenarios() -> Vec<FdiScenario> {
     let wanted = [
@@ -542,6 +597,16 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
     } else {
         scenarios()
     };
+    let mut outcomes = o
+        .outcomes
+        .as_ref()
+        .and_then(|p| match std::fs::File::create(p) {
+            Ok(f) => Some(std::io::BufWriter::new(f)),
+            Err(e) => {
+                eprintln!("cannot write {}: {e}; no outcomes written", p.display());
+                None
+            }
+        });
     let mut rows = Vec::new();
     if o.family {
         let members = crate::sim::config::family();
@@ -581,8 +646,12 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
     let f = &cfg.fdi;
     let rule = match f.rule {
         DecisionRule::ChiSquare => format!(
-            "persistence {}, one-test limits {} and {} (servo check)",
-            f.persistence, f.chi2_single_threshold, f.actuator_single_threshold
+            "persistence {}, one-test limits {} and {} (servo check), mean of {} tests limit {}",
+            f.persistence,
+            f.chi2_single_threshold,
+            f.actuator_single_threshold,
+            f.mean_window,
+            f.mean_threshold
         ),
         DecisionRule::Cusum => format!("k {}, h {}", f.cusum_k, f.cusum_h),
         DecisionRule::Glr => format!("window {}, threshold {}", f.glr_window, f.glr_threshold),
@@ -631,6 +700,9 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
                         corner,
                     )
                 });
+                if let Some(w) = outcomes.as_mut() {
+                    write_outcomes(w, &row.label, method, sea, &runs);
+                }
                 {
                     let all = || runs.iter().flat_map(|r| r.tests.iter());
                     let zs: Vec<[f64; 2]> =
