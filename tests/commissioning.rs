@@ -102,6 +102,22 @@ async fn commissioning_survives_a_restart_then_a_fault_raises_the_alarm() {
         "{}",
         reports[0]
     );
+    // The commissioned residual is the raw one (against the design, `residuals.raw`) less
+    // the reference's offset.
+    let res = &reports[0]["residuals"];
+    let f = |v: &Value| v.as_f64().unwrap();
+    let d_nom = f(&res["displacement_nominal_t"]);
+    let want_u = f(&res["raw"]["speed_mps"]) - f(&res["reference"]["speed_offset_mps"]);
+    let want_d =
+        f(&res["raw"]["displacement"]) * d_nom - f(&res["reference"]["displacement_offset_t"]);
+    assert!(
+        (f(&res["parameters"]["speed_mps"]) - want_u).abs() < 1e-9,
+        "{res}"
+    );
+    assert!(
+        (f(&res["parameters"]["displacement_t"]) - want_d).abs() < 1e-6,
+        "{res}"
+    );
     let last = &reports[1];
     assert_eq!(last["decision"], "fault", "{last}");
     assert!(

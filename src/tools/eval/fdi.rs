@@ -820,3 +820,68 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn outcome(decision: Decision, raw0: f64) -> TestOutcome {
+        TestOutcome {
+            completed: true,
+            decision,
+            isolation: if decision == Decision::Fault {
+                vec![Cause::SpeedLog]
+            } else {
+                Vec::new()
+            },
+            baseline_decision: Decision::Inconclusive,
+            baseline_isolation: Vec::new(),
+            q_param: 1.5,
+            sea_index: 0.1,
+            fit_chi2: f64::NAN,
+            q_actuator: f64::NAN,
+            z: [0.5, -1.0],
+            raw: [raw0, -0.02, 0.06, 0.002, 7.0, 1900.0],
+        }
+    }
+
+    /// One JSON line per test, commissioning first, the run's index and phase on each, NaN
+    /// written as null (JSON has no NaN), the raw residuals as they came.
+    #[test]
+    fn outcomes_are_one_json_line_per_test() {
+        let runs = vec![RunOutcome {
+            speed_mps: 7.0,
+            displacement_t: 6000.0,
+            commissioning: vec![outcome(Decision::Nominal, f64::NAN)],
+            tests: vec![
+                outcome(Decision::Nominal, 0.1),
+                outcome(Decision::Fault, 0.9),
+            ],
+            error: None,
+        }];
+        let mut buf = Vec::new();
+        write_outcomes(&mut buf, "m: s", Method::Hbt, SeaState::Moderate, &runs);
+        let text = String::from_utf8(buf).unwrap();
+        let lines: Vec<serde_json::Value> = text
+            .lines()
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect();
+        assert_eq!(lines.len(), 3);
+        assert_eq!(lines[0]["phase"], "commissioning");
+        assert!(lines[0]["raw"][0].is_null());
+        assert!(lines[0]["chi2_actuator"].is_null());
+        assert_eq!(lines[1]["phase"], "test");
+        assert_eq!(lines[2]["test"], 1);
+        assert_eq!(lines[2]["decision"], "fault");
+        assert_eq!(lines[2]["isolation"][0], "speed_log");
+        assert_eq!(lines[2]["raw"][0], 0.9);
+        assert_eq!(lines[2]["raw"][5], 1900.0);
+        for l in &lines {
+            assert_eq!(
+                (l["row"].as_str(), l["method"].as_str(), l["sea"].as_str()),
+                (Some("m: s"), Some("hbt"), Some("moderate"))
+            );
+            assert_eq!(l["run"], 0);
+        }
+    }
+}
