@@ -302,6 +302,17 @@ async fn a_wild_timestamp_and_a_clock_stepped_back_an_hour_never_stop_the_daemon
         "first heading answered after the wild tick: t = {after_outlier}"
     );
 
+    // Every stream the test reads is on the new timeline before the trigger: the slower
+    // autopilot_state stream steps back a moment after the headings, and a stream stepping
+    // back during a test aborts that test (what `tests/clock_steps.rs` checks).
+    let streams = ["heading", "rudder", "speed", "autopilot_state"];
+    let stats = obs
+        .wait_for("fdi/stats", LIMIT, |s| {
+            streams
+                .iter()
+                .all(|k| s["inputs"][*k]["resyncs"].as_u64() == Some(1))
+        })
+        .await;
     // A test completes on the new timeline.
     let id = obs.trigger("hbt").await.test.unwrap();
     let r = obs
@@ -310,11 +321,6 @@ async fn a_wild_timestamp_and_a_clock_stepped_back_an_hour_never_stop_the_daemon
     assert_eq!(r["outcome"], "completed", "{r}");
     assert!(r["t_start"].as_f64().unwrap() < 0.0, "{r}");
     // Counted: one re-synchronisation per stream, one wild sample rejected per stream.
-    let stats = obs
-        .wait_for("fdi/stats", LIMIT, |s| {
-            s["inputs"]["heading"]["resyncs"].as_u64() == Some(1)
-        })
-        .await;
     for stream in ["heading", "rudder", "speed"] {
         let s = &stats["inputs"][stream];
         assert_eq!(s["resyncs"], 1, "{stream}: {s}");
