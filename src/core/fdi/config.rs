@@ -220,7 +220,7 @@ impl FdiConfig {
             ),
         ] {
             if !(v.is_finite() && v >= self.chi2_threshold && v <= 1e6) {
-                return Err(crate::core::config::fail(
+                return Err(fail(
                     key,
                     v,
                     &format!("[fdi.chi2-threshold = {}, 1e6]", self.chi2_threshold),

@@ -371,6 +371,15 @@ fn push_window<T>(w: &mut VecDeque<T>, v: T, cap: usize) {
 }
 
 impl Track {
+    /// Keeps the windows to tests of one reference: another reference empties them.
+    fn window_under(&mut self, reference: Option<f64>) {
+        if self.glr_reference.map(f64::to_bits) != reference.map(f64::to_bits) {
+            self.glr_param.clear();
+            self.glr_actuator.clear();
+            self.glr_reference = reference;
+        }
+    }
+
     /// Chi-square rule: the look at the mean of the last `fdi.mean-window` tests' parameter
     /// residuals, once that many were measured against one reference (the window empties
     /// when it changes; on wide design limits, `reference = None`, there is no window: the
@@ -383,11 +392,7 @@ impl Track {
         zp: Option<[f64; 2]>,
         reference: Option<f64>,
     ) -> Option<GlrLook> {
-        if self.glr_reference.map(f64::to_bits) != reference.map(f64::to_bits) {
-            self.glr_param.clear();
-            self.glr_actuator.clear();
-            self.glr_reference = reference;
-        }
+        self.window_under(reference);
         let z = zp?;
         let c = reference?;
         let n = cfg.mean_window as usize;
@@ -503,11 +508,7 @@ impl Track {
                 (p, a, 1)
             }
             DecisionRule::Glr => {
-                if self.glr_reference.map(f64::to_bits) != reference.map(f64::to_bits) {
-                    self.glr_param.clear();
-                    self.glr_actuator.clear();
-                    self.glr_reference = reference;
-                }
+                self.window_under(reference);
                 let cap = cfg.glr_window as usize;
                 let offset_var = reference.unwrap_or(0.0);
                 if let Some(z) = zp {
