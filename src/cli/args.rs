@@ -227,6 +227,10 @@ pub(crate) struct EvalArgs {
     /// against the design) to this file as JSON lines.
     #[arg(long, value_name = "FILE")]
     pub(crate) outcomes: Option<std::path::PathBuf>,
+    /// With --fdi: the methods take turns on each ship, as the daemon runs them (`--tests`
+    /// tests of each; the windows count tests of each method), instead of one method per run.
+    #[arg(long)]
+    pub(crate) in_turn: bool,
 }
 
 #[derive(Debug, Args)]

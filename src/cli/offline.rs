@@ -196,6 +196,7 @@ pub(crate) fn eval_fdi(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
     o.family = a.family;
     o.member = a.member.clone();
     o.outcomes = a.outcomes.clone();
+    o.in_turn = a.in_turn;
     if let Some(m) = a.method {
         o.methods = vec![m];
     }

@@ -23,6 +23,11 @@
 //! delay (in tests, the first test is 1), and the correct isolation rate (the last test's
 //! isolation is exactly the expected cause; for the speed log also "detected and isolated
 //! within N tests").
+//!
+//! With `in_turn` the methods take turns on each ship, as the daemon runs them: the
+//! commissioning and the tests count tests of each method, and so do the windows (within N
+//! tests of each method: N times the number of methods tests of the ship). Each report is
+//! the vessel's (its alarm is the worse track's, its naming the vessel's: `crate::core::fdi`).
 
 use crate::config::Config;
 use crate::core::estimator::Estimator;
@@ -155,6 +160,9 @@ pub struct FdiEvalOptions {
     pub member: Option<String>,
     /// Write every test's outcome as JSON lines here (for analysis of the residuals).
     pub outcomes: Option<std::path::PathBuf>,
+    /// The methods take turns on each ship (as the daemon runs them) instead of one method
+    /// per run: `tests` tests of each, windows counted in tests of each method.
+    pub in_turn: bool,
 }
 
 impl Default for FdiEvalOptions {
@@ -172,6 +180,7 @@ impl Default for FdiEvalOptions {
             family: false,
             member: None,
             outcomes: None,
+            in_turn: false,
         }
     }
 }
@@ -179,6 +188,8 @@ impl Default for FdiEvalOptions {
 /// One test's outcome as the suite reads it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TestOutcome {
+    /// The test's method.
+    pub method: Method,
     /// Completed (else aborted or no report).
     pub completed: bool,
     /// The method's decision.
@@ -253,6 +264,7 @@ pub(crate) fn quantiles(mut v: Vec<f64>) -> Option<(f64, f64, f64)> {
 fn outcome_of(r: &Report) -> TestOutcome {
     let bl = r.residuals.get("baseline");
     TestOutcome {
+        method: r.method,
         completed: r.outcome == Outcome::Completed,
         decision: r.decision,
         isolation: r.isolation.clone(),
@@ -337,7 +349,7 @@ pub fn run_one(
     cfg: &Config,
     sc: &FdiScenario,
     sea: SeaState,
-    method: Method,
+    methods: &[Method],
     seed: u64,
     estimator: &Arc<Estimator>,
     o: &FdiEvalOptions,
@@ -362,7 +374,13 @@ pub fn run_one(
         tests: Vec::new(),
         error: None,
     };
-    let commissioning = cfg.fdi.commissioning_tests as usize;
+    let Some(&first) = methods.first() else {
+        run.error = Some("no method to run".into());
+        return run;
+    };
+    // Commissioning and the tests after it, of each method in turn.
+    let commissioning = cfg.fdi.commissioning_tests as usize * methods.len();
+    let tests = o.tests * methods.len();
     let mut injected = false;
     let ms = Monitor::design_multisine(&cfg.core()).ok();
     let mut ls = match Lockstep::with_parts(
@@ -381,7 +399,9 @@ pub fn run_one(
     let mut out = Vec::new();
     let mut next = ls.time_s() + o.warmup_s;
     let max_test_s = cfg.safety.max_test_duration_s + 120.0;
-    while run.tests.len() < o.tests {
+    while run.tests.len() < tests {
+        let done = run.commissioning.len() + run.tests.len();
+        let method = methods.get(done % methods.len()).copied().unwrap_or(first);
         if run.commissioning.len() == commissioning && !injected {
             injected = true;
             for f in &late {
@@ -508,12 +528,34 @@ pub fn score(runs: &[RunOutcome], expected: Option<Cause>, within: usize, baseli
             c.delay_sum += k;
         }
         c.isolated_within += usize::from(first_isolated.is_some_and(|k| k <= within));
-        if let (Some(e), Some(last)) = (expected, r.tests.iter().rev().find(|t| t.completed)) {
-            let (_, iso) = pick(last);
+        if let Some(e) = expected {
+            let iso = end_naming(&r.tests, &pick);
             c.isolated += usize::from(iso.len() == 1 && iso[0] == e);
         }
     }
     c
+}
+
+/// The run's naming at its end: of the last completed test of each method, the latest that
+/// names a cause. With one method, the last test's isolation; with the methods in turn, a
+/// last test whose own track is back to (or still at) `normal` leaves the other method's
+/// naming in force, as the vessel's alarm does.
+fn end_naming(
+    tests: &[TestOutcome],
+    pick: &impl Fn(&TestOutcome) -> (Decision, Vec<Cause>),
+) -> Vec<Cause> {
+    let mut seen: Vec<Method> = Vec::new();
+    for t in tests.iter().rev().filter(|t| t.completed) {
+        if seen.contains(&t.method) {
+            continue;
+        }
+        seen.push(t.method);
+        let (_, iso) = pick(t);
+        if !iso.is_empty() {
+            return iso;
+        }
+    }
+    Vec::new()
 }
 
 fn pct(n: usize, d: usize) -> String {
@@ -534,13 +576,7 @@ struct Row<'a> {
 }
 
 /// Writes one JSON line per test of `runs` (commissioning and after it) for analysis.
-fn write_outcomes(
-    w: &mut impl std::io::Write,
-    label: &str,
-    method: Method,
-    sea: SeaState,
-    runs: &[RunOutcome],
-) {
+fn write_outcomes(w: &mut impl std::io::Write, label: &str, sea: SeaState, runs: &[RunOutcome]) {
     let nan_null = |x: f64| x.is_finite().then_some(x);
     for (k, r) in runs.iter().enumerate() {
         let phases = [("commissioning", &r.commissioning), ("test", &r.tests)];
@@ -548,7 +584,7 @@ fn write_outcomes(
             for (i, t) in tests.iter().enumerate() {
                 let line = serde_json::json!({
                     "row": label,
-                    "method": method.name(),
+                    "method": t.method.name(),
                     "sea": sea.name(),
                     "run": k,
                     "speed_mps": nan_null(r.speed_mps),
@@ -662,14 +698,26 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
         f.chi2_threshold,
         f.clear_after
     );
-    for &method in &o.methods {
+    let schedules: Vec<Vec<Method>> = if o.in_turn {
+        vec![o.methods.clone()]
+    } else {
+        o.methods.iter().map(|m| vec![*m]).collect()
+    };
+    for methods in &schedules {
+        // Windows count tests of each method: with k methods in turn, k times the ship's.
+        let turns = methods.len().max(1);
+        let names: Vec<String> = methods.iter().map(|m| m.name().to_uppercase()).collect();
         for &sea in &o.seas {
             println!();
-            println!(
-                "## {} in a {} sea",
-                method.name().to_uppercase(),
-                sea.name()
-            );
+            if turns > 1 {
+                println!(
+                    "## {} in turn in a {} sea (windows of N tests of each method: {turns} N tests of the ship; delay in tests of the ship)",
+                    names.join(" and "),
+                    sea.name()
+                );
+            } else {
+                println!("## {} in a {} sea", names.join(""), sea.name());
+            }
             println!();
             println!("| scenario | who | runs | tests | false alarms (tests / runs) | detected <= 2 | detected <= 3 | mean delay | detected <= 4 | isolated (last test) | isolated <= 2 | isolated <= 3 | isolated <= 4 | aborted |");
             println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
@@ -693,7 +741,7 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
                         rcfg,
                         sc,
                         sea,
-                        method,
+                        methods,
                         base + k as u64,
                         &estimator,
                         o,
@@ -701,7 +749,7 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
                     )
                 });
                 if let Some(w) = outcomes.as_mut() {
-                    write_outcomes(w, &row.label, method, sea, &runs);
+                    write_outcomes(w, &row.label, sea, &runs);
                 }
                 {
                     let all = || runs.iter().flat_map(|r| r.tests.iter());
@@ -766,9 +814,9 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
                     &[("ours", false)]
                 };
                 for &(who, baseline) in whos {
-                    let c2 = score(&runs, sc.expected, 2, baseline);
-                    let c3 = score(&runs, sc.expected, 3, baseline);
-                    let c4 = score(&runs, sc.expected, 4, baseline);
+                    let c2 = score(&runs, sc.expected, 2 * turns, baseline);
+                    let c3 = score(&runs, sc.expected, 3 * turns, baseline);
+                    let c4 = score(&runs, sc.expected, 4 * turns, baseline);
                     let nominal = sc.expected.is_none();
                     let fa = if nominal {
                         format!(
@@ -827,6 +875,7 @@ mod tests {
 
     fn outcome(decision: Decision, raw0: f64) -> TestOutcome {
         TestOutcome {
+            method: Method::Hbt,
             completed: true,
             decision,
             isolation: if decision == Decision::Fault {
@@ -845,6 +894,56 @@ mod tests {
         }
     }
 
+    /// The run's naming at its end: with one method the last test's (nominal: none, even
+    /// after an earlier test named a cause); with the methods in turn, the latest naming of
+    /// the last test of each method (a healthy-looking last HBT test leaves CLFRT's in force).
+    #[test]
+    fn the_naming_at_the_end_is_the_last_of_each_method() {
+        let d = Cause::DisplacementOrRudderEffectiveness;
+        let clfrt = |decision, iso: Vec<Cause>| TestOutcome {
+            method: Method::Clfrt,
+            isolation: iso,
+            ..outcome(decision, 0.0)
+        };
+        let run = |tests| RunOutcome {
+            speed_mps: 7.0,
+            displacement_t: 6000.0,
+            commissioning: Vec::new(),
+            tests,
+            error: None,
+        };
+        let one = vec![run(vec![
+            outcome(Decision::Fault, 0.0),
+            outcome(Decision::Nominal, 0.0),
+        ])];
+        assert_eq!(score(&one, Some(Cause::SpeedLog), 2, false).isolated, 0);
+        let turn = |last_hbt| {
+            vec![run(vec![
+                outcome(Decision::Fault, 0.0),
+                clfrt(Decision::Fault, vec![d]),
+                outcome(last_hbt, 0.0),
+            ])]
+        };
+        // The last HBT test nominal: CLFRT's naming stands.
+        assert_eq!(
+            score(&turn(Decision::Nominal), Some(d), 3, false).isolated,
+            1
+        );
+        // The last HBT test names the speed log: the latest naming is the vessel's.
+        assert_eq!(score(&turn(Decision::Fault), Some(d), 3, false).isolated, 0);
+        assert_eq!(
+            score(&turn(Decision::Fault), Some(Cause::SpeedLog), 3, false).isolated,
+            1
+        );
+        // An earlier CLFRT test does not count once a later CLFRT test names nothing.
+        let stale = vec![run(vec![
+            clfrt(Decision::Fault, vec![d]),
+            clfrt(Decision::Nominal, Vec::new()),
+            outcome(Decision::Nominal, 0.0),
+        ])];
+        assert_eq!(score(&stale, Some(d), 3, false).isolated, 0);
+    }
+
     /// One JSON line per test, commissioning first, the run's index and phase on each, NaN
     /// written as null (JSON has no NaN), the raw residuals as they came.
     #[test]
@@ -860,7 +959,7 @@ mod tests {
             error: None,
         }];
         let mut buf = Vec::new();
-        write_outcomes(&mut buf, "m: s", Method::Hbt, SeaState::Moderate, &runs);
+        write_outcomes(&mut buf, "m: s", SeaState::Moderate, &runs);
         let text = String::from_utf8(buf).unwrap();
         let lines: Vec<serde_json::Value> = text
             .lines()
