@@ -380,6 +380,17 @@ mod tests {
             ("mean-window = 1", "fdi.mean-window", "0 (off) or [2, 20]"),
             ("mean-window = 21", "fdi.mean-window", "0 (off) or [2, 20]"),
             ("mean-threshold = 0", "fdi.mean-threshold", "(0, 1000]"),
+            (
+                "vessel-window = 1",
+                "fdi.vessel-window",
+                "0 (off) or [2, 20]",
+            ),
+            (
+                "vessel-window = 21",
+                "fdi.vessel-window",
+                "0 (off) or [2, 20]",
+            ),
+            ("vessel-threshold = -1", "fdi.vessel-threshold", "(0, 1000]"),
         ] {
             let e = Config::from_toml_str(&format!("[fdi]\n{toml}\n")).unwrap_err();
             let e = e.to_string();
@@ -387,6 +398,8 @@ mod tests {
         }
         let off = Config::from_toml_str("[fdi]\nmean-window = 0\n").unwrap();
         assert_eq!(off.fdi.mean_window, 0);
+        let off = Config::from_toml_str("[fdi]\nvessel-window = 0\n").unwrap();
+        assert_eq!(off.fdi.vessel_window, 0);
     }
 
     #[test]

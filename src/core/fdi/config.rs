@@ -70,6 +70,13 @@ pub struct FdiConfig {
     /// Chi-square rule: the limit of that mean's statistic `T_n` (chi-square, 2 degrees of
     /// freedom for a healthy ship); over it the alarm is raised at once.
     pub mean_threshold: f64,
+    /// Chi-square rule, both methods in turn: the sum of the last this many tests' parameter
+    /// chi-square of the ship (each clipped to `glr-clip^2`, each against its method's
+    /// commissioned reference, both methods among them) is tested too (0: off).
+    pub vessel_window: u32,
+    /// Chi-square rule: the limit of that sum (at most chi-square with 2 `vessel-window`
+    /// degrees of freedom for a healthy ship); over it the alarm is raised at once.
+    pub vessel_threshold: f64,
     /// Non-exceeding tests in a row that clear an alarm.
     pub clear_after: u32,
     /// CUSUM reference value k [sigma].
@@ -90,6 +97,11 @@ pub struct FdiConfig {
     /// One fault at a time: a servo check over its limit names `steering_actuator` alone (a
     /// slow servo also moves the parameter residuals; the servo check measures it directly).
     pub single_fault: bool,
+    /// Name the cause for the vessel when both methods are out of `normal`: the parameter
+    /// cause from CLFRT's episode (HBT's when CLFRT's parameter residuals did not exceed),
+    /// the steering actuator when either method's servo check exceeded; off, each method
+    /// names from its own tests alone.
+    pub isolation_across_methods: bool,
     /// Band of the wave yaw on the heading (`features.wave_yaw_rad`) [rad/s].
     pub wave_band_rad_s: [f64; 2],
     /// The measured wave yaw in a calm and a moderate sea [deg]: anchors of the spread
@@ -155,9 +167,12 @@ impl Default for FdiConfig {
             actuator_single_threshold: 25.0,
             mean_window: 3,
             mean_threshold: 20.0,
+            vessel_window: 3,
+            vessel_threshold: 30.0,
             glr_clip: 4.0,
             isolation_margin: 0.0,
             single_fault: true,
+            isolation_across_methods: true,
             wave_band_rad_s: [0.4, 2.0],
             sea_wave_yaw_deg: [0.05, 0.18],
             relative_spread_speed: false,
@@ -235,6 +250,14 @@ impl FdiConfig {
             ));
         }
         check_range_open_low("fdi.mean-threshold", self.mean_threshold, 0.0, 1000.0)?;
+        if self.vessel_window == 1 || self.vessel_window > 20 {
+            return Err(fail(
+                "fdi.vessel-window",
+                self.vessel_window,
+                "0 (off) or [2, 20] tests",
+            ));
+        }
+        check_range_open_low("fdi.vessel-threshold", self.vessel_threshold, 0.0, 1000.0)?;
         check_count("fdi.clear-after", self.clear_after, 1, 1000)?;
         check_range("fdi.cusum-k", self.cusum_k, 0.0, 10.0)?;
         check_range_open_low("fdi.cusum-h", self.cusum_h, 0.0, 1000.0)?;

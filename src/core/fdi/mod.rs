@@ -49,7 +49,9 @@
 //! so is the mean of the method's last `fdi.mean-window` (3) tests' z (each clipped to
 //! `fdi.glr-clip`, all against one reference, never on wide design limits) when its
 //! statistic `T_n` (the GLR rule's, below, for that one n) exceeds `fdi.mean-threshold` (20):
-//! a small shift that persists. CUSUM rule: a two-sided CUSUM per normalised residual,
+//! a small shift that persists; so is the vessel's window (`vessel`), the sum of the ship's
+//! last `fdi.vessel-window` (3) tests' `q` of both methods, against `fdi.vessel-threshold`
+//! (30): the methods' evidence added. CUSUM rule: a two-sided CUSUM per normalised residual,
 //! `S+ = max(0, S+ + z - k)`, `S- = max(0, S- - z - k)`; a test exceeds when any sum is above
 //! `h`. GLR rule: the mean of the last n tests' z (n = 1 to `fdi.glr-window`), squared and
 //! scaled to its variance, `T_n = |z_mean|^2 (1 + c) / (1/n + c)` (`c = 1/K` once
@@ -78,6 +80,16 @@
 //! `steering_actuator`. A heading-sensor drift moves none of these residuals: the features are
 //! drift-free by construction (docs/fdi.md).
 //!
+//! The vessel's naming (`fdi.isolation-across-methods`, default on): while both methods are
+//! out of `normal`, the report and the notification name the parameter cause from CLFRT's
+//! episode (when its parameter residuals exceeded in it), and the steering actuator when a
+//! servo check of either method exceeded. CLFRT's tones sit at fixed frequencies: a change of
+//! `b` moves their gains, not their phases, whatever the hull's structure. HBT's cycle
+//! frequency moves with `b`, and on a hull with more lag than the first-order model the phase
+//! it reads speed from moves with it: its displacement change leans to the speed log's line
+//! (measured on the second-order hull: a 10 % heavier ship lowers HBT's speed estimate by
+//! 0.2-0.7 m/s). The method's own naming stays in `residuals.isolation_across_methods`.
+//!
 //! The same rule runs on the equation-error baseline's estimate (`crate::core::baseline`, reported
 //! under `residuals.baseline`) for comparison; only the method's own decision drives the
 //! alarm.
@@ -85,6 +97,7 @@
 pub mod config;
 mod fit;
 pub mod reference;
+pub mod vessel;
 
 use crate::core::estimator::model::{Target, Uncertainty};
 use crate::core::estimator::{Estimator, EstimatorScratch};
@@ -97,6 +110,7 @@ use crate::core::wire::{AlarmState, Cause, Decision, Estimate, Features, Notific
 use reference::{Basis, Commissioning, Raw};
 use serde_json::{json, Value};
 use std::collections::VecDeque;
+use vessel::VesselWindow;
 
 /// Speed step of the central difference for `dD/du_log` [m/s].
 const DU_MPS: f64 = 0.05;
@@ -455,6 +469,20 @@ impl Track {
         actuator_z: Option<[f64; 2]>,
         reference: Option<f64>,
     ) -> TrackOutcome {
+        self.update_with(cfg, param, actuator_z, reference, false)
+    }
+
+    /// [`Track::update_against`], with `vessel_over`: the vessel's window (both methods'
+    /// tests, `vessel::VesselWindow`) is over its limit at this test, which the chi-square
+    /// rule takes as it takes its mean: an exceeding test and the alarm at once.
+    pub fn update_with(
+        &mut self,
+        cfg: &FdiConfig,
+        param: Option<&ParamResiduals>,
+        actuator_z: Option<[f64; 2]>,
+        reference: Option<f64>,
+        vessel_over: bool,
+    ) -> TrackOutcome {
         let zp = param
             .map(|p| p.z())
             .filter(|z| z.iter().all(|v| v.is_finite()));
@@ -486,6 +514,7 @@ impl Track {
                     glr = self.mean_look(cfg, zp, reference);
                     mean_over = glr.is_some_and(GlrLook::over);
                 }
+                mean_over |= vessel_over && zp.is_some();
                 (
                     q_param > cfg.chi2_threshold || mean_over,
                     q_act.is_some_and(|q| q > cfg.chi2_threshold),
@@ -620,8 +649,46 @@ impl Track {
 
     /// Suspected causes of the current episode, most likely first.
     fn isolation(&self, cfg: &FdiConfig) -> Vec<Cause> {
-        let e = &self.episode;
-        if self.state == TrackState::Normal || e.tests == 0 {
+        if self.state == TrackState::Normal {
+            return Vec::new();
+        }
+        self.episode.isolation(cfg)
+    }
+
+    /// The episode under way, if the track is out of `normal`.
+    fn open_episode(&self) -> Option<&Episode> {
+        (self.state != TrackState::Normal && self.episode.tests > 0).then_some(&self.episode)
+    }
+}
+
+impl Episode {
+    /// Both episodes' sums: the tests of two methods taken as one episode of the vessel.
+    fn joined(&self, other: &Episode) -> Episode {
+        Episode {
+            tests: self.tests + other.tests,
+            cost: std::array::from_fn(|i| self.cost[i] + other.cost[i]),
+            zz: self.zz + other.zz,
+            param_exceeded: self.param_exceeded + other.param_exceeded,
+            actuator_exceeded: self.actuator_exceeded + other.actuator_exceeded,
+            q_act: self.q_act + other.q_act,
+            q_param: self.q_param + other.q_param,
+        }
+    }
+
+    /// This episode's parameter sums with the actuator sums of `all` (the servo checks of
+    /// every method in the vessel's episode).
+    fn with_actuator_of(&self, all: Episode) -> Episode {
+        Episode {
+            actuator_exceeded: all.actuator_exceeded,
+            q_act: all.q_act,
+            ..*self
+        }
+    }
+
+    /// Suspected causes from the episode's sums, most likely first.
+    fn isolation(&self, cfg: &FdiConfig) -> Vec<Cause> {
+        let e = self;
+        if e.tests == 0 {
             return Vec::new();
         }
         if cfg.single_fault && e.actuator_exceeded > 0 {
@@ -684,6 +751,8 @@ pub struct Fdi {
     commissioning: [Commissioning; 2],
     /// What the reference is valid for: the ship configuration and the models.
     fingerprint: Fingerprint,
+    /// The last tests of the ship, both methods (`vessel::VesselWindow`).
+    vessel: VesselWindow,
 }
 
 /// What a commissioning reference was made under: the ship's particulars, servo and test
@@ -786,6 +855,9 @@ pub struct FdiState {
     /// What the reference was made under.
     #[serde(default)]
     pub fingerprint: Fingerprint,
+    /// The vessel's window (absent in files of earlier versions: it starts empty).
+    #[serde(default)]
+    pub vessel: VesselWindow,
 }
 
 fn method_index(m: Method) -> usize {
@@ -857,6 +929,7 @@ impl Fdi {
             last_notification: None,
             commissioning: Default::default(),
             fingerprint: Fingerprint::of(cfg),
+            vessel: VesselWindow::default(),
         }
     }
 
@@ -925,6 +998,7 @@ impl Fdi {
             last_notification: self.last_notification.clone(),
             commissioning: self.commissioning.clone(),
             fingerprint: self.fingerprint.clone(),
+            vessel: self.vessel.clone(),
         }
     }
 
@@ -935,6 +1009,7 @@ impl Fdi {
         self.baseline = s.baseline;
         self.published = s.published;
         self.last_notification = s.last_notification;
+        self.vessel = s.vessel;
         let had = s.commissioning.iter().any(|c| c.tests > 0);
         match self.fingerprint.difference(&s.fingerprint) {
             Some(why) if had => {
@@ -1041,6 +1116,28 @@ impl Fdi {
         r.z().iter().all(|z| z.is_finite()).then_some(r)
     }
 
+    /// The vessel's naming after a test, with `fdi.isolation-across-methods`
+    /// and both methods' tracks out of `normal` (`None` otherwise: the method names from its
+    /// own tests). The parameter cause is CLFRT's when its parameter residuals exceeded in its
+    /// episode: its tones sit at fixed frequencies, so a change of `b` (displacement, rudder)
+    /// moves their gains and not their phases whatever the hull's structure, while HBT's
+    /// cycle moves with `b` and, on a hull with more lag than the model, its speed estimate
+    /// with it (its displacement change then leans to the speed log's line). A servo check
+    /// over its limit in either method names the steering actuator, one fault at a time.
+    fn vessel_isolation(&self) -> Option<Vec<Cause>> {
+        if !self.cfg.isolation_across_methods {
+            return None;
+        }
+        let clfrt = self.tracks[method_index(Method::Clfrt)].open_episode()?;
+        let hbt = self.tracks[method_index(Method::Hbt)].open_episode()?;
+        let namer = if clfrt.param_exceeded > 0 { clfrt } else { hbt };
+        Some(
+            namer
+                .with_actuator_of(clfrt.joined(hbt))
+                .isolation(&self.cfg),
+        )
+    }
+
     /// The servo check's normalised residual: how far the rudder's 95th-percentile
     /// rate during the burst falls short of the healthy servo's, `z = (1 - rho) /
     /// fdi.actuator-rate-sigma`, one-sided (a rudder moving faster than the nominal servo's
@@ -1111,11 +1208,33 @@ impl Fdi {
             Some(Basis::Commissioning { .. } | Basis::OutsideBand(_)) => None,
             Some(Basis::Design) | None => Some(0.0),
         };
-        let ours = if self.cfg.enabled {
-            self.tracks[i].update_against(&self.cfg, param.as_ref(), act, reference)
+        // The vessel's window: both methods' tests against their commissioned references.
+        let vessel = if self.cfg.enabled {
+            let q = param
+                .as_ref()
+                .map(|p| p.z().iter().map(|z| z * z).sum::<f64>());
+            let on_reference = matches!(basis, Some(Basis::Commissioned(_)));
+            self.vessel.look(&self.cfg, method, q, on_reference)
+        } else {
+            None
+        };
+        let vessel_over = vessel.is_some_and(GlrLook::over);
+        let mut ours = if self.cfg.enabled {
+            let before = self.tracks[i].state;
+            let o =
+                self.tracks[i].update_with(&self.cfg, param.as_ref(), act, reference, vessel_over);
+            if vessel_over && before != TrackState::Alarm && o.state == TrackState::Alarm {
+                // The window's evidence is spent on this alarm (as the mean's).
+                self.vessel.clear();
+            }
+            o
         } else {
             self.tracks[i].update(&self.cfg, None, None)
         };
+        // The vessel's naming, with both methods out of `normal` (see `vessel_isolation`).
+        let own_isolation = self
+            .vessel_isolation()
+            .map(|joined| std::mem::replace(&mut ours.isolation, joined));
         // A healthy commissioning test joins the vessel's reference.
         let mut commissioned = false;
         if let (Some((r, _)), Some(Basis::Commissioning { .. })) = (raw, &basis) {
@@ -1205,6 +1324,22 @@ impl Fdi {
                 "servo_time_constant_s".into(),
                 json!(self.servo_time_constant_s),
             );
+            if let Some(v) = vessel {
+                obj.insert(
+                    "vessel".into(),
+                    json!({ "statistic": v.statistic, "window": v.window, "threshold": v.threshold }),
+                );
+            }
+            if let Some(own) = &own_isolation {
+                // Named from both methods' episodes; what this method's tests alone name.
+                obj.insert(
+                    "isolation_across_methods".into(),
+                    json!({
+                        "tests": self.tracks[0].episode.tests + self.tracks[1].episode.tests,
+                        "this_method": own,
+                    }),
+                );
+            }
         }
         let mut summary = summary(&ours, param.as_ref(), self.cfg.enabled);
         match &basis {

@@ -136,6 +136,62 @@ fn isolation_follows_the_fault_directions() {
     assert!(o.isolation.len() >= 2, "{:?}", o.isolation);
 }
 
+/// With both methods out of `normal` the vessel names the parameter cause from CLFRT's
+/// episode (structure-robust) and the actuator from either servo check; a method back to
+/// normal, or the option off, leaves each method to name from its own tests.
+#[test]
+fn the_vessel_names_the_parameter_cause_from_clfrt() {
+    let full = CoreConfig::default();
+    let c = full.fdi.clone();
+    let (ci, hi) = (method_index(Method::Clfrt), method_index(Method::Hbt));
+    let mut fdi = Fdi::new(&full);
+    // HBT: three tests near the speed-log line (g = 2: v_log = (-1, 2)), which is what a
+    // displacement change looks like to HBT on a hull with more lag than its model.
+    for _ in 0..3 {
+        fdi.tracks[hi].update(&c, Some(&p(-1.5, 4.0, 2.0)), None);
+    }
+    assert_eq!(fdi.tracks[hi].isolation(&c), vec![Cause::SpeedLog]);
+    assert!(fdi.vessel_isolation().is_none(), "CLFRT is normal");
+    // CLFRT: two tests on the displacement line.
+    for _ in 0..2 {
+        fdi.tracks[ci].update(&c, Some(&p(-0.2, 8.0, 2.0)), None);
+    }
+    let d = vec![Cause::DisplacementOrRudderEffectiveness];
+    assert_eq!(fdi.tracks[ci].isolation(&c), d);
+    assert_eq!(fdi.vessel_isolation(), Some(d.clone()));
+    // Off: each method names alone.
+    let mut off = fdi.clone();
+    off.cfg.isolation_across_methods = false;
+    assert!(off.vessel_isolation().is_none());
+    // A servo check over its limit in HBT names the actuator alone (one fault at a time).
+    let mut servo = fdi.clone();
+    servo.tracks[hi].update(&c, Some(&p(-1.5, 4.0, 2.0)), Some([6.0, 0.0]));
+    assert_eq!(
+        servo.vessel_isolation(),
+        Some(vec![Cause::SteeringActuator])
+    );
+    // CLFRT back to normal (three nominal tests clear its alarm): HBT names alone again.
+    for _ in 0..3 {
+        fdi.tracks[ci].update(&c, Some(&p(0.0, 0.0, 2.0)), None);
+    }
+    assert_eq!(fdi.tracks[ci].state, TrackState::Normal);
+    assert!(fdi.vessel_isolation().is_none());
+    // CLFRT out of normal on its servo check alone: the parameter cause is HBT's.
+    let mut slow = Fdi::new(&full);
+    for _ in 0..2 {
+        slow.tracks[hi].update(&c, Some(&p(-1.5, 4.0, 2.0)), None);
+    }
+    slow.tracks[ci].update(&c, Some(&p(0.0, 0.0, 2.0)), Some([4.0, 0.0]));
+    assert_eq!(slow.tracks[ci].episode.param_exceeded, 0);
+    let named = slow.vessel_isolation().unwrap_or_default();
+    assert_eq!(named, vec![Cause::SteeringActuator], "single fault");
+    let mut both = slow.clone();
+    both.cfg.single_fault = false;
+    let named = both.vessel_isolation().unwrap_or_default();
+    assert!(named.contains(&Cause::SpeedLog), "{named:?}");
+    assert!(named.contains(&Cause::SteeringActuator), "{named:?}");
+}
+
 #[test]
 fn the_isolation_costs_match_a_direct_least_squares() {
     // Independent answer: the cost of a direction v is the sum over the tests of
@@ -337,6 +393,8 @@ fn the_state_survives_a_round_trip_through_json() {
     fdi.tracks[1].update(&c, Some(&p(0.3, 9.0, 0.0)), None);
     fdi.tracks[1].update(&c, Some(&p(0.1, 8.0, 0.0)), None);
     fdi.tracks[0].sea_index(Some(0.17), 0.5);
+    fdi.vessel.look(&c, Method::Clfrt, Some(7.5), true);
+    fdi.vessel.look(&c, Method::Hbt, Some(3.0), true);
     fdi.last_notification = Some(Notification {
         state: AlarmState::Alarm,
         method: vec!["visual".into(), "sound".into()],
@@ -358,6 +416,11 @@ fn the_state_survives_a_round_trip_through_json() {
     let b = fresh.tracks[1].update(&c, Some(&p(0.0, 0.5, 0.0)), None);
     assert_eq!(a, b);
     assert_eq!(fdi.state(), fresh.state());
+    // The vessel's window too: the third test completes it the same way.
+    let va = fdi.vessel.look(&c, Method::Clfrt, Some(1.0), true);
+    let vb = fresh.vessel.look(&c, Method::Clfrt, Some(1.0), true);
+    assert_eq!(va, vb);
+    assert!(va.is_some_and(|v| (v.statistic - 11.5).abs() < 1e-12));
 }
 
 /// The servo check reads each method's own field: CLFRT the burst's p95 rate, HBT the relay
@@ -741,4 +804,29 @@ fn the_chi_square_mean_keeps_to_one_reference_and_clips_outliers() {
     let o = t.update(&c, Some(&p(0.0, 1.0, 0.0)), None);
     assert_eq!(o.state, TrackState::Normal);
     assert!((o.glr.unwrap().statistic - 12.0).abs() < 1e-9);
+}
+
+/// The vessel's window over its limit raises the alarm of the test's method at once, as the
+/// mean does, on a test no limit of its own would call; a test without parameter residuals
+/// takes nothing from it.
+#[test]
+fn the_vessel_window_over_its_limit_is_an_alarm_at_once() {
+    let c = cfg();
+    let small = p(2.0, 2.0, 2.0); // chi2 8: under every limit of one method
+    let mut t = Track::default();
+    let o = t.update_with(&c, Some(&small), None, Some(0.125), false);
+    assert_eq!((o.state, o.exceeded), (TrackState::Normal, false));
+    let o = t.update_with(&c, Some(&small), None, Some(0.125), true);
+    assert_eq!((o.state, o.exceeded), (TrackState::Alarm, true));
+    assert_eq!(o.decision, Decision::Fault);
+    assert_eq!(t.episode.param_exceeded, 1);
+    // The alarm clears after `clear-after` nominal tests, as any alarm.
+    for _ in 0..c.clear_after {
+        t.update_with(&c, Some(&p(0.0, 0.0, 2.0)), None, Some(0.125), false);
+    }
+    assert_eq!(t.state, TrackState::Normal);
+    // Only the servo check this test: the window is not the parameter residuals' evidence.
+    let mut t = Track::default();
+    let o = t.update_with(&c, None, Some([1.0, 0.0]), Some(0.125), true);
+    assert_eq!(o.state, TrackState::Normal);
 }

@@ -682,12 +682,14 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
     let f = &cfg.fdi;
     let rule = match f.rule {
         DecisionRule::ChiSquare => format!(
-            "persistence {}, one-test limits {} and {} (servo check), mean of {} tests limit {}",
+            "persistence {}, one-test limits {} and {} (servo check), mean of {} tests limit {}, vessel's window of {} tests limit {}",
             f.persistence,
             f.chi2_single_threshold,
             f.actuator_single_threshold,
             f.mean_window,
-            f.mean_threshold
+            f.mean_threshold,
+            f.vessel_window,
+            f.vessel_threshold
         ),
         DecisionRule::Cusum => format!("k {}, h {}", f.cusum_k, f.cusum_h),
         DecisionRule::Glr => format!("window {}, threshold {}", f.glr_window, f.glr_threshold),
