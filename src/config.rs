@@ -391,6 +391,11 @@ mod tests {
                 "0 (off) or [2, 20]",
             ),
             ("vessel-threshold = -1", "fdi.vessel-threshold", "(0, 1000]"),
+            (
+                "commissioned-floor-displacement = 0.6",
+                "fdi.commissioned-floor-displacement",
+                "[0, 0.5]",
+            ),
         ] {
             let e = Config::from_toml_str(&format!("[fdi]\n{toml}\n")).unwrap_err();
             let e = e.to_string();

@@ -42,6 +42,8 @@ pub struct Commissioning {
     pub spread_factor: f64,
     /// The reference's speed band [m/s].
     pub speed_band_mps: f64,
+    /// The commissioned displacement spread's floor [fraction of D_nom].
+    pub floor_displacement: f64,
 }
 
 /// Fault detection and isolation (see `crate::core::fdi`). Pairs are `[calm, moderate]` values,
@@ -137,6 +139,10 @@ pub struct FdiConfig {
     pub commissioning_spread_factor: f64,
     /// The reference holds for speed logs within this of the commissioning's mean [m/s].
     pub commissioning_speed_band_mps: f64,
+    /// The commissioned reference's displacement spread is at least this [fraction of the
+    /// nominal displacement]: a healthy ship's displacement, read by a test, is not known
+    /// better (fuel and ballast move it; a dead band's operating point moves the estimate).
+    pub commissioned_floor_displacement: f64,
     /// CLFRT model-fit chi-square above which a test reports `model_mismatch` (a warning,
     /// never a fault).
     pub model_mismatch_chi2: f64,
@@ -188,6 +194,7 @@ impl Default for FdiConfig {
             commissioning_spread_displacement: 0.25,
             commissioning_spread_factor: 1.25,
             commissioning_speed_band_mps: 1.0,
+            commissioned_floor_displacement: 0.004,
             model_mismatch_chi2: 100.0,
             baseline_clfrt_speed_sigma_mps: [0.07, 0.33],
             baseline_clfrt_displacement_sigma_t: [20.0, 100.0],
@@ -206,6 +213,7 @@ impl FdiConfig {
             wide_displacement: self.commissioning_spread_displacement,
             spread_factor: self.commissioning_spread_factor,
             speed_band_mps: self.commissioning_speed_band_mps,
+            floor_displacement: self.commissioned_floor_displacement,
         }
     }
 
@@ -339,6 +347,12 @@ impl FdiConfig {
             self.commissioning_speed_band_mps,
             0.0,
             30.0,
+        )?;
+        check_range(
+            "fdi.commissioned-floor-displacement",
+            self.commissioned_floor_displacement,
+            0.0,
+            0.5,
         )?;
         check_range_open_low(
             "fdi.model-mismatch-chi2",

@@ -32,6 +32,9 @@
 //! spread   s_ref(now) = max(s(now), f sd(e) s(now) / mean(s)) sqrt(1 + 1/K)
 //! ```
 //!
+//! and the displacement's at least `fdi.commissioned-floor-displacement` (0.4 % of D_nom: a
+//! healthy ship's displacement, read by a test, is not known better; the design spread in a
+//! calm sea is 0.2-0.3 %, in a moderate one 0.44 % and more, which the floor leaves alone).
 //! `sd` the sample standard deviation (n - 1), `f = fdi.commissioning-spread-factor` (a few
 //! tests under-estimate a spread: with K = 5 the sample sd is below half the true one one time
 //! in twenty), scaled from the commissioning's sea to the test's by the design spreads' ratio,
@@ -178,7 +181,8 @@ impl Commissioning {
                         r.displacement_sd,
                         r.displacement_design_sigma,
                         raw.displacement_sigma,
-                    ),
+                    )
+                    .max(s.floor_displacement),
                 )
             }
         }
@@ -281,6 +285,7 @@ mod tests {
             wide_displacement: 0.1,
             spread_factor: 2.0,
             speed_band_mps: 1.0,
+            floor_displacement: 0.0,
         }
     }
 
@@ -341,6 +346,21 @@ mod tests {
         rough.speed_sigma_mps = 0.15;
         let (_, su3, _, _) = Commissioning::measure(&basis, &s, &rough);
         assert!((su3 - 3.0 * want_su).abs() < 1e-12);
+        // The displacement's floor: it replaces a smaller spread, leaves a larger one, and
+        // does not touch the speed's.
+        let floored = Settings {
+            floor_displacement: 0.004,
+            ..s
+        };
+        let (_, su_f, _, sd_f) = Commissioning::measure(&basis, &floored, &raw(1.3, -0.2));
+        assert_eq!((su_f, sd_f), (su, 0.004));
+        let mut wide = raw(1.3, -0.2);
+        wide.displacement_sigma = 0.005;
+        let (_, _, _, sd_w) = Commissioning::measure(&basis, &floored, &wide);
+        assert!((sd_w - 0.005 * k).abs() < 1e-15, "{sd_w}");
+        // The design and commissioning bases keep their own spreads.
+        let (_, _, _, sd_d) = Commissioning::measure(&Basis::Design, &floored, &raw(1.3, -0.2));
+        assert_eq!(sd_d, 0.002);
     }
 
     #[test]
