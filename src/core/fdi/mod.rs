@@ -662,25 +662,12 @@ impl Track {
 }
 
 impl Episode {
-    /// Both episodes' sums: the tests of two methods taken as one episode of the vessel.
-    fn joined(&self, other: &Episode) -> Episode {
+    /// This episode's parameter sums with the actuator sums of `all` added up (the servo
+    /// checks of every method in the vessel's episode).
+    fn with_actuator_of(&self, all: [&Episode; 2]) -> Episode {
         Episode {
-            tests: self.tests + other.tests,
-            cost: std::array::from_fn(|i| self.cost[i] + other.cost[i]),
-            zz: self.zz + other.zz,
-            param_exceeded: self.param_exceeded + other.param_exceeded,
-            actuator_exceeded: self.actuator_exceeded + other.actuator_exceeded,
-            q_act: self.q_act + other.q_act,
-            q_param: self.q_param + other.q_param,
-        }
-    }
-
-    /// This episode's parameter sums with the actuator sums of `all` (the servo checks of
-    /// every method in the vessel's episode).
-    fn with_actuator_of(&self, all: Episode) -> Episode {
-        Episode {
-            actuator_exceeded: all.actuator_exceeded,
-            q_act: all.q_act,
+            actuator_exceeded: all.iter().map(|e| e.actuator_exceeded).sum(),
+            q_act: all.iter().map(|e| e.q_act).sum(),
             ..*self
         }
     }
@@ -1131,11 +1118,7 @@ impl Fdi {
         let clfrt = self.tracks[method_index(Method::Clfrt)].open_episode()?;
         let hbt = self.tracks[method_index(Method::Hbt)].open_episode()?;
         let namer = if clfrt.param_exceeded > 0 { clfrt } else { hbt };
-        Some(
-            namer
-                .with_actuator_of(clfrt.joined(hbt))
-                .isolation(&self.cfg),
-        )
+        Some(namer.with_actuator_of([clfrt, hbt]).isolation(&self.cfg))
     }
 
     /// The servo check's normalised residual: how far the rudder's 95th-percentile

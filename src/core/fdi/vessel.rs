@@ -45,11 +45,7 @@ impl VesselWindow {
         commissioned: bool,
     ) -> Option<GlrLook> {
         let n = cfg.vessel_window as usize;
-        if cfg.rule != DecisionRule::ChiSquare || n < 2 {
-            self.tests.clear();
-            return None;
-        }
-        if !commissioned {
+        if cfg.rule != DecisionRule::ChiSquare || n < 2 || !commissioned {
             self.tests.clear();
             return None;
         }
