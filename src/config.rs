@@ -113,7 +113,12 @@ pub struct Config {
 impl Config {
     /// Parses TOML text and checks every limit.
     pub fn from_toml_str(text: &str) -> Result<Self, ConfigError> {
-        let cfg: Config = toml::from_str(text).map_err(|e| ConfigError::Parse(e.to_string()))?;
+        let table: toml::Table =
+            toml::from_str(text).map_err(|e| ConfigError::Parse(e.to_string()))?;
+        check_removed_keys(&table)?;
+        let cfg: Config = table
+            .try_into()
+            .map_err(|e: toml::de::Error| ConfigError::Parse(e.to_string()))?;
         cfg.check()?;
         Ok(cfg)
     }
@@ -253,6 +258,26 @@ impl Config {
 }
 
 /// Merges `over` into `base`: tables key by key, anything else replaced.
+/// Refuses keys of earlier releases that were removed, naming what replaces them, in the
+/// top-level `[fdi]` and in every `[vessel.<name>.fdi]`.
+fn check_removed_keys(table: &toml::Table) -> Result<(), ConfigError> {
+    use crate::core::fdi::config::check_removed;
+    if let Some(toml::Value::Table(fdi)) = table.get("fdi") {
+        check_removed("fdi", fdi.keys().map(String::as_str))?;
+    }
+    if let Some(toml::Value::Table(vessels)) = table.get("vessel") {
+        for (name, v) in vessels {
+            if let Some(toml::Value::Table(fdi)) = v.get("fdi") {
+                check_removed(
+                    &format!("vessel.{name}.fdi"),
+                    fdi.keys().map(String::as_str),
+                )?;
+            }
+        }
+    }
+    Ok(())
+}
+
 fn merge(base: &mut toml::Table, over: &toml::Table) {
     for (k, v) in over {
         match (base.get_mut(k), v) {
@@ -375,36 +400,60 @@ mod tests {
     }
 
     #[test]
-    fn the_mean_keys_are_checked() {
+    fn the_decision_keys_are_checked_and_removed_ones_name_their_replacement() {
         for (toml, key, range) in [
-            ("mean-window = 1", "fdi.mean-window", "0 (off) or [2, 20]"),
-            ("mean-window = 21", "fdi.mean-window", "0 (off) or [2, 20]"),
-            ("mean-threshold = 0", "fdi.mean-threshold", "(0, 1000]"),
             (
-                "vessel-window = 1",
-                "fdi.vessel-window",
-                "0 (off) or [2, 20]",
+                "false-alarms-per-year = 0",
+                "fdi.false-alarms-per-year",
+                "(0, 100]",
+            ),
+            ("window-tests = 0", "fdi.window-tests", "[1, 12]"),
+            ("window-tests = 13", "fdi.window-tests", "[1, 12]"),
+            (
+                "commissioning-tests = 4",
+                "fdi.commissioning-tests",
+                "0 (the design reference) or [5, 50]",
             ),
             (
-                "vessel-window = 21",
-                "fdi.vessel-window",
-                "0 (off) or [2, 20]",
-            ),
-            ("vessel-threshold = -1", "fdi.vessel-threshold", "(0, 1000]"),
-            (
-                "commissioned-floor-displacement = 0.6",
-                "fdi.commissioned-floor-displacement",
+                "floor-displacement = 0.6",
+                "fdi.floor-displacement",
                 "[0, 0.5]",
             ),
+            ("floor-speed-mps = -1", "fdi.floor-speed-mps", "[0, 5]"),
         ] {
             let e = Config::from_toml_str(&format!("[fdi]\n{toml}\n")).unwrap_err();
             let e = e.to_string();
             assert!(e.contains(key) && e.contains(range), "{toml}: {e}");
         }
-        let off = Config::from_toml_str("[fdi]\nmean-window = 0\n").unwrap();
-        assert_eq!(off.fdi.mean_window, 0);
-        let off = Config::from_toml_str("[fdi]\nvessel-window = 0\n").unwrap();
-        assert_eq!(off.fdi.vessel_window, 0);
+        assert_eq!(
+            Config::from_toml_str("[fdi]\ncommissioning-tests = 0\n")
+                .unwrap()
+                .fdi
+                .commissioning_tests,
+            0
+        );
+        // Every removed key is refused with its replacement named, at the top level and in a
+        // vessel's table.
+        for (old, instead) in crate::core::fdi::config::REMOVED_KEYS {
+            let e = Config::from_toml_str(&format!("[fdi]\n{old} = 1\n")).unwrap_err();
+            let text = e.to_string();
+            assert!(
+                text.contains(&format!("fdi.{old}")) && text.contains(instead),
+                "{text}"
+            );
+        }
+        let e = Config::from_toml_str(
+            "[daemon]\nvessels = [\"self\"]\n[vessel.self.fdi]\nchi2-threshold = 9\n",
+        )
+        .unwrap_err();
+        assert!(
+            e.to_string().contains("vessel.self.fdi.chi2-threshold"),
+            "{e}"
+        );
+        assert!(e.to_string().contains("fdi.false-alarms-per-year"), "{e}");
+        // At most 15 keys in [fdi].
+        let keys = toml::Table::try_from(crate::core::fdi::config::FdiConfig::default()).unwrap();
+        assert!(keys.len() <= 15, "{} keys", keys.len());
     }
 
     #[test]

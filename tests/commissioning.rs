@@ -56,32 +56,32 @@ async fn commissioning_survives_a_restart_then_a_fault_raises_the_alarm() {
     let ep = endpoint();
     let mut cfg = daemon_config();
     cfg.scheduler.enabled = false;
-    cfg.fdi.commissioning_tests = 1;
+    // The fewest the covariance's K-sample factor allows.
+    cfg.fdi.commissioning_tests = 5;
     cfg.daemon.state_dir = Some(dir.join("state").display().to_string());
 
-    // 1. A healthy ship commissions both methods, one test each.
+    // 1. A healthy ship commissions both methods, five tests each.
     let daemon = start_daemon(&cfg, &ep).await;
     let obs = Observer::new(&ep, "self", false).await;
     let c = obs.commission("").await;
     assert_eq!(c["clfrt"]["state"], "commissioning", "{c}");
-    assert_eq!(c["clfrt"]["text"], "commissioning 0 of 1", "{c}");
+    assert_eq!(c["clfrt"]["text"], "commissioning 0 of 5", "{c}");
     let healthy = Scenario::nominal(&cfg.sim(), 11);
-    let reports = run_tests(&cfg, &healthy, 0.0, &ep, &obs, &["clfrt", "hbt"]).await;
-    for r in &reports {
+    let methods: Vec<&str> = ["clfrt", "hbt"].repeat(5);
+    let reports = run_tests(&cfg, &healthy, 0.0, &ep, &obs, &methods).await;
+    for (i, r) in reports.iter().enumerate() {
         assert_eq!(r["residuals"]["reference"]["kind"], "commissioning", "{r}");
         assert_ne!(r["decision"], "fault", "{r}");
-        assert!(
-            r["message"]
-                .as_str()
-                .unwrap()
-                .contains("commissioning complete"),
-            "{r}"
-        );
+        let complete = r["message"]
+            .as_str()
+            .unwrap()
+            .contains("commissioning complete");
+        assert_eq!(complete, i >= 8, "test {i}: {r}");
     }
     let before = obs.commission("").await;
     for m in ["clfrt", "hbt"] {
         assert_eq!(before[m]["state"], "commissioned", "{before}");
-        assert_eq!(before[m]["reference"]["tests"], 1, "{before}");
+        assert_eq!(before[m]["reference"]["tests"], 5, "{before}");
     }
     daemon.stop().await;
     obs.close().await;

@@ -13,14 +13,14 @@ fn the_demo_commissions_then_runs_until_the_alarm() {
         "{text}\n{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    // Commissioning first (two tests per method in the demo), all nominal.
+    // Commissioning first (five tests per method in the demo), all nominal.
     let complete = text.matches("commissioning complete").count();
     assert_eq!(complete, 2, "{text}");
     let before: Vec<&str> = text
         .lines()
         .filter(|l| l.contains("REPORT") && l.contains("(nominal ship)"))
         .collect();
-    assert_eq!(before.len(), 4, "{text}");
+    assert_eq!(before.len(), 10, "{text}");
     assert!(
         before.iter().all(|l| l.ends_with("decision Nominal")),
         "{text}"

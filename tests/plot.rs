@@ -287,7 +287,7 @@ fn history_has_one_point_per_report() {
     assert_eq!(svg.circles.len(), reports.len(), "{:?}", svg.circles);
     let (x_of, y_of) = panel_axes(&svg, 0.0, svg.height / 2.0, |x| x);
     for r in &reports {
-        let chi2 = r.residuals["decision"]["chi2"].as_f64().unwrap();
+        let chi2 = r.residuals.parameters.as_ref().unwrap().chi2;
         let hit = svg.circles.iter().any(|&(cx, cy)| {
             let sx = 1.0 / (x_of(cx + 1.0) - x_of(cx)).abs();
             let sy = 1.0 / (y_of(cy + 1.0) - y_of(cy)).abs();

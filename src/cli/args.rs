@@ -281,7 +281,7 @@ pub(crate) struct DemoArgs {
     pub(crate) seed: u64,
     /// The fault, KIND:VALUE@ONSET_S (after commissioning: with seed 1 the first two tests
     /// of each method end at 5954 s).
-    #[arg(long, default_value = "displacement_pct:+25@6000")]
+    #[arg(long, default_value = "displacement_pct:+25@14930")]
     pub(crate) fault: String,
     /// Reports of the faulty ship after which the demo stops if no alarm came.
     #[arg(long, default_value_t = 8)]

@@ -64,17 +64,17 @@ impl Default for DemoOptions {
             },
             fault_reports: 8,
             commissioning_tests: DEMO_COMMISSIONING_TESTS,
-            max_ship_s: 6.0 * 3600.0,
+            max_ship_s: 12.0 * 3600.0,
         }
     }
 }
 
 /// Onset of the demo's fault [s of ship time]: after commissioning (two CLFRT and two HBT
 /// tests; with seed 1 the fourth ends at 5954 s, the fifth starts at 6090 s).
-pub const DEFAULT_ONSET_S: f64 = 6000.0;
+pub const DEFAULT_ONSET_S: f64 = 14930.0;
 
 /// Commissioning tests per method in the demo.
-pub const DEMO_COMMISSIONING_TESTS: u32 = 2;
+pub const DEMO_COMMISSIONING_TESTS: u32 = 5;
 
 /// What the demo saw.
 #[derive(Debug, Clone, Default, PartialEq)]

@@ -424,7 +424,7 @@ pub fn print(
         out,
         "# Time to alarm and rudder travel per scheduler interval\n\n\
          seed {}, {} runs per interval, {} sea, ship at {} m/s and {} t; scheduler methods [{}] in turn, \
-         steady-time-s {}, interval-s as below; fdi rule {}, chi2-threshold {}, persistence {}, \
+         steady-time-s {}, interval-s as below; fdi false-alarms-per-year {}, window-tests {}, \
          commissioning-tests {} per method; estimator {}; faults from the end of commissioning, alarms counted within {cap_h} ship hours",
         o.seed,
         o.runs,
@@ -433,9 +433,8 @@ pub fn print(
         cfg.ship.nominal_displacement_t,
         s.methods.iter().map(|m| m.name()).collect::<Vec<_>>().join(", "),
         s.steady_time_s,
-        f.rule.name(),
-        f.chi2_threshold,
-        f.persistence,
+        f.false_alarms_per_year,
+        f.window_tests,
         f.commissioning_tests,
         match (&cfg.estimator.enabled, &cfg.estimator.models_dir) {
             (false, _) => "off".to_string(),
@@ -534,11 +533,11 @@ pub fn print(
 mod tests {
     use super::*;
 
-    /// A short schedule: two commissioning tests per method, a minute between tests.
-    fn short(persistence: u32) -> Config {
+    /// A short schedule: five commissioning tests per method (the fewest the K-sample
+    /// factor allows), a minute between tests.
+    fn short() -> Config {
         let mut cfg = Config::default();
-        cfg.fdi.commissioning_tests = 2;
-        cfg.fdi.persistence = persistence;
+        cfg.fdi.commissioning_tests = 5;
         cfg.scheduler.interval_s = 60.0;
         cfg
     }
@@ -551,29 +550,22 @@ mod tests {
         }
     }
 
-    /// The chi-square rule with persistence p alarms at the p-th exceeding test of one method
-    /// in a row. A gross fault exceeds on every test of both methods, and the scheduler runs
-    /// them in turn from the onset: the alarm comes at test 2p - 1 after the onset when the
-    /// one-test limits are out of reach, at the first test with the default limits (D + 50 %
-    /// is overwhelming evidence). Each test
-    /// starts at least `interval-s` after the previous end (the first after the onset, the end
-    /// of commissioning) and ends within `steady-time-s` + `max-test-duration-s` of that.
+    /// A gross fault is over the sequential test's single-test limit: the alarm comes at
+    /// the first test after the onset, whichever method runs it. The test starts at least
+    /// `interval-s` after the previous end (the end of commissioning) and ends within
+    /// `steady-time-s` + `max-test-duration-s` of that.
     #[test]
-    fn a_gross_fault_alarms_at_the_test_the_rule_gives() {
-        for (p, single) in [(1u32, false), (2, false), (2, true)] {
-            let mut cfg = short(p);
-            if !single {
-                cfg.fdi.chi2_single_threshold = 1e6;
-                cfg.fdi.actuator_single_threshold = 1e6;
-            }
+    fn a_gross_fault_alarms_at_the_first_test_after_the_onset() {
+        {
+            let cfg = short();
             let parts = Parts::new(&cfg).unwrap();
             let run = run_seed(&cfg, &parts, &[gross()], SeaState::Calm, 7, 12.0 * 3600.0).unwrap();
-            assert!(run.onset_s.is_some(), "persistence {p}: not commissioned");
+            assert!(run.onset_s.is_some(), "not commissioned");
             assert_eq!(run.alarms_before_onset, 0);
             let fr = &run.faults[0];
             let alarm = fr.alarm.as_ref().expect("no alarm");
-            let k = if single { 1 } else { (2 * p - 1) as usize };
-            assert_eq!(alarm.tests, k, "persistence {p}");
+            let k = 1usize;
+            assert_eq!(alarm.tests, k);
             assert_eq!(fr.tests, k);
             let lo = k as f64 * cfg.scheduler.interval_s / 3600.0;
             let hi = k as f64
@@ -583,7 +575,7 @@ mod tests {
                 / 3600.0;
             assert!(
                 alarm.hours > lo && alarm.hours < hi,
-                "persistence {p}: {} h outside ({lo}, {hi})",
+                "{} h outside ({lo}, {hi})",
                 alarm.hours
             );
             assert_eq!(
@@ -598,7 +590,7 @@ mod tests {
     /// add travel in a calm sea, where the autopilot alone barely moves the rudder.
     #[test]
     fn travel_added_is_zero_without_tests_and_positive_with_them() {
-        let mut off = short(2);
+        let mut off = short();
         off.scheduler.enabled = false;
         let parts = Parts::new(&off).unwrap();
         let run = run_seed(&off, &parts, &[gross()], SeaState::Calm, 7, 3600.0).unwrap();
@@ -610,7 +602,7 @@ mod tests {
         assert_eq!(run.travel.with_tests_deg, run.travel.autopilot_deg);
         assert_eq!(run.travel.added_deg_per_h(), 0.0);
 
-        let on = short(2);
+        let on = short();
         let run = run_seed(&on, &parts, &[], SeaState::Calm, 7, 3600.0).unwrap();
         assert!(run.onset_s.is_some());
         assert_eq!(run.travel.tests, run.commissioning_reports - 1);

@@ -1,6 +1,7 @@
 //! The `[baseline]` section: the state-variable filter of the equation-error fit.
 
-use crate::core::config::{check_range, ConfigError};
+use crate::core::config::{check_range, check_range_open_low, ConfigError};
+use crate::core::wire::Method;
 use serde::{Deserialize, Serialize};
 
 /// The time-domain baseline (see `crate::core::baseline`): a state-variable filter
@@ -16,6 +17,15 @@ pub struct BaselineConfig {
     /// Filtered samples left out at the start of each record: the filter's start-up
     /// transient, which decays as `(lambda t) e^{-lambda t}` [s]; at least 5 / lambda.
     pub transient_s: f64,
+    /// Spread of its speed from a, CLFRT record, `[calm, moderate]` [m/s]: the rms error of
+    /// its calibration table (docs/baseline.md).
+    pub clfrt_speed_sigma_mps: [f64; 2],
+    /// Spread of its displacement from b and the speed log, CLFRT record [t].
+    pub clfrt_displacement_sigma_t: [f64; 2],
+    /// Spread of its speed, HBT record [m/s].
+    pub hbt_speed_sigma_mps: [f64; 2],
+    /// Spread of its displacement, HBT record [t].
+    pub hbt_displacement_sigma_t: [f64; 2],
 }
 
 impl Default for BaselineConfig {
@@ -23,6 +33,10 @@ impl Default for BaselineConfig {
         Self {
             filter_rad_s: 0.15,
             transient_s: 80.0,
+            clfrt_speed_sigma_mps: [0.07, 0.33],
+            clfrt_displacement_sigma_t: [20.0, 100.0],
+            hbt_speed_sigma_mps: [0.04, 0.16],
+            hbt_displacement_sigma_t: [12.0, 65.0],
         }
     }
 }
@@ -37,6 +51,39 @@ impl BaselineConfig {
             5.0 / self.filter_rad_s,
             600.0,
         )?;
+        for (key, p, hi) in [
+            (
+                "baseline.clfrt-speed-sigma-mps",
+                self.clfrt_speed_sigma_mps,
+                100.0,
+            ),
+            (
+                "baseline.clfrt-displacement-sigma-t",
+                self.clfrt_displacement_sigma_t,
+                1e6,
+            ),
+            (
+                "baseline.hbt-speed-sigma-mps",
+                self.hbt_speed_sigma_mps,
+                100.0,
+            ),
+            (
+                "baseline.hbt-displacement-sigma-t",
+                self.hbt_displacement_sigma_t,
+                1e6,
+            ),
+        ] {
+            check_range_open_low(key, p[0], 0.0, hi)?;
+            check_range_open_low(key, p[1], 0.0, hi)?;
+        }
         Ok(())
+    }
+
+    /// The `(speed [m/s], displacement [t])` spread pairs for `method`'s record.
+    pub fn sigmas(&self, method: Method) -> ([f64; 2], [f64; 2]) {
+        match method {
+            Method::Clfrt => (self.clfrt_speed_sigma_mps, self.clfrt_displacement_sigma_t),
+            Method::Hbt => (self.hbt_speed_sigma_mps, self.hbt_displacement_sigma_t),
+        }
     }
 }

@@ -1,33 +1,11 @@
-//! The `[fdi]` section: residual spreads, decision rule, alarm state.
+//! The `[fdi]` section: the vessel's normal, one sequential test, one operator-facing number.
+//!
+//! Every limit of the decision follows from `false-alarms-per-year` and the scheduler's test
+//! rate (`crate::core::fdi::decision`); the other keys describe the measurement (floors,
+//! sea anchors, the servo check's noise) or the commissioning.
 
 use crate::core::config::{check_count, check_range, check_range_open_low, fail, ConfigError};
-use crate::core::wire::Method;
 use serde::{Deserialize, Serialize};
-
-/// The decision rule on the normalised residuals (see `crate::core::fdi`).
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
-#[serde(rename_all = "kebab-case")]
-pub enum DecisionRule {
-    /// Chi-square on each residual group, with persistence over successive tests.
-    #[default]
-    ChiSquare,
-    /// Two-sided CUSUM on each normalised residual.
-    Cusum,
-    /// A window GLR: the mean of the last n tests' normalised residuals, n = 1 to
-    /// `glr-window`, against `glr-threshold` (one overwhelming test is enough).
-    Glr,
-}
-
-impl DecisionRule {
-    /// Name in the configuration and the reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            DecisionRule::ChiSquare => "chi-square",
-            DecisionRule::Cusum => "cusum",
-            DecisionRule::Glr => "glr",
-        }
-    }
-}
 
 /// The commissioning keys of `[fdi]` (see `crate::core::fdi::reference`).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -38,170 +16,182 @@ pub struct Commissioning {
     pub wide_speed_mps: f64,
     /// Displacement spread floor while commissioning [fraction of D_nom].
     pub wide_displacement: f64,
-    /// `f`.
-    pub spread_factor: f64,
     /// The reference's speed band [m/s].
     pub speed_band_mps: f64,
-    /// The commissioned displacement spread's floor [fraction of D_nom].
+    /// Physical floor of the speed residual's standard deviation [m/s].
+    pub floor_speed_mps: f64,
+    /// Physical floor of the displacement residual's standard deviation [fraction].
     pub floor_displacement: f64,
 }
 
-/// Fault detection and isolation (see `crate::core::fdi`). Pairs are `[calm, moderate]` values,
-/// interpolated by the test's measured sea index.
+/// Fault detection and isolation (see `crate::core::fdi`). Pairs are `[calm, moderate]`.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
 pub struct FdiConfig {
     /// Decide on completed tests (false: residuals are still reported, decision inconclusive).
     pub enabled: bool,
-    /// `chi-square` (with persistence), `cusum` or `glr`.
-    pub rule: DecisionRule,
-    /// Chi-square limit of each two-dimensional residual group (13.82: 0.1 % for m = 2).
-    pub chi2_threshold: f64,
-    /// Exceeding tests in a row (of one method) before the alarm (chi-square rule).
-    pub persistence: u32,
-    /// Chi-square rule: one test whose parameter chi-square exceeds this is an alarm by
-    /// itself (overwhelming evidence; healthy ships of the family reached 44 in 5755 tests).
-    pub chi2_single_threshold: f64,
-    /// Chi-square rule: one test whose servo-check chi-square `z_rate^2` exceeds this is an
-    /// alarm by itself (healthy family: at most 2.2; a 2 deg/s servo: 31 to 37).
-    pub actuator_single_threshold: f64,
-    /// Chi-square rule: the mean of this many consecutive tests' parameter residuals (each
-    /// clipped to `glr-clip`, against one reference) is tested too (0: off). A persistent
-    /// shift too small for one test's limit adds up over them.
-    pub mean_window: u32,
-    /// Chi-square rule: the limit of that mean's statistic `T_n` (chi-square, 2 degrees of
-    /// freedom for a healthy ship); over it the alarm is raised at once.
-    pub mean_threshold: f64,
-    /// Chi-square rule, both methods in turn: the sum of the last this many tests' parameter
-    /// chi-square of the ship (each clipped to `glr-clip^2`, each against its method's
-    /// commissioned reference, both methods among them) is tested too (0: off).
-    pub vessel_window: u32,
-    /// Chi-square rule: the limit of that sum (at most chi-square with 2 `vessel-window`
-    /// degrees of freedom for a healthy ship); over it the alarm is raised at once.
-    pub vessel_threshold: f64,
-    /// Non-exceeding tests in a row that clear an alarm.
-    pub clear_after: u32,
-    /// CUSUM reference value k [sigma].
-    pub cusum_k: f64,
-    /// CUSUM decision interval h [sigma].
-    pub cusum_h: f64,
-    /// GLR rule: the longest window of tests (of one method) whose mean is tested.
-    pub glr_window: u32,
-    /// GLR rule: the limit of each window's statistic (chi-square, 2 degrees of freedom),
-    /// windows of two tests or more.
-    pub glr_threshold: f64,
-    /// GLR rule: the limit of the newest test alone (its chi-square).
-    pub glr_single_threshold: f64,
-    /// GLR rule: in windows of two tests or more, each test's z is clipped to this norm.
-    pub glr_clip: f64,
-    /// Name the second parameter cause too when its GLR cost is within this margin [chi2].
-    pub isolation_margin: f64,
-    /// One fault at a time: a servo check over its limit names `steering_actuator` alone (a
-    /// slow servo also moves the parameter residuals; the servo check measures it directly).
-    pub single_fault: bool,
-    /// Name the cause for the vessel when both methods are out of `normal`: the parameter
-    /// cause from CLFRT's episode (HBT's when CLFRT's parameter residuals did not exceed),
-    /// the steering actuator when either method's servo check exceeded; off, each method
-    /// names from its own tests alone.
-    pub isolation_across_methods: bool,
-    /// Band of the wave yaw on the heading (`features.wave_yaw_rad`) [rad/s].
-    pub wave_band_rad_s: [f64; 2],
-    /// The measured wave yaw in a calm and a moderate sea [deg]: anchors of the spread
-    /// interpolation (the sea index).
-    pub sea_wave_yaw_deg: [f64; 2],
-    /// Speed residual spread proportional to the speed log (model files' `relative_std`)
-    /// rather than absolute.
-    pub relative_spread_speed: bool,
-    /// Displacement residual spread proportional to the nominal displacement.
-    pub relative_spread_displacement: bool,
-    /// Per-test decay of the remembered sea index (0: each test alone).
-    pub sea_memory: f64,
-    /// Spread of the servo check's rudder-rate ratio (CLFRT: the burst's 95th percentile, HBT:
-    /// the relay slews' peak, over the healthy servo's) on a healthy servo, for the one-sided
-    /// shortfall.
-    pub actuator_rate_sigma: f64,
-    /// Floor of the ln-gain spread of a tone in the model fit.
-    pub model_fit_floor_ln_gain: f64,
-    /// Floor of the phase spread of a tone in the model fit [deg].
-    pub model_fit_floor_phase_deg: f64,
-    /// Chi-square limit of the model fit (4 dof: 18.47 at 0.1 %).
-    pub model_fit_threshold: f64,
-    /// Let the model fit join the actuator group of the decision.
-    pub model_fit_decides: bool,
+    /// The false alarms per vessel-year the operator accepts from a healthy ship at sea all
+    /// year at the scheduler's test rate: every limit of the decision follows from it.
+    pub false_alarms_per_year: f64,
+    /// The longest window of the vessel's tests (both methods) the sequential test looks
+    /// back over; an alarm clears after this many tests under the alert limits.
+    pub window_tests: u32,
     /// Commissioning: completed tests per method that set the vessel's own reference (0: the
-    /// design reference for good; see `crate::core::fdi::reference`).
+    /// design reference for good; else at least 5, which the covariance's K-sample factor
+    /// needs).
     pub commissioning_tests: u32,
     /// Speed spread floor while commissioning (and outside the reference's speed band) [m/s].
     pub commissioning_spread_speed_mps: f64,
     /// Displacement spread floor while commissioning [fraction of the nominal displacement].
     pub commissioning_spread_displacement: f64,
-    /// Factor on the commissioning sample's standard deviation in the reference's spread.
-    pub commissioning_spread_factor: f64,
     /// The reference holds for speed logs within this of the commissioning's mean [m/s].
     pub commissioning_speed_band_mps: f64,
-    /// The commissioned reference's displacement spread is at least this [fraction of the
-    /// nominal displacement]: a healthy ship's displacement, read by a test, is not known
-    /// better (fuel and ballast move it; a dead band's operating point moves the estimate).
-    pub commissioned_floor_displacement: f64,
+    /// Physical floor of the speed residual's standard deviation under the vessel's own
+    /// reference [m/s]: the speed log's noise (the log is the speed residual's reference).
+    pub floor_speed_mps: f64,
+    /// Physical floor of the displacement residual's standard deviation [fraction of the
+    /// nominal displacement]: how well a healthy ship's displacement is known between
+    /// declarations (fuel and ballast move it).
+    pub floor_displacement: f64,
+    /// Band of the wave yaw on the heading (`features.wave_yaw_rad`) [rad/s].
+    pub wave_band_rad_s: [f64; 2],
+    /// The measured wave yaw in a calm and a moderate sea [deg]: anchors of the sea index.
+    pub sea_wave_yaw_deg: [f64; 2],
+    /// Standard deviation of the servo check's rate ratio on a healthy servo.
+    pub actuator_rate_sigma: f64,
+    /// Floor of the ln-gain spread of a tone in the model fit.
+    pub model_fit_floor_ln_gain: f64,
+    /// Floor of the phase spread of a tone in the model fit [deg].
+    pub model_fit_floor_phase_deg: f64,
     /// CLFRT model-fit chi-square above which a test reports `model_mismatch` (a warning,
     /// never a fault).
     pub model_mismatch_chi2: f64,
-    /// Baseline (equation error): spread of its speed from a, CLFRT record [m/s].
-    pub baseline_clfrt_speed_sigma_mps: [f64; 2],
-    /// Baseline: spread of its displacement from b and the speed log, CLFRT record [t].
-    pub baseline_clfrt_displacement_sigma_t: [f64; 2],
-    /// Baseline: spread of its speed, HBT record [m/s].
-    pub baseline_hbt_speed_sigma_mps: [f64; 2],
-    /// Baseline: spread of its displacement, HBT record [t].
-    pub baseline_hbt_displacement_sigma_t: [f64; 2],
 }
 
 impl Default for FdiConfig {
     fn default() -> Self {
         Self {
             enabled: true,
-            rule: DecisionRule::ChiSquare,
-            chi2_threshold: 13.82,
-            persistence: 2,
-            clear_after: 3,
-            cusum_k: 0.5,
-            cusum_h: 5.0,
-            glr_window: 3,
-            glr_threshold: 25.0,
-            glr_single_threshold: 60.0,
-            chi2_single_threshold: 60.0,
-            actuator_single_threshold: 25.0,
-            mean_window: 3,
-            mean_threshold: 20.0,
-            vessel_window: 3,
-            vessel_threshold: 30.0,
-            glr_clip: 4.0,
-            isolation_margin: 0.0,
-            single_fault: true,
-            isolation_across_methods: true,
-            wave_band_rad_s: [0.4, 2.0],
-            sea_wave_yaw_deg: [0.05, 0.18],
-            relative_spread_speed: false,
-            relative_spread_displacement: true,
-            sea_memory: 0.0,
-            actuator_rate_sigma: 0.03,
-            model_fit_floor_ln_gain: 0.01,
-            model_fit_floor_phase_deg: 0.5,
-            model_fit_threshold: 18.47,
-            model_fit_decides: false,
+            false_alarms_per_year: 0.1,
+            window_tests: 4,
             commissioning_tests: 8,
             commissioning_spread_speed_mps: 2.2,
             commissioning_spread_displacement: 0.25,
-            commissioning_spread_factor: 1.25,
             commissioning_speed_band_mps: 1.0,
-            commissioned_floor_displacement: 0.004,
+            floor_speed_mps: 0.05,
+            floor_displacement: 0.004,
+            wave_band_rad_s: [0.4, 2.0],
+            sea_wave_yaw_deg: [0.05, 0.18],
+            actuator_rate_sigma: 0.03,
+            model_fit_floor_ln_gain: 0.01,
+            model_fit_floor_phase_deg: 0.5,
             model_mismatch_chi2: 100.0,
-            baseline_clfrt_speed_sigma_mps: [0.07, 0.33],
-            baseline_clfrt_displacement_sigma_t: [20.0, 100.0],
-            baseline_hbt_speed_sigma_mps: [0.04, 0.16],
-            baseline_hbt_displacement_sigma_t: [12.0, 65.0],
         }
     }
+}
+
+/// Keys of earlier releases and what replaces them: a configuration holding one is refused
+/// (exit 78) with this text, so an operator's old file never silently means something else.
+pub const REMOVED_KEYS: &[(&str, &str)] = &[
+    (
+        "rule",
+        "one rule now: the sequential test set by fdi.false-alarms-per-year",
+    ),
+    (
+        "chi2-threshold",
+        "fdi.false-alarms-per-year (limits follow from it)",
+    ),
+    (
+        "persistence",
+        "fdi.window-tests (the sequential test adds evidence over tests)",
+    ),
+    ("chi2-single-threshold", "fdi.false-alarms-per-year"),
+    ("actuator-single-threshold", "fdi.false-alarms-per-year"),
+    ("mean-window", "fdi.window-tests"),
+    ("mean-threshold", "fdi.false-alarms-per-year"),
+    ("vessel-window", "fdi.window-tests"),
+    ("vessel-threshold", "fdi.false-alarms-per-year"),
+    (
+        "clear-after",
+        "fdi.window-tests (an alarm clears after a window of tests under the alert limits)",
+    ),
+    ("cusum-k", "the sequential test (fdi.false-alarms-per-year)"),
+    ("cusum-h", "the sequential test (fdi.false-alarms-per-year)"),
+    ("glr-window", "fdi.window-tests"),
+    ("glr-threshold", "fdi.false-alarms-per-year"),
+    ("glr-single-threshold", "fdi.false-alarms-per-year"),
+    (
+        "glr-clip",
+        "nothing: the vessel's covariance and its K-sample factor model the scatter",
+    ),
+    (
+        "isolation-margin",
+        "nothing: the cause with the largest likelihood is named",
+    ),
+    (
+        "single-fault",
+        "nothing: a servo channel over its limit names the actuator alone",
+    ),
+    (
+        "isolation-across-methods",
+        "nothing: isolation uses both methods' tests in the window",
+    ),
+    (
+        "relative-spread-speed",
+        "nothing: the speed spread is absolute",
+    ),
+    (
+        "relative-spread-displacement",
+        "nothing: the displacement spread is relative to D",
+    ),
+    ("sea-memory", "nothing: each test's own sea index"),
+    (
+        "model-fit-threshold",
+        "fdi.model-mismatch-chi2 (the fit never decides)",
+    ),
+    (
+        "model-fit-decides",
+        "fdi.model-mismatch-chi2 (the fit never decides)",
+    ),
+    (
+        "commissioning-spread-factor",
+        "the K-sample factor (K - 1) / (K - 4) of fdi.commissioning-tests",
+    ),
+    ("commissioned-floor-displacement", "fdi.floor-displacement"),
+    (
+        "baseline-clfrt-speed-sigma-mps",
+        "baseline.clfrt-speed-sigma-mps",
+    ),
+    (
+        "baseline-clfrt-displacement-sigma-t",
+        "baseline.clfrt-displacement-sigma-t",
+    ),
+    (
+        "baseline-hbt-speed-sigma-mps",
+        "baseline.hbt-speed-sigma-mps",
+    ),
+    (
+        "baseline-hbt-displacement-sigma-t",
+        "baseline.hbt-displacement-sigma-t",
+    ),
+];
+
+/// Refuses a removed `[fdi]` key (`prefix` is the table's dotted path, e.g. `fdi` or
+/// `vessel.self.fdi`), naming what replaces it.
+pub fn check_removed<'a>(
+    prefix: &str,
+    keys: impl IntoIterator<Item = &'a str>,
+) -> Result<(), ConfigError> {
+    for k in keys {
+        if let Some((_, instead)) = REMOVED_KEYS.iter().find(|(old, _)| *old == k) {
+            return Err(fail(
+                &format!("{prefix}.{k}"),
+                "(removed)",
+                &format!("nothing: the key was removed; use {instead}"),
+            ));
+        }
+    }
+    Ok(())
 }
 
 impl FdiConfig {
@@ -211,74 +201,48 @@ impl FdiConfig {
             tests: self.commissioning_tests,
             wide_speed_mps: self.commissioning_spread_speed_mps,
             wide_displacement: self.commissioning_spread_displacement,
-            spread_factor: self.commissioning_spread_factor,
             speed_band_mps: self.commissioning_speed_band_mps,
-            floor_displacement: self.commissioned_floor_displacement,
-        }
-    }
-
-    /// The baseline's `(speed, displacement)` spread pairs for `method`'s record.
-    pub fn baseline_sigmas(&self, method: Method) -> ([f64; 2], [f64; 2]) {
-        match method {
-            Method::Clfrt => (
-                self.baseline_clfrt_speed_sigma_mps,
-                self.baseline_clfrt_displacement_sigma_t,
-            ),
-            Method::Hbt => (
-                self.baseline_hbt_speed_sigma_mps,
-                self.baseline_hbt_displacement_sigma_t,
-            ),
+            floor_speed_mps: self.floor_speed_mps,
+            floor_displacement: self.floor_displacement,
         }
     }
 
     /// Checks the section's limits; the error names the key and its allowed range.
     pub fn check(&self) -> Result<(), ConfigError> {
-        check_range_open_low("fdi.chi2-threshold", self.chi2_threshold, 0.0, 1000.0)?;
-        check_count("fdi.persistence", self.persistence, 1, 20)?;
-        for (key, v) in [
-            ("fdi.chi2-single-threshold", self.chi2_single_threshold),
-            (
-                "fdi.actuator-single-threshold",
-                self.actuator_single_threshold,
-            ),
-        ] {
-            if !(v.is_finite() && v >= self.chi2_threshold && v <= 1e6) {
-                return Err(fail(
-                    key,
-                    v,
-                    &format!("[fdi.chi2-threshold = {}, 1e6]", self.chi2_threshold),
-                ));
-            }
-        }
-        if self.mean_window == 1 || self.mean_window > 20 {
-            return Err(fail(
-                "fdi.mean-window",
-                self.mean_window,
-                "0 (off) or [2, 20] tests",
-            ));
-        }
-        check_range_open_low("fdi.mean-threshold", self.mean_threshold, 0.0, 1000.0)?;
-        if self.vessel_window == 1 || self.vessel_window > 20 {
-            return Err(fail(
-                "fdi.vessel-window",
-                self.vessel_window,
-                "0 (off) or [2, 20] tests",
-            ));
-        }
-        check_range_open_low("fdi.vessel-threshold", self.vessel_threshold, 0.0, 1000.0)?;
-        check_count("fdi.clear-after", self.clear_after, 1, 1000)?;
-        check_range("fdi.cusum-k", self.cusum_k, 0.0, 10.0)?;
-        check_range_open_low("fdi.cusum-h", self.cusum_h, 0.0, 1000.0)?;
-        check_count("fdi.glr-window", self.glr_window, 1, 20)?;
-        check_range_open_low("fdi.glr-threshold", self.glr_threshold, 0.0, 1000.0)?;
         check_range_open_low(
-            "fdi.glr-single-threshold",
-            self.glr_single_threshold,
+            "fdi.false-alarms-per-year",
+            self.false_alarms_per_year,
             0.0,
-            10000.0,
+            100.0,
         )?;
-        check_range("fdi.glr-clip", self.glr_clip, 1.0, 100.0)?;
-        check_range("fdi.isolation-margin", self.isolation_margin, 0.0, 1000.0)?;
+        check_count("fdi.window-tests", self.window_tests, 1, 12)?;
+        if self.commissioning_tests != 0 && !(5..=50).contains(&self.commissioning_tests) {
+            return Err(fail(
+                "fdi.commissioning-tests",
+                self.commissioning_tests,
+                "0 (the design reference) or [5, 50] tests",
+            ));
+        }
+        check_range_open_low(
+            "fdi.commissioning-spread-speed-mps",
+            self.commissioning_spread_speed_mps,
+            0.0,
+            10.0,
+        )?;
+        check_range_open_low(
+            "fdi.commissioning-spread-displacement",
+            self.commissioning_spread_displacement,
+            0.0,
+            1.0,
+        )?;
+        check_range_open_low(
+            "fdi.commissioning-speed-band-mps",
+            self.commissioning_speed_band_mps,
+            0.0,
+            30.0,
+        )?;
+        check_range("fdi.floor-speed-mps", self.floor_speed_mps, 0.0, 5.0)?;
+        check_range("fdi.floor-displacement", self.floor_displacement, 0.0, 0.5)?;
         let increasing = |key: &str, p: [f64; 2], hi: f64| -> Result<(), ConfigError> {
             check_range(key, p[0], 0.0, hi)?;
             check_range(key, p[1], 0.0, hi)?;
@@ -294,11 +258,6 @@ impl FdiConfig {
         };
         increasing("fdi.sea-wave-yaw-deg", self.sea_wave_yaw_deg, 10.0)?;
         increasing("fdi.wave-band-rad-s", self.wave_band_rad_s, 10.0)?;
-        check_range("fdi.sea-memory", self.sea_memory, 0.0, 0.99)?;
-        let spread = |key: &str, p: [f64; 2], hi: f64| -> Result<(), ConfigError> {
-            check_range_open_low(key, p[0], 0.0, hi)?;
-            check_range_open_low(key, p[1], 0.0, hi)
-        };
         check_range_open_low(
             "fdi.actuator-rate-sigma",
             self.actuator_rate_sigma,
@@ -318,67 +277,10 @@ impl FdiConfig {
             90.0,
         )?;
         check_range_open_low(
-            "fdi.model-fit-threshold",
-            self.model_fit_threshold,
-            0.0,
-            1e6,
-        )?;
-        check_count("fdi.commissioning-tests", self.commissioning_tests, 0, 50)?;
-        check_range_open_low(
-            "fdi.commissioning-spread-speed-mps",
-            self.commissioning_spread_speed_mps,
-            0.0,
-            10.0,
-        )?;
-        check_range_open_low(
-            "fdi.commissioning-spread-displacement",
-            self.commissioning_spread_displacement,
-            0.0,
-            1.0,
-        )?;
-        check_range(
-            "fdi.commissioning-spread-factor",
-            self.commissioning_spread_factor,
-            1.0,
-            10.0,
-        )?;
-        check_range_open_low(
-            "fdi.commissioning-speed-band-mps",
-            self.commissioning_speed_band_mps,
-            0.0,
-            30.0,
-        )?;
-        check_range(
-            "fdi.commissioned-floor-displacement",
-            self.commissioned_floor_displacement,
-            0.0,
-            0.5,
-        )?;
-        check_range_open_low(
             "fdi.model-mismatch-chi2",
             self.model_mismatch_chi2,
             0.0,
             1e9,
-        )?;
-        spread(
-            "fdi.baseline-clfrt-speed-sigma-mps",
-            self.baseline_clfrt_speed_sigma_mps,
-            100.0,
-        )?;
-        spread(
-            "fdi.baseline-clfrt-displacement-sigma-t",
-            self.baseline_clfrt_displacement_sigma_t,
-            1e6,
-        )?;
-        spread(
-            "fdi.baseline-hbt-speed-sigma-mps",
-            self.baseline_hbt_speed_sigma_mps,
-            100.0,
-        )?;
-        spread(
-            "fdi.baseline-hbt-displacement-sigma-t",
-            self.baseline_hbt_displacement_sigma_t,
-            1e6,
         )?;
         Ok(())
     }

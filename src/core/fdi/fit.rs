@@ -9,8 +9,8 @@
 use crate::core::angle::wrap_pi;
 use crate::core::fdi::config::FdiConfig;
 use crate::core::model::ShipConfig;
+use crate::core::wire::residuals::ModelFitReport;
 use crate::core::wire::Features;
-use serde_json::{json, Value};
 use std::f64::consts::FRAC_PI_2;
 
 /// Two-sided 90 % interval to one standard deviation.
@@ -30,18 +30,17 @@ pub struct ModelFit {
 }
 
 impl ModelFit {
-    /// JSON for the report's `residuals.model_fit`; with the (u, D) the fit implies.
-    pub fn to_json(self, ship: &ShipConfig) -> Value {
+    /// The report's `residuals.model_fit`, with the (u, D) the fit implies.
+    pub fn report(self, ship: &ShipConfig) -> ModelFitReport {
         let u = super::speed_from_a(self.a_per_s, ship);
-        let d = super::displacement_from_b(self.b_per_s2, u, ship);
-        json!({
-            "chi2": self.chi2,
-            "dof": self.dof,
-            "a_per_s": self.a_per_s,
-            "b_per_s2": self.b_per_s2,
-            "speed_mps": u,
-            "displacement_t": d,
-        })
+        ModelFitReport {
+            chi2: self.chi2,
+            dof: self.dof,
+            a_per_s: self.a_per_s,
+            b_per_s2: self.b_per_s2,
+            speed_mps: u,
+            displacement_t: super::displacement_from_b(self.b_per_s2, u, ship),
+        }
     }
 }
 

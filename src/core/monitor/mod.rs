@@ -808,7 +808,7 @@ impl Monitor {
             estimate,
             residuals: assessment
                 .as_ref()
-                .map_or_else(|| serde_json::json!({}), |a| a.residuals.clone()),
+                .map_or_else(Default::default, |a| a.residuals.clone()),
             decision: assessment
                 .as_ref()
                 .map_or(Decision::Inconclusive, |a| a.decision),

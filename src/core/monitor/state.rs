@@ -74,7 +74,7 @@ impl Monitor {
     /// Per method, the commissioning's progress and reference (JSON, the `fdi/commission`
     /// reply).
     pub fn commissioning_status(&self) -> serde_json::Value {
-        self.fdi.commissioning_status()
+        serde_json::to_value(self.fdi.commissioning_status()).unwrap_or_default()
     }
 
     /// Both methods are commissioned (or commissioning is off).

@@ -24,6 +24,7 @@
 use serde::{Deserialize, Serialize};
 
 pub mod features;
+pub mod residuals;
 
 pub use features::Features;
 
@@ -342,8 +343,9 @@ pub struct Report {
     pub features: Features,
     /// Estimated parameters, null for an aborted test or when no estimator is loaded.
     pub estimate: Option<Estimate>,
-    /// Residuals (documented in docs/contract.md).
-    pub residuals: serde_json::Value,
+    /// Residuals (documented in docs/contract.md; `{}` for an aborted test).
+    #[serde(default)]
+    pub residuals: residuals::Residuals,
     /// The decision.
     pub decision: Decision,
     /// Suspected causes.

@@ -31,7 +31,6 @@
 
 use crate::config::Config;
 use crate::core::estimator::Estimator;
-use crate::core::fdi::config::DecisionRule;
 use crate::core::model::SeaState;
 use crate::core::monitor::{Monitor, Output};
 use crate::core::wire::Method;
@@ -230,26 +229,6 @@ pub struct RunOutcome {
     pub error: Option<String>,
 }
 
-fn decision_of(v: Option<&serde_json::Value>) -> Decision {
-    match v.and_then(|v| v.as_str()) {
-        Some("fault") => Decision::Fault,
-        Some("nominal") => Decision::Nominal,
-        _ => Decision::Inconclusive,
-    }
-}
-
-fn causes(v: Option<&serde_json::Value>) -> Vec<Cause> {
-    v.and_then(|v| serde_json::from_value(v.clone()).ok())
-        .unwrap_or_default()
-}
-
-fn num(v: &serde_json::Value, path: &[&str]) -> f64 {
-    path.iter()
-        .try_fold(v, |v, k| v.get(*k))
-        .and_then(serde_json::Value::as_f64)
-        .unwrap_or(f64::NAN)
-}
-
 /// `(median, 99th percentile, max)` of the finite values.
 pub(crate) fn quantiles(mut v: Vec<f64>) -> Option<(f64, f64, f64)> {
     v.retain(|x| x.is_finite());
@@ -262,31 +241,35 @@ pub(crate) fn quantiles(mut v: Vec<f64>) -> Option<(f64, f64, f64)> {
 }
 
 fn outcome_of(r: &Report) -> TestOutcome {
-    let bl = r.residuals.get("baseline");
+    let res = &r.residuals;
+    let bl = res.baseline.as_ref();
+    let nan = f64::NAN;
+    let p = res.parameters.as_ref();
     TestOutcome {
         method: r.method,
         completed: r.outcome == Outcome::Completed,
         decision: r.decision,
         isolation: r.isolation.clone(),
-        baseline_decision: decision_of(bl.and_then(|b| b.get("outcome"))),
-        baseline_isolation: causes(bl.and_then(|b| b.get("isolation"))),
-        q_param: num(&r.residuals, &["decision", "chi2"]),
-        sea_index: num(&r.residuals, &["sea_index"]),
-        fit_chi2: num(&r.residuals, &["model_fit", "chi2"]),
-        q_actuator: num(&r.residuals, &["decision", "chi2_actuator"]),
-        z: [
-            num(&r.residuals, &["parameters", "z_speed"]),
-            num(&r.residuals, &["parameters", "z_displacement"]),
-        ],
-        raw: [
-            "speed_mps",
-            "displacement",
-            "speed_sigma_mps",
-            "displacement_sigma",
-            "speed_log_mps",
-            "dd_du_t_per_mps",
-        ]
-        .map(|k| num(&r.residuals, &["raw", k])),
+        baseline_decision: bl.map_or(Decision::Inconclusive, |b| b.outcome),
+        baseline_isolation: bl.map(|b| b.isolation.clone()).unwrap_or_default(),
+        q_param: p.map_or(nan, |p| p.chi2),
+        sea_index: res.sea_index.unwrap_or(nan),
+        fit_chi2: res.model_fit.as_ref().map_or(nan, |f| f.chi2),
+        q_actuator: res
+            .servo_check
+            .as_ref()
+            .map_or(nan, |s| s.z_rate * s.z_rate),
+        z: p.map_or([nan; 2], |p| [p.z_speed, p.z_displacement]),
+        raw: res.raw.as_ref().map_or([nan; 6], |r| {
+            [
+                r.speed_mps,
+                r.displacement,
+                r.speed_sigma_mps,
+                r.displacement_sigma,
+                r.speed_log_mps,
+                r.dd_du_t_per_mps,
+            ]
+        }),
     }
 }
 
@@ -680,25 +663,19 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
         o.seed, o.runs, o.nominal_runs, cfg.fdi.commissioning_tests, o.tests
     );
     let f = &cfg.fdi;
-    let rule = match f.rule {
-        DecisionRule::ChiSquare => format!(
-            "persistence {}, one-test limits {} and {} (servo check), mean of {} tests limit {}, vessel's window of {} tests limit {}",
-            f.persistence,
-            f.chi2_single_threshold,
-            f.actuator_single_threshold,
-            f.mean_window,
-            f.mean_threshold,
-            f.vessel_window,
-            f.vessel_threshold
-        ),
-        DecisionRule::Cusum => format!("k {}, h {}", f.cusum_k, f.cusum_h),
-        DecisionRule::Glr => format!("window {}, threshold {}", f.glr_window, f.glr_threshold),
-    };
+    let limits = crate::core::fdi::decision::Limits::new(
+        f.false_alarms_per_year,
+        cfg.scheduler.interval_s + cfg.scheduler.steady_time_s,
+        f.window_tests,
+    );
     println!(
-        "rule {} ({rule}), chi2 threshold {}, clear after {}",
-        f.rule.name(),
-        f.chi2_threshold,
-        f.clear_after
+        "decision: window GLR over {} tests of the ship, {} false alarms per vessel-year ({:.2e} per test): limits {:.1} (one method) / {:.1} (both), servo {:.2}",
+        f.window_tests,
+        f.false_alarms_per_year,
+        limits.alpha_test,
+        limits.param[0],
+        limits.param[1],
+        limits.servo
     );
     let schedules: Vec<Vec<Method>> = if o.in_turn {
         vec![o.methods.clone()]

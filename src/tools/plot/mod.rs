@@ -211,7 +211,14 @@ pub fn plot(
                 Some(v) => format!("{v}: residuals of {} reports", reports.len()),
                 None => format!("residuals of {} reports", reports.len()),
             };
-            charts::history(&mut svg, size, &title, &points, cfg.fdi.chi2_threshold)?;
+            // The single-test limit of the sequential test (one method, a window of one).
+            let limit = crate::core::fdi::decision::Limits::new(
+                cfg.fdi.false_alarms_per_year,
+                cfg.scheduler.interval_s + cfg.scheduler.steady_time_s,
+                cfg.fdi.window_tests,
+            )
+            .param[0];
+            charts::history(&mut svg, size, &title, &points, limit)?;
         }
         InputKind::Recording => {
             let trace =
@@ -310,33 +317,31 @@ pub struct HistoryPoint {
     pub t_end: f64,
     /// Its method.
     pub method: Method,
-    /// `residuals.decision.chi2`.
+    /// `residuals.parameters.chi2`: the test's own Mahalanobis chi-square.
     pub chi2: Option<f64>,
     /// `residuals.parameters.z_speed`.
     pub z_speed: Option<f64>,
     /// `residuals.parameters.z_displacement`.
     pub z_disp: Option<f64>,
-    /// `residuals.actuator.z_gain`: the servo's rate shortfall `z_rate` (docs/fdi.md).
+    /// `residuals.servo_check.z_rate`: the servo's rate shortfall (docs/fdi.md).
     pub z_rate: Option<f64>,
 }
 
 /// The residuals of `reports`, in their order.
 pub fn history_points(reports: &[Report]) -> Vec<HistoryPoint> {
-    let num = |v: &Value, path: &[&str]| {
-        path.iter()
-            .try_fold(v, |v, k| v.get(*k))
-            .and_then(Value::as_f64)
-            .filter(|x| x.is_finite())
-    };
+    let finite = |x: f64| x.is_finite().then_some(x);
     reports
         .iter()
-        .map(|r| HistoryPoint {
-            t_end: r.t_end,
-            method: r.method,
-            chi2: num(&r.residuals, &["decision", "chi2"]),
-            z_speed: num(&r.residuals, &["parameters", "z_speed"]),
-            z_disp: num(&r.residuals, &["parameters", "z_displacement"]),
-            z_rate: num(&r.residuals, &["actuator", "z_gain"]),
+        .map(|r| {
+            let p = r.residuals.parameters.as_ref();
+            HistoryPoint {
+                t_end: r.t_end,
+                method: r.method,
+                chi2: p.and_then(|p| finite(p.chi2)),
+                z_speed: p.and_then(|p| finite(p.z_speed)),
+                z_disp: p.and_then(|p| finite(p.z_displacement)),
+                z_rate: r.residuals.servo_check.and_then(|s| finite(s.z_rate)),
+            }
         })
         .collect()
 }

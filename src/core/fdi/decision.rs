@@ -1,0 +1,344 @@
+//! One decision for the vessel: a window GLR over its last tests, both methods, whose limits
+//! follow from one number, `fdi.false-alarms-per-year`.
+//!
+//! ## Model
+//!
+//! Each completed test k of method m gives a whitened parameter residual `z_k = L_k^-1 r_k`
+//! (`L_k L_k' = Sigma_k`, the covariance of the reference it was measured against,
+//! `crate::core::fdi::reference`) and, when it had a servo check, the servo's one-sided score
+//! `z_rate,k >= 0`. For a healthy ship (H0): the `z_k` are independent standard normal 2-vectors
+//! about a reference offset whose error is shared by every test of a method, with covariance
+//! `c_m I` (`c_m = 1/K` for the vessel's reference, 0 for the design's); `z_rate` is a
+//! normal score clipped at 0. A fault that began `n` tests ago (H1(n)) shifts every later
+//! `z_k` of method m by a constant `d_m` (each method sees the fault its own way: the two are
+//! free) and the servo score by a constant `d_s > 0`.
+//!
+//! ## Statistics
+//!
+//! The generalised likelihood ratio of H1(n) against H0, the `d`'s at their maximum
+//! likelihood, is, per channel,
+//!
+//! ```text
+//! T_n = sum_m |sum_{k in last n, method m} z_k|^2 / (n_m (1 + n_m c_m))    chi2 with 2 M_n dof
+//! S_n = sum_{k in last n} z_rate,k / sqrt(n_s)                             N(0, 1) or below
+//! ```
+//!
+//! (`n_m` of the last n tests are of method m, `M_n` methods among them; the servo's clip at 0
+//! makes `S_n` stochastically smaller than a normal score: conservative). A test measured on
+//! wide design limits (commissioning, outside the commissioned speed band) enters only its
+//! own look, `n = 1`: its residual is the model's bias on this ship, the same at every test,
+//! and no average shrinks it.
+//!
+//! ## Limits from the budget
+//!
+//! With `F = fdi.false-alarms-per-year` and the scheduler's test rate `N_y = 365.25 x 86400 /
+//! (scheduler.interval-s + scheduler.steady-time-s)` tests a year (at most: a test's own
+//! duration is left out, so the rate is over-counted and the limits err high), each test may
+//! raise a false alarm with probability `alpha = F / N_y`, split evenly over the two channels
+//! and the `N = fdi.window-tests` window lengths (Bonferroni: the looks overlap, so the true
+//! rate is below the budget):
+//!
+//! ```text
+//! alpha_n = alpha / (2 N)
+//! T_n > h_n = chi2_{2 M_n}^-1(1 - alpha_n)        S_n > g = Phi^-1(1 - alpha_n)
+//! ```
+//!
+//! Defaults (F = 0.1, 3720 s, N = 4): `alpha = 1.18e-5`, `alpha_n = 1.47e-6`, `h = 26.9` (one
+//! method) / 32.9 (both), `g = 4.67`. A look over its limit raises the alarm at once; the
+//! evidence is spent (the window empties), so the alarm holds on new tests or clears after N
+//! tests in a row under the alert limits, which are the same statistics at a thousand times
+//! the per-look probability (`alpha_n x 1000`: `h = 13.1` / 18.8, `g = 2.98`): an alert says
+//! evidence is building.
+//!
+//! What the arithmetic does not cover: residuals that are not Gaussian (heavy tails of a hull
+//! unlike the training model), a covariance learned from few tests (the K-sample factor
+//! makes it right on average, not for every vessel), and serial correlation of the sea.
+//! The family suite counts false alarms on simulated ships directly; `helmwatch bench
+//! --false-alarms` checks the arithmetic by Monte Carlo on the model itself.
+
+use super::isolation;
+use super::stats::{chi2_isf_even, normal_isf};
+use crate::core::wire::residuals::{Look, TrackState};
+use crate::core::wire::{Cause, Method};
+use serde::{Deserialize, Serialize};
+use std::collections::VecDeque;
+
+/// Seconds in a year (365.25 days).
+pub const YEAR_S: f64 = 365.25 * 86400.0;
+
+/// The alert limits' per-look probability over the alarm's.
+pub const ALERT_FACTOR: f64 = 1000.0;
+
+/// The limits of the sequential test, from the budget.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Limits {
+    /// N: the longest window [tests].
+    pub window: usize,
+    /// `alpha_n`: each look's false-alarm probability.
+    pub alpha_look: f64,
+    /// `h_n` for one method in the window, both.
+    pub param: [f64; 2],
+    /// The alert limits, likewise.
+    pub param_alert: [f64; 2],
+    /// `g`.
+    pub servo: f64,
+    /// The servo's alert limit.
+    pub servo_alert: f64,
+    /// `alpha`: per test, both channels.
+    pub alpha_test: f64,
+}
+
+impl Limits {
+    /// The limits for `false_alarms_per_year` at one test every `test_period_s` seconds
+    /// over windows of up to `window` tests.
+    pub fn new(false_alarms_per_year: f64, test_period_s: f64, window: u32) -> Self {
+        let tests_per_year = YEAR_S / test_period_s.max(1.0);
+        let alpha_test = (false_alarms_per_year / tests_per_year).min(0.5);
+        let n = window.max(1) as usize;
+        let alpha_look = alpha_test / (2.0 * n as f64);
+        let alert = (alpha_look * ALERT_FACTOR).min(0.5);
+        Self {
+            window: n,
+            alpha_look,
+            param: [chi2_isf_even(alpha_look, 2), chi2_isf_even(alpha_look, 4)],
+            param_alert: [chi2_isf_even(alert, 2), chi2_isf_even(alert, 4)],
+            servo: normal_isf(alpha_look),
+            servo_alert: normal_isf(alert),
+            alpha_test,
+        }
+    }
+}
+
+/// One test in the vessel's window.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Entry {
+    /// Its method.
+    pub method: Method,
+    /// The whitened parameter residual (`None`: none measured).
+    pub z: Option<[f64; 2]>,
+    /// The reference offset's relative error `c` (`None`: wide design limits).
+    pub offset_var: Option<f64>,
+    /// The reference it was measured against (a new one for the method drops its older
+    /// tests from the window).
+    pub epoch: u32,
+    /// The whitened directions of the parameter causes (speed log, displacement).
+    pub directions: [[f64; 2]; 2],
+    /// The servo check's score (`None`: no servo check).
+    pub z_rate: Option<f64>,
+}
+
+/// Which tests of the window a look covers, and its statistic.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Scored {
+    /// The look.
+    pub look: Look,
+    /// How many of the newest entries it covers.
+    pub n: usize,
+}
+
+/// The vessel's decision state.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Sequential {
+    /// The last tests, newest last (at most N).
+    pub window: VecDeque<Entry>,
+    /// The state after the last test.
+    pub state: TrackState,
+    /// Tests in a row under the alert limits while in alarm.
+    pub quiet_run: u32,
+    /// The causes named when the alarm was raised (or last confirmed), kept while it holds.
+    pub named: Vec<Cause>,
+}
+
+/// What one test did to the decision.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Step {
+    /// The state after it.
+    pub state: TrackState,
+    /// The parameter look nearest its limit (largest `T / h`).
+    pub param: Option<Scored>,
+    /// The servo look nearest its limit.
+    pub servo: Option<Scored>,
+    /// The look that raised the alarm at this test: the parameter channel's (`false`) or the
+    /// servo's (`true`); `None`: no alarm raised here.
+    pub raised_by_servo: Option<bool>,
+    /// The suspected causes after it (empty when normal).
+    pub isolation: Vec<Cause>,
+}
+
+impl Sequential {
+    /// Takes one completed test; `limits` from the budget.
+    pub fn update(&mut self, limits: &Limits, entry: Entry) -> Step {
+        // One reference per method in the window.
+        self.window
+            .retain(|e| e.method != entry.method || e.epoch == entry.epoch);
+        self.window.push_back(entry);
+        while self.window.len() > limits.window {
+            self.window.pop_front();
+        }
+        let param = self.param_look(limits);
+        let servo = self.servo_look(limits);
+        let over = |s: Option<Scored>| s.is_some_and(|s| s.look.statistic > s.look.threshold);
+        let alert =
+            |s: Option<Scored>| s.is_some_and(|s| s.look.statistic > s.look.alert_threshold);
+        let (p_over, s_over) = (over(param), over(servo));
+        let before = self.state;
+        let mut raised_by_servo = None;
+        // The cause the current evidence names: the channel nearest (or furthest over) its
+        // limit; the parameter causes from the same tests as the parameter look.
+        let current = if servo.is_some() && ratio(servo) >= ratio(param) {
+            vec![Cause::SteeringActuator]
+        } else {
+            param
+                .map(|p| isolation::name(&self.window, p.n))
+                .unwrap_or_default()
+        };
+        if p_over || s_over {
+            if before != TrackState::Alarm {
+                raised_by_servo = Some((s_over && !p_over) || ratio(servo) > ratio(param));
+            }
+            self.named = current.clone();
+            self.state = TrackState::Alarm;
+            self.quiet_run = 0;
+            // The evidence is spent on this alarm: it holds, or clears, on tests to come.
+            self.window.clear();
+        } else if alert(param) || alert(servo) {
+            self.quiet_run = 0;
+            if before != TrackState::Alarm {
+                self.state = TrackState::Alert;
+            }
+        } else {
+            self.quiet_run += 1;
+            if before != TrackState::Alarm || self.quiet_run >= limits.window as u32 {
+                self.state = TrackState::Normal;
+            }
+        }
+        let isolation = match self.state {
+            TrackState::Normal => {
+                self.named.clear();
+                Vec::new()
+            }
+            TrackState::Alert => current,
+            TrackState::Alarm => self.named.clone(),
+        };
+        Step {
+            state: self.state,
+            param,
+            servo,
+            raised_by_servo,
+            isolation,
+        }
+    }
+
+    /// The parameter look nearest its limit.
+    fn param_look(&self, limits: &Limits) -> Option<Scored> {
+        let newest = self.window.back()?;
+        let mut best: Option<Scored> = None;
+        for n in 1..=self.window.len() {
+            let Some((t, methods)) = param_statistic(&self.window, n) else {
+                continue;
+            };
+            let m = methods.clamp(1, 2);
+            let look = Look {
+                statistic: t,
+                window: n,
+                dof: 2 * m,
+                threshold: limits.param[m - 1],
+                alert_threshold: limits.param_alert[m - 1],
+            };
+            let s = Scored { look, n };
+            if best.is_none_or(|b| ratio(Some(s)) > ratio(Some(b))) {
+                best = Some(s);
+            }
+        }
+        // A newest test on wide limits has only its own look.
+        if newest.offset_var.is_none() {
+            return param_statistic(&self.window, 1).map(|(t, _)| Scored {
+                look: Look {
+                    statistic: t,
+                    window: 1,
+                    dof: 2,
+                    threshold: limits.param[0],
+                    alert_threshold: limits.param_alert[0],
+                },
+                n: 1,
+            });
+        }
+        best
+    }
+
+    /// The servo look nearest its limit.
+    fn servo_look(&self, limits: &Limits) -> Option<Scored> {
+        self.window.back()?.z_rate?;
+        let mut best: Option<Scored> = None;
+        let (mut sum, mut count) = (0.0, 0usize);
+        for (i, e) in self.window.iter().rev().enumerate() {
+            if let Some(z) = e.z_rate {
+                sum += z;
+                count += 1;
+            }
+            if count == 0 {
+                continue;
+            }
+            let s = Scored {
+                look: Look {
+                    statistic: sum / (count as f64).sqrt(),
+                    window: i + 1,
+                    dof: 1,
+                    threshold: limits.servo,
+                    alert_threshold: limits.servo_alert,
+                },
+                n: i + 1,
+            };
+            if best.is_none_or(|b| ratio(Some(s)) > ratio(Some(b))) {
+                best = Some(s);
+            }
+        }
+        best
+    }
+}
+
+/// `T / h` of a look (0 without one).
+fn ratio(s: Option<Scored>) -> f64 {
+    s.map_or(0.0, |s| s.look.statistic / s.look.threshold)
+}
+
+/// The per-method sums of the newest `n` entries' whitened residuals, with their counts and
+/// offset errors (`n = 1`: the newest alone, wide or not; `n > 1`: entries on wide limits
+/// left out).
+pub fn method_sums(window: &VecDeque<Entry>, n: usize) -> Vec<(Method, [f64; 2], usize, f64)> {
+    let mut out: Vec<(Method, [f64; 2], usize, f64)> = Vec::new();
+    for e in window.iter().rev().take(n) {
+        let Some(z) = e.z else { continue };
+        let c = match (e.offset_var, n) {
+            (Some(c), _) => c,
+            (None, 1) => 0.0,
+            (None, _) => continue,
+        };
+        match out.iter_mut().find(|o| o.0 == e.method) {
+            Some(o) => {
+                o.1[0] += z[0];
+                o.1[1] += z[1];
+                o.2 += 1;
+            }
+            None => out.push((e.method, z, 1, c)),
+        }
+    }
+    out
+}
+
+/// `T_n` and the number of methods in it (`None`: no parameter residual among the newest n).
+fn param_statistic(window: &VecDeque<Entry>, n: usize) -> Option<(f64, usize)> {
+    let sums = method_sums(window, n);
+    if sums.is_empty() {
+        return None;
+    }
+    let t: f64 = sums
+        .iter()
+        .map(|(_, s, k, c)| {
+            let k = *k as f64;
+            (s[0] * s[0] + s[1] * s[1]) / (k * (1.0 + k * c))
+        })
+        .sum();
+    t.is_finite().then_some((t, sums.len()))
+}

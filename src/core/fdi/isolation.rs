@@ -1,0 +1,108 @@
+//! Isolation: which cause explains the window's evidence best.
+//!
+//! Each parameter cause moves a method's raw residual `(e_u [m/s], e_D [fraction])` along a
+//! direction of its own:
+//!
+//! - a speed-log bias `beta`: `e_u` by `-beta` (the log is the speed residual's reference) and
+//!   `e_D` by `g beta / D_nom` (the displacement network reads the log; `g = dD_est/du_log`,
+//!   through the network at this test): `v_log = (-1, g / D_nom)`;
+//! - a displacement change or a rudder effectiveness loss (both lower `b`; nothing in the
+//!   features tells them apart): `v_D = (0, 1)`.
+//!
+//! Whitened with the test's covariance, `v~ = L^-1 v`. Under "cause c began within the
+//! look's n tests, with a size of its own for each method", the log-likelihood ratio against
+//! the unconstrained shift is the part of each method's summed residual off the cause's
+//! line:
+//!
+//! ```text
+//! J_c = sum_m |s_m - (u_mc . s_m) u_mc|^2 / (n_m (1 + n_m c_m)),   u_mc = unit(mean of v~)
+//! ```
+//!
+//! (`s_m` the sum of method m's whitened residuals in the look, as in the decision). The
+//! cause with the smallest `J_c` is named. The servo channel names `steering_actuator` by
+//! itself (`crate::core::fdi::decision`): one fault at a time, and a slow servo also moves
+//! the parameter residuals (its lag changes the loop the networks learned), which the servo
+//! check measures directly.
+
+use super::decision::Entry;
+use crate::core::wire::{Cause, Method};
+use std::collections::VecDeque;
+
+/// The parameter causes in the order of [`Entry::directions`].
+pub const PARAMETER_CAUSES: [Cause; 2] =
+    [Cause::SpeedLog, Cause::DisplacementOrRudderEffectiveness];
+
+/// One method's part of a look: the sum of its whitened residuals and of its tests' unit
+/// directions, its tests and its offset's relative error.
+struct MethodSums {
+    method: Method,
+    sum: [f64; 2],
+    directions: [[f64; 2]; 2],
+    tests: usize,
+    offset_var: f64,
+}
+
+/// The per-cause costs `J_c` of the newest `n` entries.
+pub fn costs(window: &VecDeque<Entry>, n: usize) -> [f64; 2] {
+    let mut per: Vec<MethodSums> = Vec::new();
+    for e in window.iter().rev().take(n) {
+        let Some(z) = e.z else { continue };
+        let c = match (e.offset_var, n) {
+            (Some(c), _) => c,
+            (None, 1) => 0.0,
+            (None, _) => continue,
+        };
+        let d = e.directions.map(unit);
+        match per.iter_mut().find(|p| p.method == e.method) {
+            Some(p) => {
+                for i in 0..2 {
+                    p.sum[i] += z[i];
+                    for (acc, di) in p.directions.iter_mut().zip(&d) {
+                        acc[i] += di[i];
+                    }
+                }
+                p.tests += 1;
+            }
+            None => per.push(MethodSums {
+                method: e.method,
+                sum: z,
+                directions: d,
+                tests: 1,
+                offset_var: c,
+            }),
+        }
+    }
+    let mut j = [0.0; 2];
+    for p in per {
+        let k = p.tests as f64;
+        let scale = k * (1.0 + k * p.offset_var);
+        let s = p.sum;
+        for (cost, dir) in j.iter_mut().zip(p.directions) {
+            let u = unit(dir);
+            let along = u[0] * s[0] + u[1] * s[1];
+            let off = (s[0] * s[0] + s[1] * s[1] - along * along).max(0.0);
+            *cost += off / scale;
+        }
+    }
+    j
+}
+
+/// The parameter cause the newest `n` entries name.
+pub fn name(window: &VecDeque<Entry>, n: usize) -> Vec<Cause> {
+    let j = costs(window, n);
+    if !(j[0].is_finite() && j[1].is_finite()) {
+        return Vec::new();
+    }
+    let best = if j[0] < j[1] { 0 } else { 1 };
+    vec![PARAMETER_CAUSES[best]]
+}
+
+/// `v / |v|` (0 stays 0).
+fn unit(v: [f64; 2]) -> [f64; 2] {
+    let n = (v[0] * v[0] + v[1] * v[1]).sqrt();
+    if n > 0.0 && n.is_finite() {
+        [v[0] / n, v[1] / n]
+    } else {
+        [0.0, 0.0]
+    }
+}

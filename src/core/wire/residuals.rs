@@ -1,0 +1,231 @@
+//! A report's `residuals`: what the FDI measured on a completed test, typed.
+//!
+//! One struct per group, one name per quantity, every field present only when it was
+//! measured (`None` is left out of the JSON). An aborted test's report carries the empty
+//! object `{}`. The model behind the numbers is in `crate::core::fdi` and docs/fdi.md; the
+//! key list is docs/contract.md's, checked against these types by a test.
+//!
+//! Units: raw and reference residuals carry their units in their names (`_mps`, `_t`) or are
+//! fractions of the nominal displacement (`displacement`, no suffix); `z_*` and `chi2`,
+//! `statistic` are dimensionless (normalised by the reference's spread).
+
+use crate::core::wire::{Cause, Decision};
+use serde::{Deserialize, Serialize};
+
+/// The report's `residuals`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Residuals {
+    /// The sea index in force [deg of wave yaw] (`None`: the test had no wave yaw).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sea_index: Option<f64>,
+    /// Where the index sits between the calm (0) and moderate (1) anchors (up to 3).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sea_fraction: Option<f64>,
+    /// The nominal displacement in force [t].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub displacement_nominal_t: Option<f64>,
+    /// The residuals against the design, before any reference (what commissioning samples).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub raw: Option<RawResiduals>,
+    /// The parameter residuals against the reference in force.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub parameters: Option<ParameterResiduals>,
+    /// The servo check (both methods).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub servo_check: Option<ServoCheck>,
+    /// The CLFRT model fit.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub model_fit: Option<ModelFitReport>,
+    /// Present when the model fit says the ship is outside the trained family.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub model_mismatch: Option<ModelMismatch>,
+    /// The reference the test was measured against.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reference: Option<ReferenceReport>,
+    /// The vessel's sequential test after this test.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub decision: Option<DecisionReport>,
+    /// The equation-error baseline's residuals and decision (comparison only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub baseline: Option<BaselineReport>,
+    /// The servo time constant configured [s].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub servo_time_constant_s: Option<f64>,
+}
+
+impl Residuals {
+    /// The empty object of an aborted test or a test without residuals.
+    pub fn is_empty(&self) -> bool {
+        *self == Self::default()
+    }
+}
+
+/// Residuals against the design (see `crate::core::fdi::reference`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RawResiduals {
+    /// `e_u = u_est - u_log - m_u` [m/s].
+    pub speed_mps: f64,
+    /// `e_D = (D_est - D_nom - m_D) / D_nom` [fraction].
+    pub displacement: f64,
+    /// The design spread of `e_u` at this test's sea [m/s].
+    pub speed_sigma_mps: f64,
+    /// The design spread of `e_D` [fraction].
+    pub displacement_sigma: f64,
+    /// The mean speed log over the test [m/s].
+    pub speed_log_mps: f64,
+    /// `dD_est / du_log` through the displacement network [t per m/s].
+    pub dd_du_t_per_mps: f64,
+}
+
+/// Parameter residuals against the reference in force.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ParameterResiduals {
+    /// `r_u` [m/s].
+    pub speed_mps: f64,
+    /// Its standard deviation under the reference [m/s].
+    pub speed_sigma_mps: f64,
+    /// `r_u / speed_sigma_mps`.
+    pub z_speed: f64,
+    /// `r_D` [t].
+    pub displacement_t: f64,
+    /// Its standard deviation [t].
+    pub displacement_sigma_t: f64,
+    /// `r_D / displacement_sigma_t`.
+    pub z_displacement: f64,
+    /// The correlation of the two under the reference.
+    pub correlation: f64,
+    /// `r' Sigma^-1 r`: the test's own Mahalanobis chi-square (2 degrees of freedom).
+    pub chi2: f64,
+}
+
+/// The servo check: the rudder's measured rate against the healthy servo's.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ServoCheck {
+    /// `rho`: measured rate over the healthy servo's.
+    pub rate_ratio: f64,
+    /// `max(0, 1 - rho) / fdi.actuator-rate-sigma`.
+    pub z_rate: f64,
+}
+
+/// The CLFRT model fit (a first-order Nomoto model through the three tones).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ModelFitReport {
+    /// Chi-square of the fit.
+    pub chi2: f64,
+    /// Its degrees of freedom.
+    pub dof: usize,
+    /// Fitted `a` [1/s].
+    pub a_per_s: f64,
+    /// Fitted `b` [1/s^2].
+    pub b_per_s2: f64,
+    /// The speed `a` gives [m/s].
+    pub speed_mps: f64,
+    /// The displacement `b` and that speed give [t].
+    pub displacement_t: f64,
+}
+
+/// The `model_mismatch` warning (never a decision).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModelMismatch {
+    /// The model fit's chi-square.
+    pub chi2: f64,
+    /// `fdi.model-mismatch-chi2`.
+    pub threshold: f64,
+    /// What to do.
+    pub advice: String,
+}
+
+/// Which reference a test was measured against.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ReferenceKind {
+    /// The design's (no commissioning configured).
+    Design,
+    /// Commissioning: the design's, with wide limits.
+    Commissioning,
+    /// The vessel's own.
+    Commissioned,
+    /// The vessel's own exists, the speed is outside its band: wide limits.
+    OutsideCommissionedBand,
+}
+
+/// The reference a test was measured against.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ReferenceReport {
+    /// Which.
+    pub kind: ReferenceKind,
+    /// E.g. `commissioning 3 of 8`.
+    pub text: String,
+    /// Tests in the commissioning sample.
+    pub tests: u32,
+    /// Tests commissioning takes.
+    pub of: u32,
+    /// The reference's speed offset [m/s].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub speed_offset_mps: Option<f64>,
+    /// The reference's displacement offset [t] at the nominal displacement in force.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub displacement_offset_t: Option<f64>,
+    /// The correlation of speed and displacement errors in the commissioning sample.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub correlation: Option<f64>,
+    /// The commissioning's mean speed log [m/s].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub speed_log_mps: Option<f64>,
+}
+
+/// The vessel's sequential test after this test (`crate::core::fdi::decision`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DecisionReport {
+    /// The track's state after the test.
+    pub state: TrackState,
+    /// The parameter channel's look nearest its limit (`None`: no parameter residuals yet).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub parameters: Option<Look>,
+    /// The servo channel's look nearest its limit.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub servo: Option<Look>,
+    /// The per-look false-alarm probability the limits were set for (both channels).
+    pub false_alarm_per_test: f64,
+}
+
+/// One channel's window statistic.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Look {
+    /// `T_n` (parameters: chi-square; servo: a one-sided normal score).
+    pub statistic: f64,
+    /// `n`: tests of the ship in the window.
+    pub window: usize,
+    /// Degrees of freedom (parameters: 2 per method in the window; servo: 1).
+    pub dof: usize,
+    /// The alarm limit for this window.
+    pub threshold: f64,
+    /// The alert limit for this window.
+    pub alert_threshold: f64,
+}
+
+/// A track's alarm state.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TrackState {
+    /// Nothing over the limits lately.
+    #[default]
+    Normal,
+    /// Over the alert limit, not the alarm's.
+    Alert,
+    /// Over the alarm limit: a fault.
+    Alarm,
+}
+
+/// The equation-error baseline (comparison only; never drives the alarm).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BaselineReport {
+    /// Its parameter residuals against the design (`None`: no estimate).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub parameters: Option<ParameterResiduals>,
+    /// Its one-test decision at the same per-test limit.
+    pub outcome: Decision,
+    /// Its cause.
+    pub isolation: Vec<Cause>,
+}
