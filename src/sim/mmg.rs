@@ -47,8 +47,9 @@
 //! v_R = U gamma_R beta_R,   beta_R = beta - l_R' r',   gamma_R = 0.640 (beta_R > 0), 0.395 (beta_R <= 0)
 //! ```
 //!
-//! u_R is evaluated as `eps sqrt(eta (u_P + kappa (sqrt(u_P^2 + 8 K_T (n_P D_P)^2 / pi) - u_P))^2
-//! + (1 - eta) u_P^2)`, u_P = u (1 - w_P), the same expression without the 1/J_P singularity.
+//! u_R is evaluated as
+//! `eps sqrt(eta (u_P + kappa (sqrt(u_P^2 + 8 K_T (n_P D_P)^2 / pi) - u_P))^2 + (1 - eta) u_P^2)`,
+//! u_P = u (1 - w_P), the same expression without the 1/J_P singularity.
 //! Positive delta turns the ship to starboard (r > 0), as on the Nomoto hull.
 //!
 //! ## Constants (Y&Y Tables 1-3, KVLCC2 model, scale 1/45.7: L_pp = 7.00 m)
