@@ -331,8 +331,8 @@ fn displacement_fault_reaches_the_mmg_mass() {
     approx::assert_relative_eq!(heavy.displacement_t, 8400.0, max_relative = 1e-12);
 }
 
-/// The frequency response on the stable side: around a steady 0.1 deg starboard turn (beta_R
-/// > 0 throughout, the linear range), a 0.05 deg rudder sine at 0.03 and 0.15 rad/s (either
+/// The frequency response on the stable side: around a steady 0.1 deg starboard turn
+/// (beta_R positive throughout, the linear range), a 0.05 deg rudder sine at 0.03 and 0.15 rad/s (either
 /// side of the hull's fast pole and zero, 1/T3 = 0.065 rad/s) gives a turn-rate first
 /// harmonic within 2 % in gain and 1 deg in phase of the starboard linear model's
 /// K (1 + j w T3) / ((1 + j w T1)(1 + j w T2)). The test can tell: the gain falls by a factor
