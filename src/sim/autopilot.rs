@@ -234,8 +234,14 @@ impl AutopilotConfig {
 
     fn gains_for(&self, ship: &ShipConfig, speed_mps: f64) -> PidGains {
         let (a, b) = ship.nomoto(speed_mps, ship.nominal_displacement_t);
-        let t = 1.0 / a;
-        let k = b / a;
+        self.gains_for_first_order(b / a, 1.0 / a)
+    }
+
+    /// Gains by pole placement for a ship whose first-order Nomoto model is K = `k_per_s`,
+    /// T = `t_s` (how the simulator tunes the autopilot on a hull that is no Nomoto ship,
+    /// from that hull's own linearised model), with overrides applied.
+    pub fn gains_for_first_order(&self, k_per_s: f64, t_s: f64) -> PidGains {
+        let (k, t) = (k_per_s, t_s);
         let wn = self.natural_frequency_rad_s;
         let kp = self.kp.unwrap_or(t / k * wn * wn);
         let td_s = self

@@ -265,6 +265,23 @@ pub struct StructureConfig {
     /// Backlash between the servo and the rudder blade (total play) [deg], [0, 5]. The
     /// rudder-angle sensor reads the blade.
     pub rudder_backlash_deg: f64,
+    /// The hull model: `nomoto` (the equation above) or `kvlcc2-mmg`, the surge-sway-yaw MMG
+    /// model of the KVLCC2 tanker ([`crate::sim::mmg`]), which replaces the Nomoto hull (its
+    /// T2, T3 and n3 must then be 0; dead band and backlash still apply).
+    pub hull: HullModel,
+    /// Length the MMG hull is scaled to by Froude similarity [m], [10, 400].
+    pub mmg_length_m: f64,
+}
+
+/// Which hull the simulator integrates.
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum HullModel {
+    /// Nomoto's yaw equation (first or second order, Norrbin damping).
+    #[default]
+    Nomoto,
+    /// The MMG standard model of KVLCC2 (Yasukawa & Yoshimura 2015), Froude-scaled.
+    Kvlcc2Mmg,
 }
 
 impl Default for StructureConfig {
@@ -275,6 +292,8 @@ impl Default for StructureConfig {
             norrbin_n3_s2: 0.0,
             rudder_dead_band_deg: 0.0,
             rudder_backlash_deg: 0.0,
+            hull: HullModel::Nomoto,
+            mmg_length_m: 120.0,
         }
     }
 }
@@ -306,12 +325,32 @@ impl StructureConfig {
             0.0,
             5.0,
         )?;
+        check_range("structure.mmg-length-m", self.mmg_length_m, 10.0, 400.0)?;
+        if self.hull == HullModel::Kvlcc2Mmg {
+            for (key, value) in [
+                ("structure.nomoto-t2-ratio", self.nomoto_t2_ratio),
+                ("structure.nomoto-t3-ratio", self.nomoto_t3_ratio),
+                ("structure.norrbin-n3-s2", self.norrbin_n3_s2),
+            ] {
+                if value != 0.0 {
+                    return Err(crate::core::config::fail(
+                        key,
+                        value,
+                        "0 with structure.hull = \"kvlcc2-mmg\" (the MMG hull replaces the Nomoto one)",
+                    ));
+                }
+            }
+        }
         Ok(())
     }
 
-    /// Whether the hull is the exact first-order model (no T2, T3 or cubic damping).
+    /// Whether the hull is the exact first-order model (the Nomoto hull without T2, T3 or
+    /// cubic damping).
     pub fn first_order_hull(&self) -> bool {
-        self.nomoto_t2_ratio == 0.0 && self.nomoto_t3_ratio == 0.0 && self.norrbin_n3_s2 == 0.0
+        self.hull == HullModel::Nomoto
+            && self.nomoto_t2_ratio == 0.0
+            && self.nomoto_t3_ratio == 0.0
+            && self.norrbin_n3_s2 == 0.0
     }
 }
 
@@ -338,8 +377,9 @@ impl FamilyMember {
 }
 
 /// The family of ships of the real-ships issue, each nuisance alone at two strengths (the
-/// upper one the acceptance bound: T2/T1 0.1, T3/T1 0.25, dead band 1 deg), then all at once.
-/// The first member is the first-order ship the estimator was designed on.
+/// upper one the acceptance bound: T2/T1 0.1, T3/T1 0.25, dead band 1 deg), then all at once,
+/// then a hull that is no Nomoto equation at all: KVLCC2's surge-sway-yaw MMG model scaled to
+/// the family's 120 m. The first member is the first-order ship the estimator was designed on.
 pub fn family() -> Vec<FamilyMember> {
     let s = |t2, t3, n3, db, bl| StructureConfig {
         nomoto_t2_ratio: t2,
@@ -347,6 +387,7 @@ pub fn family() -> Vec<FamilyMember> {
         norrbin_n3_s2: n3,
         rudder_dead_band_deg: db,
         rudder_backlash_deg: bl,
+        ..StructureConfig::default()
     };
     let m = |name, structure, fixed_gain_autopilot| FamilyMember {
         name,
@@ -381,6 +422,15 @@ pub fn family() -> Vec<FamilyMember> {
             s(0.1, 0.25, 30000.0, 1.0, 1.0),
             true,
         ),
+        m(
+            "KVLCC2 MMG 120 m",
+            StructureConfig {
+                hull: HullModel::Kvlcc2Mmg,
+                mmg_length_m: 120.0,
+                ..StructureConfig::default()
+            },
+            false,
+        ),
     ]
 }
 
@@ -406,6 +456,7 @@ pub fn draw_family_member(rng: &mut impl rand::Rng) -> FamilyMember {
         norrbin_n3_s2: draw(30000.0),
         rudder_dead_band_deg: draw(1.0),
         rudder_backlash_deg: draw(1.0),
+        ..StructureConfig::default()
     };
     FamilyMember {
         name: "drawn",

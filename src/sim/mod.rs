@@ -19,7 +19,12 @@
 //! ```
 //!
 //! e is the rudder effectiveness (1 nominal), beta the sea's rudder-equivalent bias
-//! ([`sea`]). Sensors at each tick, with white noise n_* of the configured std:
+//! ([`sea`]). With `structure.hull = "kvlcc2-mmg"` the hull is instead the surge-sway-yaw MMG
+//! model of KVLCC2 ([`mmg`]): the rudder delta drives it, e scales its rudder normal force,
+//! beta acts as the straight-running rudder force and moment of that angle, D / D_nom scales
+//! its mass and yaw inertia, the speed log reads its surge speed, and the autopilot is tuned
+//! by the same pole placement on its own linearised first-order model. Sensors at each tick,
+//! with white noise n_* of the configured std:
 //!
 //! ```text
 //! heading = wrap_2pi(psi + wave + drift + n_h)       [rad, 0 .. 2 pi)
@@ -47,6 +52,7 @@
 pub mod autopilot;
 pub mod config;
 pub mod fault;
+pub mod mmg;
 mod record;
 pub mod sea;
 pub mod servo;
@@ -62,6 +68,7 @@ use crate::core::model::{SeaState, ShipConfig};
 use crate::core::wire::{Excitation, Input, Scalar, StateValue};
 use crate::sim::config::SimConfig;
 use fault::Effects;
+use mmg::{MmgHull, MmgInput, Side};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -91,6 +98,9 @@ pub enum SimError {
     /// The wave filter cannot be discretised at this step.
     #[error(transparent)]
     Wave(#[from] sea::WaveDiscretisationError),
+    /// The MMG hull cannot be built for this scenario.
+    #[error(transparent)]
+    Mmg(#[from] mmg::MmgError),
     /// Writing a recording failed.
     #[error("writing the recording: {0}")]
     Io(#[from] std::io::Error),
@@ -193,15 +203,18 @@ pub struct Truth {
     pub wave_rad: f64,
     /// Heading sensor drift on the measurement [rad].
     pub drift_rad: f64,
-    /// Nomoto a [1/s] in force.
+    /// Nomoto a [1/s] in force (the MMG hull: 1/T of its linearised first-order model,
+    /// starboard side).
     pub a_per_s: f64,
-    /// Nomoto b [1/s^2] in force (with the displacement fault, without the effectiveness).
+    /// Nomoto b [1/s^2] in force (with the displacement fault, without the effectiveness;
+    /// the MMG hull: K/T of its linearised first-order model, starboard side).
     pub b_per_s2: f64,
     /// Rudder effectiveness e in force (1 nominal).
     pub rudder_effectiveness: f64,
     /// Servo rate limit in force [rad/s].
     pub servo_rate_rad_s: f64,
-    /// True speed through water [m/s].
+    /// True speed through water [m/s] (the MMG hull: its surge speed u, which drops in a
+    /// turn; else the scenario's).
     pub speed_mps: f64,
     /// True displacement in force [t].
     pub displacement_t: f64,
@@ -247,6 +260,10 @@ pub struct Ship {
     /// The hull's structure beyond the first order, and the state it adds (None: the exact
     /// first-order hull).
     general: Option<(config::StructureConfig, GeneralHull)>,
+    /// The MMG hull, when `structure.hull = "kvlcc2-mmg"` (heading and turn rate are copied
+    /// into `hull` after every piece), and the nominal displacement its mass refers to [t].
+    mmg: Option<MmgHull>,
+    nominal_displacement_t: f64,
     servo: Servo,
     /// Play between the servo and the blade (None: none).
     backlash: Option<Backlash>,
@@ -318,7 +335,15 @@ impl Ship {
             psi_rad: wrap_2pi(course),
             r_rad_s: 0.0,
         };
-        let general = (!st.first_order_hull()).then(|| {
+        let mmg = match st.hull {
+            config::HullModel::Kvlcc2Mmg => Some(MmgHull::new(
+                st.mmg_length_m,
+                scenario.speed_mps,
+                hull.psi_rad,
+            )?),
+            config::HullModel::Nomoto => None,
+        };
+        let general = (!st.first_order_hull() && mmg.is_none()).then(|| {
             let s = Structure::new(
                 a,
                 b,
@@ -330,8 +355,24 @@ impl Ship {
         });
         let backlash = (st.rudder_backlash_deg > 0.0)
             .then(|| Backlash::new(deg(st.rudder_backlash_deg), trim));
+        // On the MMG hull the autopilot is tuned by the same pole placement on that hull's own
+        // linearised first-order model (at the nominal displacement; at the nominal speed too
+        // when it has fixed gains), as it would be commissioned on its ship.
+        let gains = match &mmg {
+            Some(m) => {
+                let tuned = match cfg.autopilot.speed_scheduling {
+                    true => m.clone(),
+                    false => {
+                        MmgHull::new(st.mmg_length_m, cfg.ship.nominal_speed_mps, hull.psi_rad)?
+                    }
+                };
+                let (k, t) = tuned.linear(Side::Starboard, 1.0, 1.0).first_order();
+                cfg.autopilot.gains_for_first_order(k, t)
+            }
+            None => cfg.autopilot.gains_at(&cfg.ship, scenario.speed_mps),
+        };
         let autopilot = Autopilot::new(
-            cfg.autopilot.gains_at(&cfg.ship, scenario.speed_mps),
+            gains,
             cfg.autopilot.wave_filter_rad_s,
             max,
             course,
@@ -353,6 +394,8 @@ impl Ship {
             a_per_s: a,
             hull,
             general,
+            mmg,
+            nominal_displacement_t: cfg.ship.nominal_displacement_t,
             servo: Servo::new(
                 max,
                 cfg.servo.max_rate_rad_s(),
@@ -409,7 +452,7 @@ impl Ship {
         let n_heading = normal(&mut self.rng);
         let m = Measurement {
             rudder_rad: self.rudder_rad() + self.rudder_noise_rad * n_rudder,
-            speed_mps: self.speed_mps * fx.speed_log_scale
+            speed_mps: self.true_speed_mps() * fx.speed_log_scale
                 + fx.speed_log_bias_mps
                 + self.speed_noise_mps * n_speed,
             heading_rad: wrap_2pi(
@@ -508,6 +551,11 @@ impl Ship {
         let beta = self.bias.value_rad();
 
         let mut rate_limited = false;
+        let mmg_input = MmgInput {
+            rudder_effectiveness: e,
+            sea_rad: beta,
+            mass_factor: fx.displacement_factor * self.displacement_t / self.nominal_displacement_t,
+        };
         let structure = self.general.as_ref().map(|(st, _)| {
             Structure::new(
                 self.a_per_s,
@@ -528,7 +576,13 @@ impl Ship {
                 };
                 let v0 = e * d0 + beta;
                 let v1 = e * d1 + beta;
-                if let (Some(s), Some((_, g))) = (&structure, &mut self.general) {
+                if let Some(m) = &mut self.mmg {
+                    if p.duration_s > 0.0 {
+                        m.advance(d0, d1, &mmg_input, p.duration_s);
+                        self.hull.psi_rad = m.state.psi_rad;
+                        self.hull.r_rad_s = m.state.r_rad_s;
+                    }
+                } else if let (Some(s), Some((_, g))) = (&structure, &mut self.general) {
                     if p.duration_s > 0.0 {
                         g.advance(s, &mut self.hull, v0, v1, p.duration_s);
                     }
@@ -550,6 +604,11 @@ impl Ship {
         self.rate_limited = rate_limited;
         self.tick += 1;
         self.meas = None;
+    }
+
+    /// The true speed through water [m/s]: the MMG hull's surge speed, else the scenario's.
+    fn true_speed_mps(&self) -> f64 {
+        self.mmg.as_ref().map_or(self.speed_mps, |m| m.state.u_mps)
     }
 
     /// The rudder blade's angle [rad]: the servo's, through the backlash if there is one.
@@ -588,7 +647,18 @@ impl Ship {
         let t = self.time_s();
         let fx = Effects::at(&self.faults, t);
         let displacement_t = self.displacement_t * fx.displacement_factor;
-        let (a, b) = self.ship_cfg.nomoto(self.speed_mps, displacement_t);
+        let (a, b) = match &self.mmg {
+            Some(m) => {
+                let lin = m.linear(
+                    Side::Starboard,
+                    displacement_t / self.nominal_displacement_t,
+                    1.0,
+                );
+                let (k, t) = lin.first_order();
+                (1.0 / t, k / t)
+            }
+            None => self.ship_cfg.nomoto(self.speed_mps, displacement_t),
+        };
         Truth {
             t_s: t,
             psi_rad: self.hull.psi_rad,
@@ -601,7 +671,7 @@ impl Ship {
             b_per_s2: b,
             rudder_effectiveness: fx.rudder_effectiveness,
             servo_rate_rad_s: fx.servo_rate_rad_s.unwrap_or(self.servo_rate_rad_s),
-            speed_mps: self.speed_mps,
+            speed_mps: self.true_speed_mps(),
             displacement_t,
             command_rad: self.last_command_rad,
             command_source: self.last_source,
