@@ -10,6 +10,9 @@
 //! variation, knots times 1852/3600) or cross-checked against another field of the same
 //! instrument (the km/h field, VHW's own true heading), never read back from the decoder.
 
+// Helpers outside #[test] functions unwrap and panic too: a failure with a message.
+#![allow(clippy::unwrap_used, clippy::panic)]
+
 use helmwatch::core::nmea::{
     datagram, tag_time_ms, tick_sentences, DecodeOptions, Decoder, HeadingSentence, LineBuffer,
     Reject, SpeedSentence, TimeSource, MAX_LINE_BYTES,
