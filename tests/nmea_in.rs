@@ -189,9 +189,11 @@ fn every_kind_of_bad_input_is_counted_by_its_reason_and_never_published() {
             format!("{}{}", c(1), line("HEHDT,-0.5,T")),
             Reject::OutOfRange,
         ),
+        (format!("{}{}", c(1), line("HEHDT,inf,T")), Reject::BadField),
+        (format!("{}{}", c(1), line("HEHDT,1e2,T")), Reject::BadField),
         (
-            format!("{}{}", c(1), line("HEHDT,inf,T")),
-            Reject::OutOfRange,
+            format!("{}{}", c(1), line("VWVHW,,T,,M,NaN,N,,K")),
+            Reject::BadField,
         ),
         (
             format!("{}{}", c(1), line("AGRSA,60.0,A,,V")),
@@ -501,5 +503,38 @@ fn a_million_fuzzed_lines() {
         assert!(s.used as usize > LINES / 2 / 8, "{s:?}");
         assert!(s.rejected(Reject::TooLong) > 0 && s.rejected(Reject::Checksum) > 0);
         assert!(lb.is_empty(), "the last line ended");
+    }
+}
+
+/// The docs name every rejection reason (docs/contract.md) and every metric of the bridge
+/// (docs/deploying.md), as the code spells them.
+#[test]
+fn every_rejection_reason_and_bridge_metric_is_documented() {
+    let read = |p: &str| {
+        std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(p)).unwrap()
+    };
+    let contract = read("docs/contract.md");
+    for r in Reject::ALL {
+        assert!(
+            contract.contains(&format!("| `{}` |", r.name())),
+            "docs/contract.md lacks the reason {}",
+            r.name()
+        );
+    }
+    let deploying = read("docs/deploying.md");
+    for m in helmwatch::shells::bridge::METRIC_FAMILIES {
+        assert!(
+            deploying.contains(&format!("| `{m}` |")),
+            "docs/deploying.md lacks {m}"
+        );
+    }
+    let json = Decoder::new(DecodeOptions::default()).stats().to_json();
+    for r in Reject::ALL {
+        assert!(
+            contract.contains(&format!("\"{}\": ", r.name())),
+            "{}",
+            r.name()
+        );
+        assert_eq!(json["rejected"][r.name()], 0);
     }
 }

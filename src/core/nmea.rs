@@ -437,6 +437,13 @@ impl Decoder {
             return Ok(Outcome::Used);
         }
         let data = parsed.data;
+        // The crate reads numbers with Rust's parser, which takes `inf`, `NaN` and `1e3`:
+        // its sentences' numeric fields are held to plain decimals first, as ours are.
+        match kind {
+            S::HDT => plain_numbers(data, &[0])?,
+            S::VHW => plain_numbers(data, &[0, 2, 4, 6])?,
+            _ => {}
+        }
         // The value first (its reasons say more about the instrument than a missing time).
         let value = match kind {
             S::HDT => {
@@ -570,6 +577,17 @@ fn number(s: &str) -> Result<Option<f64>, Reject> {
         return Err(Reject::BadField);
     }
     s.parse::<f64>().map(Some).map_err(|_| Reject::BadField)
+}
+
+/// Each field of `data` at `idx` (when present) is empty or a plain decimal.
+fn plain_numbers(data: &str, idx: &[usize]) -> Result<(), Reject> {
+    let f: Vec<&str> = data.split(',').collect();
+    for i in idx {
+        if let Some(x) = f.get(*i) {
+            number(x)?;
+        }
+    }
+    Ok(())
 }
 
 /// An east/west-signed angle: value and `E` (+) or `W` (-); an empty pair is `None`.

@@ -381,8 +381,9 @@ async fn next(
             match s.recv(buf).await {
                 Ok(n) => return Got::Datagram(n),
                 Err(e) => {
-                    // ICMP errors and the like: nothing to reopen.
+                    // ICMP errors and the like: nothing to reopen; no busy loop either.
                     tracing::debug!("udp receive: {e}");
+                    tokio::time::sleep(Duration::from_millis(10)).await;
                     continue;
                 }
             }
