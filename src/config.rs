@@ -23,7 +23,7 @@
 //! owns: its particulars and nominal values (`[vessel.<name>.ship]`), servo, sensors,
 //! autopilot, sea and structure (simulated ships), the tests, scheduler, safety limits, input checks,
 //! the estimator's models directory, the FDI and the baseline. Keys left out keep the file's
-//! top-level value. The daemon-wide sections (`daemon`, `zenoh`, `ship-peer`) cannot be
+//! top-level value. The daemon-wide sections (`daemon`, `zenoh`, `ship-peer`, `bridge`) cannot be
 //! overridden. [`Config::for_vessel`] gives a vessel's effective configuration: the
 //! top-level file with the vessel's table merged in, checked like the file itself (an error
 //! names `vessel.<name>.<section>.<key>`).
@@ -35,6 +35,7 @@ use crate::core::estimator::config::EstimatorConfig;
 use crate::core::fdi::config::FdiConfig;
 use crate::core::model::{SensorConfig, ServoConfig, ShipConfig};
 use crate::core::monitor::config::{CoreConfig, InputConfig, SafetyConfig, SchedulerConfig};
+use crate::shells::bridge::BridgeConfig;
 use crate::shells::daemon::config::DaemonConfig;
 use crate::shells::net::ZenohConfig;
 use crate::shells::shipnode::ShipPeerConfig;
@@ -99,6 +100,8 @@ pub struct Config {
     pub zenoh: ZenohConfig,
     /// The simulated ship as a Zenoh peer (`helmwatch ship`).
     pub ship_peer: ShipPeerConfig,
+    /// The NMEA bridge (`helmwatch bridge nmea`): a ship's NMEA 0183 / IEC 61162-450 in.
+    pub bridge: BridgeConfig,
     /// The neural estimator's models (speed and displacement from the features).
     pub estimator: EstimatorConfig,
     /// Fault detection and isolation: residual spreads, decision rule, alarm state.
@@ -139,6 +142,7 @@ impl Config {
         self.daemon.check()?;
         self.zenoh.check("zenoh")?;
         self.ship_peer.check()?;
+        self.bridge.check()?;
         for name in self.vessel.keys() {
             let key = format!("vessel.{name}");
             crate::core::config::check_vessel_name(&key, name)?;

@@ -13,10 +13,10 @@
 //!
 //! | floor | folder | what it is | I/O |
 //! |---|---|---|---|
-//! | 1 | [`core`] | the pure core: wire types, angles, the ship model both ways, config data, dsp, the monitor, the FDI, the estimator's inference, the baseline | none (the estimator may read model files) |
+//! | 1 | [`core`] | the pure core: wire types, the NMEA decoder, angles, the ship model both ways, config data, dsp, the monitor, the FDI, the estimator's inference, the baseline | none (the estimator may read model files) |
 //! | 2 | [`sim`] | the simulated ship: Nomoto hull, servo, autopilot, sea, sensors, faults | none |
 //! | 3 | [`drivers`] | the core in virtual time beside the simulator (`probe`, lockstep) and over a recording (`replay`) | reads a recording |
-//! | 4 | `shells` | Zenoh session settings, the daemon, the simulated ship as a Zenoh peer, systemd | Zenoh, signals |
+//! | 4 | `shells` | Zenoh session settings, the daemon, the simulated ship as a Zenoh peer, the NMEA bridge, systemd | Zenoh, signals, UDP/TCP/serial NMEA in |
 //! | 5 | `config` | the configuration file as a whole (each section lives beside its owner) | reads a file |
 //! | 6 | `tools` | training database and trainers, evaluation suites, demo, bench | files, stdout, Zenoh |
 //! | 7 | `cli` | the `helmwatch` command line: thin drivers | everything |

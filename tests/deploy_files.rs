@@ -1,7 +1,7 @@
 //! The deployment files stay loadable: the example `/etc/helmwatch/helmwatch.toml` passes the
 //! configuration checks, the Zenoh router configurations parse, and the systemd unit names
-//! the paths and the readiness protocol the daemon implements. (`systemd-analyze verify` runs
-//! in `.ci/run`.)
+//! the paths and the readiness protocol the daemon implements; so does the NMEA bridge's unit.
+//! (`systemd-analyze verify` runs on both in `.ci/run`.)
 
 use std::path::Path;
 
@@ -52,5 +52,26 @@ fn unit_is_notify_with_watchdog_and_config_dir() {
         "ExecStart=/usr/local/bin/helmwatch --config /etc/helmwatch/helmwatch.toml run --state-dir /var/lib/helmwatch",
     ] {
         assert!(unit.lines().any(|l| l.starts_with(line)), "missing {line}");
+    }
+}
+
+#[test]
+fn bridge_unit_is_notify_and_runs_the_bridge_from_the_same_config() {
+    let unit = std::fs::read_to_string(deploy("helmwatch-bridge-nmea.service")).unwrap();
+    for line in [
+        "Type=notify",
+        "WatchdogSec=",
+        "User=helmwatch",
+        "ConfigurationDirectory=helmwatch",
+        "RestartPreventExitStatus=78",
+        "ExecStart=/usr/local/bin/helmwatch --config /etc/helmwatch/helmwatch.toml bridge nmea",
+    ] {
+        assert!(unit.lines().any(|l| l.starts_with(line)), "missing {line}");
+    }
+    // The shipped configuration's [bridge] is valid and talks to Zenoh on loopback only.
+    let cfg = helmwatch::config::Config::from_file(&deploy("helmwatch.toml")).unwrap();
+    assert!(!cfg.bridge.multicast_scouting);
+    for e in cfg.bridge.listen.iter().chain(&cfg.bridge.connect) {
+        assert!(e.starts_with("tcp/127.0.0.1:"), "{e}");
     }
 }

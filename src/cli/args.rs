@@ -58,6 +58,39 @@ pub(crate) enum Command {
     Plot(PlotArgs),
     /// Client: every vessel whose daemon is alive, its state, alarm and last decision, live.
     Fleet(FleetArgs),
+    /// A bridge from a ship's own instruments to the contract's keys (`bridge nmea`).
+    #[command(subcommand)]
+    Bridge(BridgeCommand),
+}
+
+#[derive(Debug, Subcommand)]
+pub(crate) enum BridgeCommand {
+    /// NMEA 0183 / IEC 61162-450 in (UDP unicast or multicast, TCP, a serial device), one
+    /// vessel's heading, rudder, speed and autopilot out over Zenoh, per `[bridge]`.
+    Nmea(NmeaBridgeArgs),
+}
+
+#[derive(Debug, Args)]
+pub(crate) struct NmeaBridgeArgs {
+    /// Vessel name in the keys (default: `bridge.vessel`).
+    #[arg(long)]
+    pub(crate) vessel: Option<String>,
+    /// Read UDP datagrams on this address (sets `bridge.input = "udp"`, replaces
+    /// `bridge.udp-listen`).
+    #[arg(long, value_name = "IP:PORT", conflicts_with_all = ["tcp", "serial"])]
+    pub(crate) udp: Option<String>,
+    /// Read a TCP stream from this server (sets `bridge.input = "tcp"`).
+    #[arg(long, value_name = "HOST:PORT", conflicts_with = "serial")]
+    pub(crate) tcp: Option<String>,
+    /// Read this serial device (sets `bridge.input = "serial"`).
+    #[arg(long, value_name = "PATH")]
+    pub(crate) serial: Option<PathBuf>,
+    /// Endpoint to listen on (repeatable; replaces `bridge.listen`).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub(crate) listen: Vec<String>,
+    /// Endpoint to connect to (repeatable; replaces `bridge.connect`).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub(crate) connect: Vec<String>,
 }
 
 #[derive(Debug, Args)]
@@ -272,6 +305,11 @@ pub(crate) struct ShipPeerArgs {
     /// Record every publication as JSON lines (the `simulate` format, input of `replay`).
     #[arg(long, value_name = "FILE")]
     pub(crate) record: Option<PathBuf>,
+    /// The instruments speak NMEA only: send each tick as an IEC 61162-450 datagram to this
+    /// UDP address (for `helmwatch bridge nmea` with `bridge.time-source = "tag-block-ms"`)
+    /// instead of publishing the keys; the excitation still comes over Zenoh.
+    #[arg(long, value_name = "IP:PORT")]
+    pub(crate) nmea_udp: Option<std::net::SocketAddr>,
 }
 
 #[derive(Debug, Args)]

@@ -11,7 +11,7 @@
 //! |---|---|
 //! | [`args`] | the schema of every subcommand |
 //! | [`offline`] | `simulate`, `probe`, `replay`, `check-config`, `eval --fdi`, `plot` |
-//! | [`service`] | `run`, `ship`, `demo`, `bench` |
+//! | [`service`] | `run`, `ship`, `demo`, `bench`, `bridge nmea` |
 //! | [`estimator`] | `train`, `eval` |
 //! | [`client`] | `status`, `trigger`, `history`, `commission`, `fleet`: clients over Zenoh |
 //! | [`print`] | reports on a terminal |
@@ -88,6 +88,7 @@ pub fn main() -> i32 {
         Command::Commission(a) => client::commission(&cfg, a),
         Command::Plot(a) => offline::plot(&cfg, a),
         Command::Fleet(a) => client::fleet(a),
+        Command::Bridge(args::BridgeCommand::Nmea(a)) => service::bridge_nmea(&cfg, a),
         Command::Train(a) => match vessel_config(&cfg, a.vessel.as_deref()) {
             Ok(c) => estimator::train(&c, &a.into()),
             Err(e) => Err(e),

@@ -1,7 +1,7 @@
 //! The subcommands that open a Zenoh session: `run` (the daemon), `ship` (the simulated ship
-//! as a peer), `demo` and `bench`.
+//! as a peer), `demo`, `bench` and `bridge nmea` (NMEA in, the contract's keys out).
 
-use super::args::{BenchArgs, DemoArgs, RunArgs, ShipPeerArgs};
+use super::args::{BenchArgs, DemoArgs, NmeaBridgeArgs, RunArgs, ShipPeerArgs};
 use super::offline::scenario;
 use super::{
     fail, Failure, EX_CANTCREAT, EX_CONFIG, EX_IOERR, EX_OSERR, EX_SOFTWARE, EX_UNAVAILABLE,
@@ -117,6 +117,9 @@ pub(crate) fn ship(cfg: &Config, a: ShipPeerArgs) -> Result<(), Failure> {
             .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", path.display())))?;
         node = node.record_to(file);
     }
+    if let Some(addr) = a.nmea_udp {
+        node = node.nmea_to(addr);
+    }
     let rt = runtime()?;
     let summary = rt
         .block_on(node.run(zcfg, crate::shells::systemd::signals()))
@@ -223,4 +226,49 @@ fn time_to_alarm(cfg: &Config, a: &BenchArgs) -> Result<(), Failure> {
         o.threads
     );
     Ok(())
+}
+
+/// `helmwatch bridge nmea`: the `[bridge]` section with the command line's overrides, until
+/// SIGTERM or SIGINT.
+pub(crate) fn bridge_nmea(cfg: &Config, a: NmeaBridgeArgs) -> Result<(), Failure> {
+    use crate::shells::bridge::{Bridge, BridgeError, BridgeInput};
+    let mut b = cfg.bridge.clone();
+    if let Some(v) = a.vessel {
+        b.vessel = v;
+    }
+    if let Some(u) = a.udp {
+        b.input = BridgeInput::Udp;
+        b.udp_listen = u;
+    }
+    if let Some(t) = a.tcp {
+        b.input = BridgeInput::Tcp;
+        b.tcp_connect = t;
+    }
+    if let Some(p) = a.serial {
+        b.input = BridgeInput::Serial;
+        b.serial_path = p;
+    }
+    b.check().map_err(|e| fail(EX_USAGE)(e.into()))?;
+    check_endpoints("--listen", &a.listen)?;
+    check_endpoints("--connect", &a.connect)?;
+    let zcfg = crate::shells::net::zenoh_config(&b.zenoh(), &a.listen, &a.connect)
+        .map_err(|e| fail(EX_CONFIG)(e.into()))?;
+    let rt = runtime()?;
+    rt.block_on(async {
+        let bridge = Bridge::start(&b, zcfg).await.map_err(|e| {
+            let code = match e {
+                BridgeError::Zenoh(_) => EX_UNAVAILABLE,
+                BridgeError::Udp { .. } | BridgeError::Metrics(_) => EX_OSERR,
+            };
+            fail(code)(e.into())
+        })?;
+        crate::shells::systemd::ready(&format!("bridging NMEA for vessel {}", b.vessel));
+        let watchdog = crate::shells::systemd::spawn_watchdog();
+        let r = bridge.run(crate::shells::systemd::signals()).await;
+        crate::shells::systemd::stopping();
+        if let Some(w) = watchdog {
+            w.abort();
+        }
+        r.map(|_| ()).map_err(|e| fail(EX_UNAVAILABLE)(e.into()))
+    })
 }

@@ -10,6 +10,7 @@
 //! | [`angle`] | angle wrapping and unit conversions |
 //! | [`config`] | the configuration error (exit 78), range checks, vessel names |
 //! | [`wire`] | the Zenoh keys and JSON payloads of the contract |
+//! | [`nmea`] | NMEA 0183 / IEC 61162-450 sentences to the contract's input samples (the bridge's decoder) |
 //! | [`model`] | the ship model both ways, its particulars, servo, sensors, sea states |
 //! | [`design`] | the HBT and CLFRT test designs (model files record them) |
 //! | [`dsp`] | spectra, multisine design, tone analysis, relay limit-cycle theory |
@@ -27,6 +28,7 @@ pub mod estimator;
 pub mod fdi;
 pub mod model;
 pub mod monitor;
+pub mod nmea;
 pub mod wire;
 
 pub use monitor::config::CoreConfig;

@@ -1,8 +1,10 @@
 //! Shells: the core meets the world. The Zenoh session settings ([`net`]), the daemon
 //! ([`daemon`]) with its state directory ([`state`]), report history ([`history`]) and MCAP recordings ([`recording`]), the simulated ship as a Zenoh peer
 //! ([`shipnode`]), the service manager ([`systemd`]) and the daemon's metrics endpoint
-//! ([`metrics`]).
+//! ([`metrics`]), and the NMEA bridge ([`bridge`]: a ship's NMEA 0183 / IEC 61162-450 sentences
+//! in, the contract's keys out).
 
+pub mod bridge;
 pub mod daemon;
 pub mod history;
 pub mod metrics;

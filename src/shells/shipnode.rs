@@ -17,6 +17,14 @@
 //! is the simulator's own ([`crate::sim::Autopilot`]); this module only moves messages.
 //! Optionally, every publication is recorded as JSON lines (the `simulate` format), so
 //! `helmwatch replay` can run the core over a live session afterwards.
+//!
+//! **NMEA only** ([`ShipNode::nmea_to`], `helmwatch ship --nmea-udp`): the ship's instruments
+//! speak NMEA 0183 instead of Zenoh. Each tick is one IEC 61162-450 datagram to a UDP address
+//! (RSA, VHW, HTD when due, HDT last, each behind a tag block `s:SI0001,c:<ms>` carrying the
+//! sensors' clock in milliseconds, [`crate::core::nmea::tick_sentences`]); a bridge with
+//! `time-source = "tag-block-ms"` turns them into the contract's keys. The ship still hears
+//! the daemon's excitation over Zenoh and, in lockstep, waits for the excitation whose `t` is
+//! the heading's time as the tag block carries it (rounded to the millisecond).
 
 use crate::core::config::{check_range_open_low, fail, ConfigError};
 use crate::core::wire::{Excitation, Input, Keys, RecordLine, Stream};
@@ -103,6 +111,7 @@ pub struct ShipNode {
     opts: ShipNodeOptions,
     observer: Option<TickObserver>,
     record: Option<Box<dyn Write + Send>>,
+    nmea: Option<std::net::SocketAddr>,
 }
 
 impl std::fmt::Debug for ShipNode {
@@ -126,6 +135,7 @@ impl ShipNode {
             opts,
             observer: None,
             record: None,
+            nmea: None,
         })
     }
 
@@ -141,6 +151,13 @@ impl ShipNode {
         self
     }
 
+    /// The instruments speak NMEA: each tick is sent as one IEC 61162-450 datagram to `addr`
+    /// instead of being published on the contract's keys (see the module doc).
+    pub fn nmea_to(mut self, addr: std::net::SocketAddr) -> Self {
+        self.nmea = Some(addr);
+        self
+    }
+
     /// Opens a session on `zcfg` and runs until `shutdown` completes or the duration is over.
     pub async fn run(
         mut self,
@@ -149,6 +166,18 @@ impl ShipNode {
     ) -> Result<ShipSummary, ShipNodeError> {
         let z = |e: zenoh::Error| ShipNodeError::Zenoh(e.to_string());
         let session = zenoh::open(zcfg).await.map_err(z)?;
+        let nmea = match self.nmea {
+            Some(addr) => {
+                let local: std::net::SocketAddr = if addr.is_ipv4() {
+                    ([0, 0, 0, 0], 0).into()
+                } else {
+                    (std::net::Ipv6Addr::UNSPECIFIED, 0).into()
+                };
+                let sock = tokio::net::UdpSocket::bind(local).await?;
+                Some((sock, addr))
+            }
+            None => None,
+        };
         let keys = Keys::new(&self.opts.vessel);
         let cc = if self.opts.lockstep {
             CongestionControl::Block
@@ -264,11 +293,28 @@ impl ShipNode {
                         break 'run Err(e.into());
                     }
                 }
+                if nmea.is_some() {
+                    continue;
+                }
                 let bytes = serde_json::to_vec(&payload).unwrap_or_default();
                 if let Err(e) = pubs[i].put(bytes).await {
                     tracing::warn!("publishing {}: {e}", stream_keys[i]);
                 }
             }
+            // NMEA only: one datagram per tick; the excitation to wait for carries the
+            // heading's time as the tag block says it.
+            let t = match &nmea {
+                Some((sock, addr)) => {
+                    let (ms, t_wire) = crate::core::nmea::tag_time_ms(t);
+                    let sentences = crate::core::nmea::tick_sentences(&inputs);
+                    let d = crate::core::nmea::datagram("SI0001", ms, &sentences);
+                    if let Err(e) = sock.send_to(&d, addr).await {
+                        tracing::warn!("sending NMEA to {addr}: {e}");
+                    }
+                    t_wire
+                }
+                None => t,
+            };
             let daemon_alive = alive.load(Ordering::Relaxed) > 0;
             if daemon_alive != daemon_seen {
                 daemon_seen = daemon_alive;
