@@ -17,6 +17,7 @@
 //! | [`estimator`] | the neural estimator's inference and model files |
 //! | [`fdi`] | parity-space residuals, decision rule, alarm state, isolation |
 //! | [`monitor`] | the monitor: a state machine fed timestamped samples; [`CoreConfig`] |
+//! | [`ownership`] | which daemon drives a vessel: candidates, holder, takeover (a state machine fed liveliness events) |
 
 pub mod angle;
 pub mod baseline;
@@ -27,6 +28,7 @@ pub mod estimator;
 pub mod fdi;
 pub mod model;
 pub mod monitor;
+pub mod ownership;
 pub mod wire;
 
 pub use monitor::config::CoreConfig;
