@@ -105,10 +105,12 @@ impl DaemonError {
 /// What a vessel task receives.
 #[derive(Debug)]
 enum Msg {
-    /// A payload on an input stream, as received, and when (the excitation latency).
+    /// A payload on an input stream, as received (only its head when it is longer than
+    /// [`MAX_SAMPLE_BYTES`]: `len` is its length), and when (the excitation latency).
     Sample {
         stream: Stream,
         payload: Vec<u8>,
+        len: usize,
         arrived: Instant,
     },
     /// A trigger request; the reply goes back on the oneshot (`None`: a standby stays
@@ -132,6 +134,10 @@ enum Msg {
         reply: oneshot::Sender<Option<serde_json::Value>>,
     },
 }
+
+/// An input sample longer than this is rejected as oversized without being read: only its
+/// head is queued (a sample of the contract is under 100 bytes) [bytes].
+pub const MAX_SAMPLE_BYTES: usize = 4096;
 
 /// The control queryables the vessels answer (see [`serve_controls`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -190,15 +196,23 @@ impl Fleet {
         self.index.get(name).copied()
     }
 
-    /// Hands a sample to its vessel's queue; drops and counts when the queue is full.
-    fn dispatch(&self, stream: Stream, key: &str, payload: Vec<u8>) {
+    /// Hands a sample to its vessel's queue (its head only when oversized); drops and counts
+    /// when the queue is full.
+    fn dispatch(&self, stream: Stream, key: &str, payload: &[u8]) {
         let Some(i) = self.vessel_of(key) else {
             self.unknown.fetch_add(1, Ordering::Relaxed);
             return;
         };
+        let len = payload.len();
+        let kept = if len > MAX_SAMPLE_BYTES {
+            &payload[..crate::shells::recording::REJECTED_HEAD_BYTES]
+        } else {
+            payload
+        };
         let msg = Msg::Sample {
             stream,
-            payload,
+            payload: kept.to_vec(),
+            len,
             arrived: Instant::now(),
         };
         if let Err(mpsc::error::TrySendError::Full(_)) = self.senders[i].try_send(msg) {
@@ -477,8 +491,8 @@ impl Daemon {
             let sub = session
                 .declare_subscriber(key.clone())
                 .callback(move |sample| {
-                    let payload = sample.payload().to_bytes().into_owned();
-                    f.dispatch(stream, sample.key_expr().as_str(), payload);
+                    let payload = sample.payload().to_bytes();
+                    f.dispatch(stream, sample.key_expr().as_str(), &payload);
                 })
                 .await
                 .map_err(DaemonError::declare("subscriber", &key))?;
@@ -891,11 +905,7 @@ mod tests {
     fn a_flood_is_dropped_and_counted_never_queued() {
         let (fleet, mut rx) = fleet(16);
         for _ in 0..100 {
-            fleet.dispatch(
-                Stream::Rudder,
-                "vessels/self/steering/rudderAngle",
-                b"{}".to_vec(),
-            );
+            fleet.dispatch(Stream::Rudder, "vessels/self/steering/rudderAngle", b"{}");
         }
         assert_eq!(fleet.shared[0].metrics.queue_dropped_count(), 84);
         let mut queued = 0;
@@ -908,12 +918,8 @@ mod tests {
     #[test]
     fn keys_of_other_vessels_are_counted_apart() {
         let (fleet, _rx) = fleet(16);
-        fleet.dispatch(
-            Stream::Heading,
-            "vessels/other/navigation/headingTrue",
-            vec![],
-        );
-        fleet.dispatch(Stream::Heading, "elsewhere", vec![]);
+        fleet.dispatch(Stream::Heading, "vessels/other/navigation/headingTrue", &[]);
+        fleet.dispatch(Stream::Heading, "elsewhere", &[]);
         assert_eq!(fleet.unknown.load(Ordering::Relaxed), 2);
         assert_eq!(fleet.vessel_of("vessels/self/fdi/trigger"), Some(0));
     }

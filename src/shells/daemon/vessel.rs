@@ -195,7 +195,13 @@ pub(super) struct Recording {
     report: String,
     notification: String,
     analysis: String,
-    /// Ship time of the last input sample (a malformed one is recorded at it) [s].
+    /// `fdi/rejected`.
+    rejected: String,
+    /// Per input stream (by index), the rejected records' budget.
+    rejected_budgets: Vec<recording::RejectedBudget>,
+    /// Rejected samples left out of the recording (over the budget).
+    rejected_suppressed: u64,
+    /// Ship time of the last accepted input sample (a rejected one is recorded at it) [s].
     last_input_t: f64,
     /// Messages written, per channel.
     counts: BTreeMap<String, u64>,
@@ -215,6 +221,12 @@ impl Recording {
             report: keys.report(),
             notification: keys.notification(),
             analysis: recording::analysis_key(keys),
+            rejected: recording::rejected_key(keys),
+            rejected_budgets: vec![
+                recording::RejectedBudget::default();
+                wire::Stream::BY_INDEX.len()
+            ],
+            rejected_suppressed: 0,
             last_input_t: 0.0,
             counts: BTreeMap::new(),
             errors: 0,
@@ -445,18 +457,20 @@ impl VesselTask {
             Msg::Sample {
                 stream,
                 payload,
+                len,
                 arrived,
             } => {
-                let decoded = wire::decode(stream, &payload);
-                if self.recorder.is_some() {
-                    if let Ok(i) = &decoded {
-                        self.recording.last_input_t = i.t();
-                    }
-                    let topic = self.recording.inputs[stream.index()].clone();
-                    let t = self.recording.last_input_t;
-                    self.record_message(&topic, recording::Kind::Input(stream), t, &payload);
-                }
-                match decoded {
+                // An oversized sample is not read (only its head was queued).
+                let decoded = if len > payload.len() {
+                    Err(format!(
+                        "{} sample of {len} bytes, over {} bytes: not read",
+                        stream.name(),
+                        super::MAX_SAMPLE_BYTES
+                    ))
+                } else {
+                    wire::decode(stream, &payload).map_err(|e| e.to_string())
+                };
+                let reason = match decoded {
                     Err(e) => {
                         self.shared
                             .metrics
@@ -468,8 +482,14 @@ impl VesselTask {
                                 .rejected(stream, RejectReason::Malformed);
                             tracing::warn!(vessel = %self.name, stream = stream.name(), count = n, "{e}");
                         }
+                        Some(if len > payload.len() {
+                            "oversized"
+                        } else {
+                            RejectReason::Malformed.name()
+                        })
                     }
                     Ok(input) => {
+                        let t = input.t();
                         let heading_t = match &input {
                             Input::Heading(s) => Some(s.t),
                             _ => None,
@@ -481,10 +501,28 @@ impl VesselTask {
                                     self.last_heading = Some((t, Instant::now()));
                                     self.pending_heading = Some((t, arrived));
                                 }
+                                // Recorded before its outputs, in the order it was handled.
+                                if self.recorder.is_some() {
+                                    self.recording.last_input_t = t;
+                                    let topic = self.recording.inputs[stream.index()].clone();
+                                    self.record_message(
+                                        &topic,
+                                        recording::Kind::Input(stream),
+                                        t,
+                                        &payload,
+                                    );
+                                }
+                                None
                             }
-                            Err(r) => self.shared.metrics.rejected(r.stream, r.reason),
+                            Err(r) => {
+                                self.shared.metrics.rejected(r.stream, r.reason);
+                                Some(r.reason.name())
+                            }
                         }
                     }
+                };
+                if let Some(reason) = reason {
+                    self.record_rejected(stream, reason, len, &payload);
                 }
                 self.publish_outputs().await;
             }
@@ -584,6 +622,24 @@ impl VesselTask {
                 }
             }
         }
+    }
+
+    /// Records a rejected sample as its reason, length and head, within the stream's budget
+    /// (`recording::RejectedBudget`); the rest are counted.
+    fn record_rejected(&mut self, stream: wire::Stream, reason: &str, len: usize, payload: &[u8]) {
+        if self.recorder.is_none() {
+            return;
+        }
+        let budget = &mut self.recording.rejected_budgets[stream.index()];
+        if !budget.take(Instant::now()) {
+            self.recording.rejected_suppressed += 1;
+            return;
+        }
+        let suppressed = std::mem::take(&mut budget.suppressed);
+        let b = recording::rejected_record(stream, reason, len, payload, suppressed);
+        let topic = self.recording.rejected.clone();
+        let t = self.recording.last_input_t;
+        self.record_message(&topic, recording::Kind::Rejected, t, &b);
     }
 
     /// Records a completed test's analysis: one message per grid point.
@@ -761,6 +817,7 @@ impl VesselTask {
             "recorded": {
                 "messages": self.recording.counts,
                 "errors": self.recording.errors,
+                "rejected_suppressed": self.recording.rejected_suppressed,
             },
         })
     }
