@@ -410,3 +410,95 @@ async fn the_standby_takes_over_an_alarm_with_the_state_after_sigkill_both_ways(
     router.close().await.unwrap();
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A daemon of `cfg` with id `id`, a client of `router`, in this process.
+async fn daemon_in_process(
+    cfg: &Config,
+    id: &str,
+    router: &str,
+) -> helmwatch::shells::daemon::Daemon {
+    let mut cfg = cfg.clone();
+    cfg.daemon.id = id.to_string();
+    helmwatch::shells::daemon::Daemon::start(&cfg.core(), &cfg.daemon, client(router))
+        .await
+        .unwrap()
+}
+
+/// A partition: two routers, daemon `a` behind one, daemon `b` and the lockstep ship behind
+/// the other; both hold the vessel, `b` drives the ship. A third router joins the two (the
+/// partition heals): `b` (the higher id) yields, `a` drives, and headings answered twice are
+/// those of the moment both saw the ship and not yet each other.
+#[tokio::test(flavor = "multi_thread")]
+async fn a_healed_partition_leaves_one_driver() {
+    let (ep_a, ep_b) = (endpoint(), endpoint());
+    let router_a = zenoh::open(loopback(ZenohMode::Router, &[ep_a.clone()], &[]).unwrap())
+        .await
+        .unwrap();
+    let router_b = zenoh::open(loopback(ZenohMode::Router, &[ep_b.clone()], &[]).unwrap())
+        .await
+        .unwrap();
+    let mut cfg = common::daemon_config();
+    cfg.scheduler.enabled = false;
+    let obs = Observer::new(&ep_b, "self", true).await;
+    let owners = Ownership::new(&obs.session).await;
+    let obs_a = Observer::new(&ep_a, "self", false).await;
+    let owners_a = Ownership::new(&obs_a.session).await;
+    let a = daemon_in_process(&cfg, "a", &ep_a).await;
+    let b = daemon_in_process(&cfg, "b", &ep_b).await;
+    owners_a.wait("a", "holder", "a").await;
+    owners.wait("b", "holder", "b").await;
+    let (stop, ship_task) = ship(
+        &Config::default(),
+        &Scenario::nominal(&cfg.sim(), 5),
+        0.0,
+        None,
+        &ep_b,
+    );
+    // b drives the ship: a test runs.
+    let r = obs.trigger("hbt").await;
+    assert!(r.accepted, "{r:?}");
+    obs.wait_for("steering/autopilot/excitation", LIMIT, |e| {
+        e["mode"] == "replace"
+    })
+    .await;
+    assert!(duplicates(&obs).is_empty());
+
+    // The partition heals.
+    let healed = Instant::now();
+    let bridge =
+        zenoh::open(loopback(ZenohMode::Router, &[], &[ep_a.clone(), ep_b.clone()]).unwrap())
+            .await
+            .unwrap();
+    owners.wait("b", "standby", "a").await;
+    let yielded = healed.elapsed();
+    // a answers the ship from now on: headings answered after the yield come from a alone.
+    let n = obs.on("steering/autopilot/excitation").len();
+    obs.wait_for("steering/autopilot/excitation", LIMIT, |_| {
+        obs.on("steering/autopilot/excitation").len() > n + 100
+    })
+    .await;
+    let dups = duplicates(&obs);
+    println!(
+        "healed: b yielded {yielded:?} after the bridge opened; {} headings answered twice: {:?}",
+        dups.len(),
+        &dups[..dups.len().min(5)]
+    );
+    assert!(dups.len() <= 3, "{dups:?}");
+    // The excitation of b's test is not continued by a.
+    let after: Vec<Value> = obs.on("steering/autopilot/excitation")[n..].to_vec();
+    assert!(
+        after
+            .iter()
+            .all(|e| e["test"] != r.test.as_deref().unwrap()),
+        "b's test is not continued"
+    );
+    stop.cancel();
+    let _ = ship_task.await;
+    b.stop().await;
+    a.stop().await;
+    obs.close().await;
+    obs_a.close().await;
+    bridge.close().await.unwrap();
+    router_a.close().await.unwrap();
+    router_b.close().await.unwrap();
+}
