@@ -222,6 +222,11 @@ async fn two_daemons_one_vessel_every_heading_answered_once_one_report_per_test(
         .iter()
         .filter_map(|s| s["test"].as_str().map(String::from))
         .collect();
+    // A test the ship's end cut short is reported aborted once the heading is silent.
+    for t in &started {
+        obs.wait_for("fdi/report", LIMIT, |r| r["test"] == t.as_str())
+            .await;
+    }
     let reports = obs.on("fdi/report");
     let mut per_test: BTreeMap<String, usize> = BTreeMap::new();
     for r in &reports {
@@ -238,6 +243,33 @@ async fn two_daemons_one_vessel_every_heading_answered_once_one_report_per_test(
     }
     assert_eq!(per_test.len(), started.len(), "{per_test:?}");
     // The standby published nothing for the vessel.
+    // helmwatch status and helmwatch fleet show the holder and the standby.
+    let cli = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_helmwatch"))
+            .args(args)
+            .args(["--connect", &router_ep])
+            .output()
+            .unwrap();
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stdout).to_string(),
+        )
+    };
+    let (code, out) = cli(&["status", "--vessel", "self", "--json"]);
+    assert_eq!(code, Some(0), "{out}");
+    let st: Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(st["holders"], serde_json::json!(["a"]), "{st}");
+    assert_eq!(st["standbys"], serde_json::json!(["b"]), "{st}");
+    let (code, out) = cli(&["fleet", "--json", "--duration-s", "3"]);
+    assert_eq!(code, Some(0), "{out}");
+    let last = out
+        .lines()
+        .filter_map(|l| serde_json::from_str::<Value>(l).ok())
+        .filter(|l| l["vessel"] == "self")
+        .last()
+        .unwrap_or_else(|| panic!("no fleet line: {out}"));
+    assert_eq!(last["holders"], serde_json::json!(["a"]), "{out}");
+    assert_eq!(last["standbys"], serde_json::json!(["b"]), "{out}");
     let b_log = log(&dir, "b");
     assert!(
         !b_log.contains(": status ") && !b_log.contains(": report "),
