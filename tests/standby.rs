@@ -89,17 +89,15 @@ impl Ownership {
         Self { seen, _sub: sub }
     }
 
-    /// Waits (bounded) for a message of daemon `id` in `role` (with `holder`).
+    /// Waits (bounded) for a message of daemon `id` in `role` (with `holder`, `"null"`: none).
     async fn wait(&self, id: &str, role: &str, holder: &str) -> Value {
         let deadline = Instant::now() + LIMIT;
         loop {
-            if let Some(v) = self
-                .seen
-                .lock()
-                .unwrap()
-                .iter()
-                .find(|v| v["daemon"] == id && v["role"] == role && v["holder"] == holder)
-            {
+            if let Some(v) = self.seen.lock().unwrap().iter().find(|v| {
+                v["daemon"] == id
+                    && v["role"] == role
+                    && v["holder"].as_str().unwrap_or("null") == holder
+            }) {
                 return v.clone();
             }
             assert!(
@@ -533,4 +531,43 @@ async fn a_healed_partition_leaves_one_driver() {
     bridge.close().await.unwrap();
     router_a.close().await.unwrap();
     router_b.close().await.unwrap();
+}
+
+/// A standby configured for another ship refuses the holder's state (its fingerprint), and a
+/// standby with no holder alive answers a trigger with its refusal.
+#[tokio::test(flavor = "multi_thread")]
+async fn a_state_of_another_configuration_is_refused_and_a_lone_standby_refuses_triggers() {
+    let router_ep = endpoint();
+    let router = zenoh::open(loopback(ZenohMode::Router, &[router_ep.clone()], &[]).unwrap())
+        .await
+        .unwrap();
+    let obs = Observer::new(&router_ep, "self", false).await;
+    let owners = Ownership::new(&obs.session).await;
+    let mut cfg = common::daemon_config();
+    cfg.scheduler.enabled = false;
+    cfg.daemon.takeover_s = 8.0;
+    // No models: the fingerprint is the ship configuration alone.
+    cfg.estimator.enabled = false;
+    let a = daemon_in_process(&cfg, "a", &router_ep).await;
+    owners.wait("a", "holder", "a").await;
+    let mut other = cfg.clone();
+    other.ship.length_m *= 1.5;
+    let b = daemon_in_process(&other, "b", &router_ep).await;
+    owners.wait("b", "standby", "a").await;
+    // The holder is gone: within takeover-s the standby answers, refusing.
+    a.stop().await;
+    owners.wait("b", "standby", "null").await;
+    let r = obs.trigger_once("hbt").await.unwrap();
+    assert!(!r.accepted, "{r:?}");
+    assert!(
+        r.reason.as_deref().unwrap_or("").starts_with("standby"),
+        "{r:?}"
+    );
+    let summaries = b.stop().await;
+    let refused = summaries[0].stats["replicated_states_refused"]
+        .as_u64()
+        .unwrap();
+    assert!(refused >= 1, "{}", summaries[0].stats);
+    obs.close().await;
+    router.close().await.unwrap();
 }

@@ -825,6 +825,10 @@ impl VesselTask {
     async fn publish_stats(&mut self) {
         let stats = self.stats_json();
         tracing::debug!(vessel = %self.name, stats = %stats, "vessel statistics");
+        // A standby publishes nothing on the vessel's keys (its counters are in its log).
+        if !self.driving {
+            return;
+        }
         if let Some(p) = &self.pubs.stats {
             if let Ok(b) = serde_json::to_vec(&stats) {
                 if let Err(e) = p.put(b).await {
