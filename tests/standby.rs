@@ -8,6 +8,10 @@
 //!   holder published (the alarm is published again, headings are answered, the next report
 //!   is against the commissioned reference); the first daemon, restarted, stands by, and takes
 //!   over the same way when the second is killed.
+//! - A partition (two routers, a third joins them later): of the two holders the higher id
+//!   yields, no heading is answered twice, and a report made while both held is marked.
+//! - A state made under another ship configuration is refused; a standby with no holder
+//!   alive answers a trigger with its refusal.
 //!
 //! Waits are bounded and poll for events; the wall-clock figures are printed (and bounded
 //! generously), not asserted tightly.
@@ -570,4 +574,65 @@ async fn a_state_of_another_configuration_is_refused_and_a_lone_standby_refuses_
     assert!(refused >= 1, "{}", summaries[0].stats);
     obs.close().await;
     router.close().await.unwrap();
+}
+
+/// The report of a test that ran while another daemon also held the vessel (a partition
+/// healing) is marked with that daemon: `a` drives the ship through a test when the partition
+/// heals and `b` appears as a second holder (and yields).
+#[tokio::test(flavor = "multi_thread")]
+async fn a_report_made_while_two_held_the_vessel_is_marked() {
+    let (ep_a, ep_b) = (endpoint(), endpoint());
+    let router_a = zenoh::open(loopback(ZenohMode::Router, &[ep_a.clone()], &[]).unwrap())
+        .await
+        .unwrap();
+    let router_b = zenoh::open(loopback(ZenohMode::Router, &[ep_b.clone()], &[]).unwrap())
+        .await
+        .unwrap();
+    let mut cfg = common::daemon_config();
+    cfg.scheduler.enabled = false;
+    let obs = Observer::new(&ep_a, "self", true).await;
+    let owners = Ownership::new(&obs.session).await;
+    let a = daemon_in_process(&cfg, "a", &ep_a).await;
+    let b = daemon_in_process(&cfg, "b", &ep_b).await;
+    owners.wait("a", "holder", "a").await;
+    let (stop, ship_task) = ship(
+        &Config::default(),
+        &Scenario::nominal(&cfg.sim(), 6),
+        0.0,
+        None,
+        &ep_a,
+    );
+    let r = obs.trigger("hbt").await;
+    let test = r.test.unwrap();
+    obs.wait_for("steering/autopilot/excitation", LIMIT, |e| {
+        e["mode"] == "replace"
+    })
+    .await;
+    let bridge =
+        zenoh::open(loopback(ZenohMode::Router, &[], &[ep_a.clone(), ep_b.clone()]).unwrap())
+            .await
+            .unwrap();
+    owners.wait("b", "standby", "a").await;
+    let report = obs
+        .wait_for("fdi/report", LIMIT, |r| r["test"] == test.as_str())
+        .await;
+    assert_eq!(
+        report["concurrent_drivers"],
+        serde_json::json!(["b"]),
+        "{report}"
+    );
+    // The next test, with b standing by, is not marked.
+    let next = obs.trigger("hbt").await.test.unwrap();
+    let report = obs
+        .wait_for("fdi/report", LIMIT, |r| r["test"] == next.as_str())
+        .await;
+    assert!(report.get("concurrent_drivers").is_none(), "{report}");
+    stop.cancel();
+    let _ = ship_task.await;
+    b.stop().await;
+    a.stop().await;
+    obs.close().await;
+    bridge.close().await.unwrap();
+    router_a.close().await.unwrap();
+    router_b.close().await.unwrap();
 }
