@@ -59,11 +59,9 @@ fn unit_is_notify_with_watchdog_and_config_dir() {
 fn standby_example_two_daemons_one_router() {
     let dir = deploy("standby");
     let bridge =
-        helmwatch::config::Config::from_file(&dir.join("bridge.toml")).unwrap_or_else(|e| {
-            panic!("bridge.toml: {e}");
-        });
+        helmwatch::config::Config::from_file(&dir.join("bridge.toml")).expect("bridge.toml");
     let engine = helmwatch::config::Config::from_file(&dir.join("engine-room.toml"))
-        .unwrap_or_else(|e| panic!("engine-room.toml: {e}"));
+        .expect("engine-room.toml");
     assert_eq!(bridge.daemon.vessels, engine.daemon.vessels, "one vessel");
     assert!(
         bridge.daemon.id < engine.daemon.id,
@@ -78,7 +76,7 @@ fn standby_example_two_daemons_one_router() {
     }
     assert!(bridge.zenoh.connect[0].starts_with("tcp/127.0.0.1:"));
     let router = dir.join("zenoh-router.json5");
-    zenoh::Config::from_file(&router).unwrap_or_else(|e| panic!("router: {e}"));
+    zenoh::Config::from_file(&router).expect("the router's configuration");
     let text = std::fs::read_to_string(&router).unwrap();
     assert!(text.contains("multicast: { enabled: false }"));
     let port = engine.zenoh.connect[0]

@@ -3,6 +3,8 @@
 //! malformed, oversized and out-of-range payloads. Every recording file of the 10 hours is
 //! still there afterwards, and what the flood wrote (the `fdi/rejected` channel) is within the
 //! bound src/shells/recording.rs documents. Waits are bounded; figures are printed.
+// Helpers outside #[test] fns unwrap too: a panic is a test failure with its message.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 mod common;
 
@@ -49,11 +51,10 @@ async fn a_minute_of_flood_after_ten_hours_erases_nothing_and_stays_within_its_b
     let node = ShipNode::new(&cfg.sim(), &Scenario::nominal(&cfg.sim(), 3), opts).unwrap();
     let stop = CancellationToken::new();
     let s = stop.clone();
-    let ship = tokio::spawn(
-        node.run(loopback_peer(&[], &[ep.clone()]).unwrap(), async move {
-            s.cancelled().await
-        }),
-    );
+    let ship = tokio::spawn(node.run(
+        loopback_peer(&[], std::slice::from_ref(&ep)).unwrap(),
+        async move { s.cancelled().await },
+    ));
     let summary = tokio::time::timeout(Duration::from_secs(1800), ship)
         .await
         .expect("10 ship hours within 30 min")
@@ -66,7 +67,7 @@ async fn a_minute_of_flood_after_ten_hours_erases_nothing_and_stays_within_its_b
     assert!(!before.is_empty());
 
     // 60 s of flood on every input key.
-    let flood = zenoh::open(loopback_peer(&[], &[ep.clone()]).unwrap())
+    let flood = zenoh::open(loopback_peer(&[], std::slice::from_ref(&ep)).unwrap())
         .await
         .unwrap();
     let keys = Keys::new("self");

@@ -15,6 +15,8 @@
 //!
 //! Waits are bounded and poll for events; the wall-clock figures are printed (and bounded
 //! generously), not asserted tightly.
+// Helpers outside #[test] fns unwrap too: a panic is a test failure with its message.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 mod common;
 
