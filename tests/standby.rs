@@ -594,9 +594,14 @@ async fn a_report_made_while_two_held_the_vessel_is_marked() {
     cfg.scheduler.enabled = false;
     let obs = Observer::new(&ep_a, "self", true).await;
     let owners = Ownership::new(&obs.session).await;
+    // b's messages are watched on its own side (a publication made while the routes across
+    // the healed partition are still forming may not cross it).
+    let obs_b = Observer::new(&ep_b, "self", false).await;
+    let owners_b = Ownership::new(&obs_b.session).await;
     let a = daemon_in_process(&cfg, "a", &ep_a).await;
     let b = daemon_in_process(&cfg, "b", &ep_b).await;
     owners.wait("a", "holder", "a").await;
+    owners_b.wait("b", "holder", "b").await;
     let (stop, ship_task) = ship(
         &Config::default(),
         &Scenario::nominal(&cfg.sim(), 6),
@@ -614,7 +619,7 @@ async fn a_report_made_while_two_held_the_vessel_is_marked() {
         zenoh::open(loopback(ZenohMode::Router, &[], &[ep_a.clone(), ep_b.clone()]).unwrap())
             .await
             .unwrap();
-    owners.wait("b", "standby", "a").await;
+    owners_b.wait("b", "standby", "a").await;
     let report = obs
         .wait_for("fdi/report", LIMIT, |r| r["test"] == test.as_str())
         .await;
@@ -634,6 +639,7 @@ async fn a_report_made_while_two_held_the_vessel_is_marked() {
     b.stop().await;
     a.stop().await;
     obs.close().await;
+    obs_b.close().await;
     bridge.close().await.unwrap();
     router_a.close().await.unwrap();
     router_b.close().await.unwrap();
