@@ -182,6 +182,8 @@ struct Fleet {
     commission_keys: Vec<KeyExpr<'static>>,
     /// Each vessel's state key.
     state_keys: Vec<KeyExpr<'static>>,
+    /// Each vessel's role (a standby leaves the history queries to the holder).
+    roles: Vec<watch::Receiver<owner::RoleView>>,
     /// Samples on a stream key of a vessel that is not configured (wildcard subscriptions).
     unknown: AtomicU64,
     /// Queries dropped because the trigger queue was full.
@@ -189,6 +191,17 @@ struct Fleet {
 }
 
 impl Fleet {
+    /// Whether this daemon stands by for the vessel of `key` while another holds it (it
+    /// then leaves the vessel's queries to the holder: a second reply would race its answer).
+    fn leaves_to_holder(&self, key: &str) -> bool {
+        self.vessel_of(key).is_some_and(|i| {
+            matches!(
+                self.roles[i].borrow().role,
+                crate::core::ownership::Role::Standby { holder: Some(_) }
+            )
+        })
+    }
+
     /// The vessel of `vessels/<vessel>/...`, if configured.
     fn vessel_of(&self, key: &str) -> Option<usize> {
         let rest = key.strip_prefix("vessels/")?;
@@ -470,6 +483,7 @@ impl Daemon {
             trigger_keys,
             commission_keys,
             state_keys,
+            roles: roles.iter().map(watch::Sender::subscribe).collect(),
             unknown: AtomicU64::new(0),
             queries_dropped: AtomicU64::new(0),
         });
@@ -569,6 +583,9 @@ impl Daemon {
             let q = session
                 .declare_queryable(key.clone())
                 .callback(move |query| {
+                    if f.leaves_to_holder(query.key_expr().as_str()) {
+                        return;
+                    }
                     if htx.try_send(query).is_err() {
                         f.queries_dropped.fetch_add(1, Ordering::Relaxed);
                     }
@@ -895,6 +912,7 @@ mod tests {
             trigger_keys: vec![KeyExpr::try_from("vessels/self/fdi/trigger").unwrap()],
             commission_keys: vec![KeyExpr::try_from("vessels/self/fdi/commission").unwrap()],
             state_keys: vec![KeyExpr::try_from("vessels/self/fdi/state").unwrap()],
+            roles: vec![watch::channel(owner::RoleView::claiming()).1],
             unknown: AtomicU64::new(0),
             queries_dropped: AtomicU64::new(0),
         };
