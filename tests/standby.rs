@@ -35,8 +35,31 @@ use tokio_util::sync::CancellationToken;
 
 const LIMIT: Duration = Duration::from_secs(240);
 
+/// A child process killed when dropped (a failing test leaves no daemon behind).
+struct Proc(Child);
+
+impl std::ops::Deref for Proc {
+    type Target = Child;
+    fn deref(&self) -> &Child {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for Proc {
+    fn deref_mut(&mut self) -> &mut Child {
+        &mut self.0
+    }
+}
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
 /// `helmwatch --config <dir>/<name>.toml run`, standard error appended to `<dir>/<name>.log`.
-fn spawn_daemon(dir: &Path, name: &str, toml: &str) -> Child {
+fn spawn_daemon(dir: &Path, name: &str, toml: &str) -> Proc {
     let cfg = dir.join(format!("{name}.toml"));
     std::fs::write(&cfg, toml).unwrap();
     let log = std::fs::OpenOptions::new()
@@ -53,6 +76,7 @@ fn spawn_daemon(dir: &Path, name: &str, toml: &str) -> Child {
         .stdout(Stdio::null())
         .stderr(log)
         .spawn()
+        .map(Proc)
         .unwrap()
 }
 
