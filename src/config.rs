@@ -140,6 +140,16 @@ impl Config {
     pub fn check(&self) -> Result<(), ConfigError> {
         self.check_sections()?;
         self.daemon.check()?;
+        if self.daemon.takeover_s <= self.safety.hold_s {
+            return Err(crate::core::config::fail(
+                "daemon.takeover-s",
+                self.daemon.takeover_s,
+                &format!(
+                    "(0, 600] and greater than safety.hold-s ({} s)",
+                    self.safety.hold_s
+                ),
+            ));
+        }
         self.zenoh.check("zenoh")?;
         self.ship_peer.check()?;
         self.bridge.check()?;

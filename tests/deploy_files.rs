@@ -75,3 +75,38 @@ fn bridge_unit_is_notify_and_runs_the_bridge_from_the_same_config() {
         assert!(e.starts_with("tcp/127.0.0.1:"), "{e}");
     }
 }
+
+#[test]
+fn standby_example_two_daemons_one_router() {
+    let dir = deploy("standby");
+    let bridge =
+        helmwatch::config::Config::from_file(&dir.join("bridge.toml")).expect("bridge.toml");
+    let engine = helmwatch::config::Config::from_file(&dir.join("engine-room.toml"))
+        .expect("engine-room.toml");
+    assert_eq!(bridge.daemon.vessels, engine.daemon.vessels, "one vessel");
+    assert!(
+        bridge.daemon.id < engine.daemon.id,
+        "the bridge drives first"
+    );
+    for c in [&bridge, &engine] {
+        assert!(!c.zenoh.multicast_scouting);
+        assert_eq!(c.zenoh.connect.len(), 1);
+        assert!(c.zenoh.listen.is_empty());
+        assert!(c.daemon.takeover_s > c.safety.hold_s);
+        helmwatch::shells::net::zenoh_config(&c.zenoh, &[], &[]).unwrap();
+    }
+    assert!(bridge.zenoh.connect[0].starts_with("tcp/127.0.0.1:"));
+    let router = dir.join("zenoh-router.json5");
+    zenoh::Config::from_file(&router).expect("the router's configuration");
+    let text = std::fs::read_to_string(&router).unwrap();
+    assert!(text.contains("multicast: { enabled: false }"));
+    let port = engine.zenoh.connect[0]
+        .rsplit(':')
+        .next()
+        .unwrap()
+        .to_string();
+    assert!(
+        text.contains(&format!(":{port}\"")),
+        "the standby reaches the router"
+    );
+}

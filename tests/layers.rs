@@ -31,6 +31,7 @@ const FLOORS: &[&str] = &[
     "core::estimator",
     "core::fdi",
     "core::monitor",
+    "core::ownership",
     "core",
     // The simulated ship.
     "sim::config",

@@ -213,6 +213,32 @@ pub(crate) fn status(cfg: &Config, a: ClientArgs) -> Result<(), Failure> {
             Ok(replies) => replies.recv_async().await.is_ok(),
             Err(_) => false,
         };
+        // Which daemon drives the vessel, which stand by (their ownership tokens).
+        let ids = |what: &'static str| {
+            let s = &s;
+            let key = format!("{}/fdi/{what}/*", keys.prefix);
+            async move {
+                let mut out = Vec::new();
+                if let Ok(replies) = s.liveliness().get(key).timeout(limit).await {
+                    while let Ok(r) = replies.recv_async().await {
+                        if let Ok(sample) = r.result() {
+                            if let Some(id) = sample.key_expr().as_str().rsplit('/').next() {
+                                out.push(id.to_string());
+                            }
+                        }
+                    }
+                }
+                out.sort();
+                out.dedup();
+                out
+            }
+        };
+        let holders = ids("holder").await;
+        let standbys: Vec<String> = ids("candidate")
+            .await
+            .into_iter()
+            .filter(|c| !holders.contains(c))
+            .collect();
         let hist = if alive {
             get_one(&s, &format!("{}?limit=50", keys.history()), limit)
                 .await
@@ -241,6 +267,7 @@ pub(crate) fn status(cfg: &Config, a: ClientArgs) -> Result<(), Failure> {
                 "{}",
                 serde_json::json!({
                     "vessel": v, "alive": alive,
+                    "holders": holders, "standbys": standbys,
                     "alarm": notification.as_ref().map_or(serde_json::Value::Null, |n| n["state"].clone()),
                     "last_report": report, "last_notification": notification,
                     "commissioning": commissioning,
@@ -256,6 +283,15 @@ pub(crate) fn status(cfg: &Config, a: ClientArgs) -> Result<(), Failure> {
                     "NOT alive (no fdi/alive token)"
                 }
             );
+            let list = |l: &[String]| {
+                if l.is_empty() {
+                    "none".to_string()
+                } else {
+                    l.join(", ")
+                }
+            };
+            println!("holder        {}", list(&holders));
+            println!("standby       {}", list(&standbys));
             match &notification {
                 Some(n) => println!(
                     "alarm state   {} ({})",

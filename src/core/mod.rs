@@ -18,6 +18,7 @@
 //! | [`estimator`] | the neural estimator's inference and model files |
 //! | [`fdi`] | parity-space residuals, decision rule, alarm state, isolation |
 //! | [`monitor`] | the monitor: a state machine fed timestamped samples; [`CoreConfig`] |
+//! | [`ownership`] | which daemon drives a vessel: candidates, holder, takeover (a state machine fed liveliness events) |
 
 pub mod angle;
 pub mod baseline;
@@ -29,6 +30,7 @@ pub mod fdi;
 pub mod model;
 pub mod monitor;
 pub mod nmea;
+pub mod ownership;
 pub mod wire;
 
 pub use monitor::config::CoreConfig;

@@ -3,7 +3,9 @@
 //!
 //! Sources (docs/contract.md): the liveliness tokens `vessels/*/fdi/alive` through a
 //! liveliness subscriber with history (vessels already alive when the view starts appear at
-//! once; a token that goes away marks its vessel gone), `vessels/*/fdi/status`,
+//! once; a token that goes away marks its vessel gone), the ownership tokens
+//! `vessels/*/fdi/holder/*` and `vessels/*/fdi/candidate/*` the same way (which daemon drives
+//! each vessel, which stand by), `vessels/*/fdi/status`,
 //! `vessels/*/notifications/steering/fdi` and `vessels/*/fdi/report`. [`FleetView`] is the
 //! table, updated by [`Event`]s without I/O; [`watch`] is the Zenoh driver around it. A
 //! vessel's state and alarm are known from the first message after the view started (the
@@ -52,6 +54,14 @@ pub struct VesselRow {
     pub last_t_end: Option<f64>,
     /// The last report's message.
     pub last_message: Option<String>,
+    /// The daemons holding the vessel (`fdi/holder/<id>`; two only while a healed partition
+    /// settles).
+    pub holders: Vec<String>,
+    /// The daemons standing by (`fdi/candidate/<id>` without a holder token).
+    pub standbys: Vec<String>,
+    /// Every candidate seen alive (not shown: `standbys` is derived from it).
+    #[serde(skip)]
+    pub candidates: Vec<String>,
 }
 
 /// What happened to one vessel.
@@ -67,6 +77,18 @@ pub enum Event {
     Notification(String, Notification),
     /// A report (only `test`, `decision`, `t_end`, `message` are read).
     Report(String, serde_json::Value),
+    /// A daemon's token `fdi/holder/<id>` (true) or `fdi/candidate/<id>` (false) appeared
+    /// (`up`) or went away.
+    Owner {
+        /// The vessel.
+        vessel: String,
+        /// The daemon.
+        daemon: String,
+        /// A holder token (else a candidate token).
+        holder: bool,
+        /// Appeared (else went away).
+        up: bool,
+    },
 }
 
 impl Event {
@@ -75,6 +97,7 @@ impl Event {
         match self {
             Event::Alive(v) | Event::Gone(v) => v,
             Event::Status(v, _) | Event::Notification(v, _) | Event::Report(v, _) => v,
+            Event::Owner { vessel, .. } => vessel,
         }
     }
     /// Its name in `--json` output.
@@ -85,6 +108,7 @@ impl Event {
             Event::Status(..) => "status",
             Event::Notification(..) => "alarm",
             Event::Report(..) => "report",
+            Event::Owner { .. } => "ownership",
         }
     }
 }
@@ -116,7 +140,20 @@ pub fn event_of(key: &str, delete: bool, payload: &[u8]) -> Option<Event> {
             .ok()
             .filter(serde_json::Value::is_object)
             .map(|r| Event::Report(v, r)),
-        _ => None,
+        _ => {
+            let (what, daemon) = rest.strip_prefix("/fdi/")?.split_once('/')?;
+            let holder = match what {
+                "holder" => true,
+                "candidate" => false,
+                _ => return None,
+            };
+            (!daemon.is_empty() && !daemon.contains('/')).then(|| Event::Owner {
+                vessel: v,
+                daemon: daemon.to_string(),
+                holder,
+                up: !delete,
+            })
+        }
     }
 }
 
@@ -156,6 +193,26 @@ impl FleetView {
                 row.last_t_end = r["t_end"].as_f64();
                 row.last_message = r["message"].as_str().map(String::from);
             }
+            Event::Owner {
+                daemon, holder, up, ..
+            } => {
+                let list = if *holder {
+                    &mut row.holders
+                } else {
+                    &mut row.candidates
+                };
+                list.retain(|d| d != daemon);
+                if *up && list.len() < 64 {
+                    list.push(daemon.clone());
+                    list.sort();
+                }
+                row.standbys = row
+                    .candidates
+                    .iter()
+                    .filter(|c| !row.holders.contains(c))
+                    .cloned()
+                    .collect();
+            }
         }
         *row != before
     }
@@ -190,9 +247,16 @@ impl FleetView {
                 .unwrap_or_else(|| "-".into())
         }
         let mut out = format!(
-            "{:<16}  {:<7}  {:<9}  {:<26}  {:<6}  {:<12}  {:>9}  message\n",
-            "vessel", "daemon", "state", "test", "alarm", "last", "t_end [s]"
+            "{:<16}  {:<7}  {:<16}  {:<16}  {:<9}  {:<26}  {:<6}  {:<12}  {:>9}  message\n",
+            "vessel", "daemon", "holder", "standby", "state", "test", "alarm", "last", "t_end [s]"
         );
+        let list = |l: &[String]| {
+            if l.is_empty() {
+                "-".to_string()
+            } else {
+                l.join(",")
+            }
+        };
         for (v, r) in &self.vessels {
             let presence = match r.presence {
                 Presence::Alive => "alive",
@@ -200,9 +264,11 @@ impl FleetView {
                 Presence::Unknown => "?",
             };
             out.push_str(&format!(
-                "{:<16}  {:<7}  {:<9}  {:<26}  {:<6}  {:<12}  {:>9}  {}\n",
+                "{:<16}  {:<7}  {:<16}  {:<16}  {:<9}  {:<26}  {:<6}  {:<12}  {:>9}  {}\n",
                 v,
                 presence,
+                list(&r.holders),
+                list(&r.standbys),
                 name(&r.state),
                 r.test.as_deref().unwrap_or("-"),
                 name(&r.alarm),
@@ -255,6 +321,8 @@ async fn watch_on(
     const STATUS: &str = "vessels/*/fdi/status";
     const ALARM: &str = "vessels/*/notifications/steering/fdi";
     const REPORT: &str = "vessels/*/fdi/report";
+    const HOLDER: &str = "vessels/*/fdi/holder/*";
+    const CANDIDATE: &str = "vessels/*/fdi/candidate/*";
     let err = |key: &'static str| {
         move |e: zenoh::Error| FleetError::Subscribe {
             key,
@@ -279,6 +347,18 @@ async fn watch_on(
         .history(true)
         .await
         .map_err(err(ALIVE))?;
+    let holder = session
+        .liveliness()
+        .declare_subscriber(HOLDER)
+        .history(true)
+        .await
+        .map_err(err(HOLDER))?;
+    let candidate = session
+        .liveliness()
+        .declare_subscriber(CANDIDATE)
+        .history(true)
+        .await
+        .map_err(err(CANDIDATE))?;
     let mut view = FleetView::default();
     tokio::pin!(stop);
     loop {
@@ -288,6 +368,8 @@ async fn watch_on(
             s = status.recv_async() => s,
             s = alarm.recv_async() => s,
             s = report.recv_async() => s,
+            s = holder.recv_async() => s,
+            s = candidate.recv_async() => s,
         };
         let Ok(sample) = sample else { break };
         let delete = sample.kind() == zenoh::sample::SampleKind::Delete;
@@ -302,6 +384,8 @@ async fn watch_on(
     let _ = status.undeclare().await;
     let _ = alarm.undeclare().await;
     let _ = report.undeclare().await;
+    let _ = holder.undeclare().await;
+    let _ = candidate.undeclare().await;
     Ok(view)
 }
 
@@ -354,5 +438,36 @@ mod tests {
         assert_eq!(event_of("vessels/a/fdi/stats", false, b"{}"), None);
         assert_eq!(event_of("vessels/a/fdi/status", false, b"nope"), None);
         assert_eq!(event_of("other/a/fdi/alive", false, b""), None);
+    }
+
+    #[test]
+    fn holder_and_standby_per_vessel_from_the_ownership_tokens() {
+        let mut v = FleetView::default();
+        for (key, delete) in [
+            ("vessels/a/fdi/candidate/bridge", false),
+            ("vessels/a/fdi/candidate/engine", false),
+            ("vessels/a/fdi/holder/bridge", false),
+        ] {
+            assert!(v.apply(&event_of(key, delete, b"").unwrap()), "{key}");
+        }
+        let row = &v.rows()["a"];
+        assert_eq!(row.holders, ["bridge"]);
+        assert_eq!(row.standbys, ["engine"]);
+        assert!(v.table().contains("bridge"), "{}", v.table());
+        // The holder dies; the standby takes over.
+        for (key, delete) in [
+            ("vessels/a/fdi/holder/bridge", true),
+            ("vessels/a/fdi/candidate/bridge", true),
+            ("vessels/a/fdi/holder/engine", false),
+        ] {
+            v.apply(&event_of(key, delete, b"").unwrap());
+        }
+        let row = &v.rows()["a"];
+        assert_eq!(row.holders, ["engine"]);
+        assert!(row.standbys.is_empty());
+        let j = v.change_json(&Event::Alive("a".into()));
+        assert_eq!(j["holders"], serde_json::json!(["engine"]));
+        assert_eq!(event_of("vessels/a/fdi/holder/", false, b""), None);
+        assert_eq!(event_of("vessels/a/fdi/owner/x", false, b""), None);
     }
 }

@@ -16,7 +16,10 @@
 //! | `fdi/report` | daemon -> world | [`Report`] |
 //! | `notifications/steering/fdi` | daemon -> world | [`Notification`] |
 //! | `fdi/trigger` (queryable, `method=hbt\|clfrt`) | world -> daemon | reply [`TriggerReply`] |
-//! | `fdi/alive` (liveliness token) | daemon | - |
+//! | `fdi/alive` (liveliness token) | the daemon that drives the vessel | - |
+//! | `fdi/candidate/<id>`, `fdi/holder/<id>` (liveliness tokens) | every daemon of the vessel; its driver | - (`core::ownership`) |
+//! | `fdi/ownership` | each daemon of the vessel, on a change of role | JSON (`shells::daemon`) |
+//! | `fdi/state` (and queryable) | the driver, on every change | the vessel's state (`shells::daemon`) |
 //!
 //! A recording (the output of `helmwatch simulate`, the input of `helmwatch replay`) is JSON
 //! lines, one [`RecordLine`] `{"key": .., "payload": {..}}` per publication.
@@ -163,6 +166,23 @@ impl Keys {
     /// `fdi/alive` (liveliness token).
     pub fn alive(&self) -> String {
         format!("{}/fdi/alive", self.prefix)
+    }
+    /// `fdi/candidate/<daemon>` (liveliness token of every daemon configured for the vessel).
+    pub fn candidate(&self, daemon: &str) -> String {
+        format!("{}/fdi/candidate/{daemon}", self.prefix)
+    }
+    /// `fdi/holder/<daemon>` (liveliness token of the daemon that drives the vessel).
+    pub fn holder(&self, daemon: &str) -> String {
+        format!("{}/fdi/holder/{daemon}", self.prefix)
+    }
+    /// `fdi/ownership`: each daemon's role, published on every change.
+    pub fn ownership(&self) -> String {
+        format!("{}/fdi/ownership", self.prefix)
+    }
+    /// `fdi/state`: the vessel's state, published by its driver on every change (and a
+    /// queryable answering the last one).
+    pub fn state(&self) -> String {
+        format!("{}/fdi/state", self.prefix)
     }
 }
 

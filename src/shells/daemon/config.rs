@@ -49,6 +49,17 @@ pub struct DaemonConfig {
     pub recordings_segment_mb: u32,
     /// ... or once it has been open this long (wall time) [s]; (0, 604800].
     pub recordings_segment_s: f64,
+    /// This daemon's id in the vessels' ownership (`vessels/<v>/fdi/candidate/<id>`): 1 to 64
+    /// characters among `A-Z a-z 0-9 - _ .`; empty = `<hostname>-<pid>`. Of daemons started
+    /// together for a vessel, the lowest id drives it.
+    pub id: String,
+    /// How long a daemon listens for the vessels' owners before it decides to drive or stand
+    /// by [s]; (0, 10].
+    pub claim_s: f64,
+    /// How long a standby waits after the driving daemon's token went before it takes the
+    /// vessel over [s]: longer than `safety.hold-s` (the old driver's last excitation has
+    /// expired, its test is never continued); (0, 600].
+    pub takeover_s: f64,
 }
 
 impl Default for DaemonConfig {
@@ -69,11 +80,44 @@ impl Default for DaemonConfig {
             recordings_max_files: 200,
             recordings_segment_mb: 64,
             recordings_segment_s: 3600.0,
+            id: String::new(),
+            claim_s: 0.5,
+            takeover_s: 3.0,
         }
     }
 }
 
 impl DaemonConfig {
+    /// The daemon's id: `daemon.id`, or `<hostname>-<pid>` (characters outside
+    /// `A-Z a-z 0-9 - _ .` replaced by `_`, at most 64).
+    pub fn daemon_id(&self) -> String {
+        if !self.id.is_empty() {
+            return self.id.clone();
+        }
+        let host = std::fs::read_to_string("/proc/sys/kernel/hostname")
+            .ok()
+            .or_else(|| std::env::var("HOSTNAME").ok())
+            .unwrap_or_default();
+        let host: String = host
+            .trim()
+            .chars()
+            .map(|c| {
+                if c.is_ascii_alphanumeric() || c == '-' || c == '_' || c == '.' {
+                    c
+                } else {
+                    '_'
+                }
+            })
+            .take(48)
+            .collect();
+        let host = if host.is_empty() {
+            "helmwatch".into()
+        } else {
+            host
+        };
+        format!("{host}-{}", std::process::id())
+    }
+
     /// The recordings' bounds in bytes and seconds.
     pub fn recording_limits(&self) -> crate::shells::recording::Limits {
         const MIB: u64 = 1 << 20;
@@ -145,6 +189,11 @@ impl DaemonConfig {
             604_800.0,
         )?;
         check_range_open_low("daemon.tick-s", self.tick_s, 0.0, 10.0)?;
+        if !self.id.is_empty() {
+            check_vessel_name("daemon.id", &self.id)?;
+        }
+        check_range_open_low("daemon.claim-s", self.claim_s, 0.0, 10.0)?;
+        check_range_open_low("daemon.takeover-s", self.takeover_s, 0.0, 600.0)?;
         check_range("daemon.stats-period-s", self.stats_period_s, 0.0, 86400.0)?;
         check_range_open_low(
             "daemon.shutdown-timeout-s",

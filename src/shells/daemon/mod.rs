@@ -28,6 +28,7 @@
 //! aborted), undeclares the tokens and closes the session.
 
 pub mod config;
+mod owner;
 mod vessel;
 
 use crate::core::config::ConfigError;
@@ -46,12 +47,11 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
-use tokio::sync::{mpsc, oneshot};
+use tokio::sync::{mpsc, oneshot, watch};
 use tokio_util::sync::CancellationToken;
-use vessel::{restore, Publishers, Recording, VesselTask};
+use vessel::{Publishers, Recording, VesselTask};
 use zenoh::bytes::Encoding;
 use zenoh::key_expr::KeyExpr;
-use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::Subscriber;
 use zenoh::query::{Query, Queryable};
 
@@ -105,25 +105,39 @@ impl DaemonError {
 /// What a vessel task receives.
 #[derive(Debug)]
 enum Msg {
-    /// A payload on an input stream, as received, and when (the excitation latency).
+    /// A payload on an input stream, as received (only its head when it is longer than
+    /// [`MAX_SAMPLE_BYTES`]: `len` is its length), and when (the excitation latency).
     Sample {
         stream: Stream,
         payload: Vec<u8>,
+        len: usize,
         arrived: Instant,
     },
-    /// A trigger request; the reply goes back on the oneshot.
+    /// A trigger request; the reply goes back on the oneshot (`None`: a standby stays
+    /// silent, the holder answers).
     Trigger {
         method: Method,
-        reply: oneshot::Sender<TriggerReply>,
+        reply: oneshot::Sender<Option<TriggerReply>>,
+    },
+    /// The vessel's state as its holder published it (`fdi/state`), or as it answered a
+    /// standby's query.
+    State { payload: Vec<u8> },
+    /// A query for the vessel's state: the holder answers with it, a standby stays silent.
+    StateQuery {
+        reply: oneshot::Sender<Option<Vec<u8>>>,
     },
     /// A commissioning request: begin again (`start`, for `method` or both), then reply
     /// with the progress.
     Commission {
         start: bool,
         method: Option<Method>,
-        reply: oneshot::Sender<serde_json::Value>,
+        reply: oneshot::Sender<Option<serde_json::Value>>,
     },
 }
+
+/// An input sample longer than this is rejected as oversized without being read: only its
+/// head is queued (a sample of the contract is under 100 bytes) [bytes].
+pub const MAX_SAMPLE_BYTES: usize = 4096;
 
 /// The control queryables the vessels answer (see [`serve_controls`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -132,6 +146,8 @@ enum Control {
     Trigger,
     /// `fdi/commission`.
     Commission,
+    /// `fdi/state`.
+    State,
 }
 
 /// What vessels of one configuration share: the designed multisine and the estimator.
@@ -164,6 +180,10 @@ struct Fleet {
     trigger_keys: Vec<KeyExpr<'static>>,
     /// Each vessel's commission key.
     commission_keys: Vec<KeyExpr<'static>>,
+    /// Each vessel's state key.
+    state_keys: Vec<KeyExpr<'static>>,
+    /// Each vessel's role (a standby leaves the history queries to the holder).
+    roles: Vec<watch::Receiver<owner::RoleView>>,
     /// Samples on a stream key of a vessel that is not configured (wildcard subscriptions).
     unknown: AtomicU64,
     /// Queries dropped because the trigger queue was full.
@@ -171,6 +191,17 @@ struct Fleet {
 }
 
 impl Fleet {
+    /// Whether this daemon stands by for the vessel of `key` while another holds it (it
+    /// then leaves the vessel's queries to the holder: a second reply would race its answer).
+    fn leaves_to_holder(&self, key: &str) -> bool {
+        self.vessel_of(key).is_some_and(|i| {
+            matches!(
+                self.roles[i].borrow().role,
+                crate::core::ownership::Role::Standby { holder: Some(_) }
+            )
+        })
+    }
+
     /// The vessel of `vessels/<vessel>/...`, if configured.
     fn vessel_of(&self, key: &str) -> Option<usize> {
         let rest = key.strip_prefix("vessels/")?;
@@ -178,15 +209,23 @@ impl Fleet {
         self.index.get(name).copied()
     }
 
-    /// Hands a sample to its vessel's queue; drops and counts when the queue is full.
-    fn dispatch(&self, stream: Stream, key: &str, payload: Vec<u8>) {
+    /// Hands a sample to its vessel's queue (its head only when oversized); drops and counts
+    /// when the queue is full.
+    fn dispatch(&self, stream: Stream, key: &str, payload: &[u8]) {
         let Some(i) = self.vessel_of(key) else {
             self.unknown.fetch_add(1, Ordering::Relaxed);
             return;
         };
+        let len = payload.len();
+        let kept = if len > MAX_SAMPLE_BYTES {
+            &payload[..crate::shells::recording::REJECTED_HEAD_BYTES]
+        } else {
+            payload
+        };
         let msg = Msg::Sample {
             stream,
-            payload,
+            payload: kept.to_vec(),
+            len,
             arrived: Instant::now(),
         };
         if let Err(mpsc::error::TrySendError::Full(_)) = self.senders[i].try_send(msg) {
@@ -223,7 +262,10 @@ pub struct Daemon {
     history_queryable: Option<(Queryable<()>, tokio::task::JoinHandle<()>)>,
     subscribers: Vec<Subscriber<()>>,
     queryables: Vec<Queryable<()>>,
-    tokens: Vec<LivelinessToken>,
+    /// The ownership driver (candidate and holder tokens, `fdi/alive`).
+    owner: owner::OwnerDriver,
+    /// Stops the ownership driver (after the vessel tasks: the tokens go last).
+    owner_cancel: CancellationToken,
     /// The metrics endpoint's bound address and its task, when `daemon.metrics-listen` is set.
     metrics: Option<(std::net::SocketAddr, tokio::task::JoinHandle<()>)>,
     /// The MCAP recorder, when `daemon.record`: its segment is finished at stop.
@@ -282,6 +324,17 @@ impl Daemon {
                 Some(i) => i,
                 None => {
                     core.check()?;
+                    if cfg.takeover_s <= core.safety.hold_s {
+                        return Err(crate::core::config::fail(
+                            "daemon.takeover-s",
+                            cfg.takeover_s,
+                            &format!(
+                                "greater than safety.hold-s ({} s): the old driver's last excitation expires first",
+                                core.safety.hold_s
+                            ),
+                        )
+                        .into());
+                    }
                     let estimator = crate::core::estimator::Estimator::from_config(core)?;
                     let multisine = Monitor::design_multisine(core).ok();
                     cores.push((core, (multisine, estimator)));
@@ -344,7 +397,10 @@ impl Daemon {
         let mut shared = Vec::with_capacity(names.len());
         let mut trigger_keys = Vec::with_capacity(names.len());
         let mut commission_keys = Vec::with_capacity(names.len());
+        let mut state_keys = Vec::with_capacity(names.len());
+        let mut roles = Vec::with_capacity(names.len());
         let mut vessel_tasks = Vec::with_capacity(names.len());
+        let daemon_id = cfg.daemon_id();
         for (v, (name, core)) in vessels.iter().enumerate() {
             let (multisine, estimator) = &cores[part_of[v]].1;
             let keys = Keys::new(name);
@@ -357,11 +413,15 @@ impl Daemon {
                 .map_err(DaemonError::declare("trigger key", name))?;
             let commission_key = KeyExpr::try_from(keys.commission())
                 .map_err(DaemonError::declare("commission key", name))?;
+            let state_key =
+                KeyExpr::try_from(keys.state()).map_err(DaemonError::declare("state key", name))?;
+            let (role_tx, role_rx) = watch::channel(owner::RoleView::claiming());
+            roles.push(role_tx);
+            // The state is taken up when the vessel is taken over (from the holder's
+            // publication, else from the state directory).
             let mut monitor = Monitor::with_parts(core, name, multisine.clone(), estimator.clone());
             monitor.set_analysis_output(recorder.is_some());
-            let restored = state
-                .as_ref()
-                .and_then(|dir| restore(dir, name, &mut monitor));
+            let restored = None;
             sh.metrics.alarm(monitor.alarm_state());
             let seen_aborts = monitor.stats().aborts.clone();
             let task = VesselTask {
@@ -384,12 +444,25 @@ impl Daemon {
                 publish_errors: 0,
                 recorder: recorder.clone(),
                 recording: Recording::new(&keys),
+                fresh: vessel::Fresh {
+                    core: core.clone(),
+                    multisine: multisine.clone(),
+                    estimator: estimator.clone(),
+                    analysis: recorder.is_some(),
+                },
+                daemon_id: daemon_id.clone(),
+                role_rx,
+                driving: false,
+                replica: None,
+                refused_states: 0,
+                concurrent: std::collections::BTreeSet::new(),
             };
             vessel_tasks.push(tokio::spawn(task.run(cancel.clone())));
             senders.push(tx);
             shared.push(sh);
             trigger_keys.push(trigger_key);
             commission_keys.push(commission_key);
+            state_keys.push(state_key);
         }
         metrics.register_queues(
             names
@@ -409,6 +482,8 @@ impl Daemon {
             shared,
             trigger_keys,
             commission_keys,
+            state_keys,
+            roles: roles.iter().map(watch::Sender::subscribe).collect(),
             unknown: AtomicU64::new(0),
             queries_dropped: AtomicU64::new(0),
         });
@@ -430,13 +505,32 @@ impl Daemon {
             let sub = session
                 .declare_subscriber(key.clone())
                 .callback(move |sample| {
-                    let payload = sample.payload().to_bytes().into_owned();
-                    f.dispatch(stream, sample.key_expr().as_str(), payload);
+                    let payload = sample.payload().to_bytes();
+                    f.dispatch(stream, sample.key_expr().as_str(), &payload);
                 })
                 .await
                 .map_err(DaemonError::declare("subscriber", &key))?;
             subscribers.push(sub);
         }
+        // The vessels' replicated state, from whichever daemon holds them (a standby keeps
+        // it; the holder ignores it).
+        let state_sub_key = single
+            .as_ref()
+            .map_or("vessels/*/fdi/state".into(), Keys::state);
+        let f = fleet.clone();
+        let sub = session
+            .declare_subscriber(state_sub_key.clone())
+            .callback(move |sample| {
+                if let Some(i) = f.vessel_of(sample.key_expr().as_str()) {
+                    let payload = sample.payload().to_bytes().into_owned();
+                    if f.senders[i].try_send(Msg::State { payload }).is_err() {
+                        f.shared[i].metrics.control_dropped();
+                    }
+                }
+            })
+            .await
+            .map_err(DaemonError::declare("subscriber", &state_sub_key))?;
+        subscribers.push(sub);
 
         // The control queryables (trigger, commission) and their task.
         let (qtx, qrx) = mpsc::channel::<(Control, Query)>(64);
@@ -453,6 +547,12 @@ impl Daemon {
                 single
                     .as_ref()
                     .map_or("vessels/*/fdi/commission".into(), Keys::commission),
+            ),
+            (
+                Control::State,
+                single
+                    .as_ref()
+                    .map_or("vessels/*/fdi/state".into(), Keys::state),
             ),
         ] {
             let f = fleet.clone();
@@ -483,6 +583,9 @@ impl Daemon {
             let q = session
                 .declare_queryable(key.clone())
                 .callback(move |query| {
+                    if f.leaves_to_holder(query.key_expr().as_str()) {
+                        return;
+                    }
                     if htx.try_send(query).is_err() {
                         f.queries_dropped.fetch_add(1, Ordering::Relaxed);
                     }
@@ -494,17 +597,20 @@ impl Daemon {
             history_queryable = Some((q, tokio::spawn(served)));
         }
 
-        // Liveliness last: it tells the world the vessels are monitored.
-        let mut tokens = Vec::with_capacity(names.len());
-        for name in &names {
-            let key = Keys::new(name).alive();
-            let token = session
-                .liveliness()
-                .declare_token(key.clone())
-                .await
-                .map_err(DaemonError::declare("liveliness token", &key))?;
-            tokens.push(token);
-        }
+        // Ownership last: the candidate tokens, then each vessel driven (`fdi/alive`, which
+        // tells the world the vessel is monitored) or stood by, once the claim window ended.
+        let owner_cancel = CancellationToken::new();
+        let owner = owner::OwnerDriver::start(
+            &session,
+            &daemon_id,
+            &names,
+            roles,
+            fleet.senders.clone(),
+            cfg.claim_s,
+            cfg.takeover_s,
+            owner_cancel.clone(),
+        )
+        .await?;
         let metrics = match metrics_listener {
             Some(listener) => {
                 let addr =
@@ -524,6 +630,7 @@ impl Daemon {
         tracing::info!(
             vessels = names.len(),
             zid = %session.zid(),
+            daemon = %daemon_id,
             "daemon ready"
         );
         Ok(Daemon {
@@ -536,7 +643,8 @@ impl Daemon {
             subscribers,
             queryables,
             history_queryable,
-            tokens,
+            owner,
+            owner_cancel,
             metrics,
             recorder,
         })
@@ -634,11 +742,8 @@ impl Daemon {
         if let Some(task) = history_task {
             let _ = tokio::time::timeout(limit, task).await;
         }
-        for token in self.tokens {
-            if let Err(e) = token.undeclare().await {
-                tracing::warn!("undeclaring a liveliness token: {e}");
-            }
-        }
+        self.owner_cancel.cancel();
+        self.owner.stop().await;
         let unknown = self.fleet.unknown.load(Ordering::Relaxed);
         let queries = self.fleet.queries_dropped.load(Ordering::Relaxed);
         if unknown > 0 || queries > 0 {
@@ -683,6 +788,7 @@ async fn serve_controls(
         let keys = match control {
             Control::Trigger => &fleet.trigger_keys,
             Control::Commission => &fleet.commission_keys,
+            Control::State => &fleet.state_keys,
         };
         let qke = query.key_expr().clone();
         let targets: Vec<usize> = match fleet.vessel_of(qke.as_str()) {
@@ -692,20 +798,27 @@ async fn serve_controls(
                 .collect(),
         };
         for i in targets {
+            // `None`: the vessel's standby stays silent (its holder answers).
             let bytes = match (control, &method) {
-                (Control::Trigger, None) => {
-                    to_json(&refusal("missing parameter method=hbt|clfrt".into()))
-                }
-                (Control::Trigger, Some(Err(reason))) => to_json(&refusal(reason.clone())),
+                (Control::State, _) => ask_state(&fleet, i).await,
+                (Control::Trigger, None) => Some(to_json(&refusal(
+                    "missing parameter method=hbt|clfrt".into(),
+                ))),
+                (Control::Trigger, Some(Err(reason))) => Some(to_json(&refusal(reason.clone()))),
                 (Control::Commission, Some(Err(reason))) => {
-                    to_json(&serde_json::json!({ "error": reason }))
+                    Some(to_json(&serde_json::json!({ "error": reason })))
                 }
-                (Control::Trigger, Some(Ok(m))) => to_json(&ask_vessel(&fleet, i, *m).await),
+                (Control::Trigger, Some(Ok(m))) => {
+                    ask_vessel(&fleet, i, *m).await.map(|r| to_json(&r))
+                }
                 (Control::Commission, m) => {
                     let m = m.as_ref().and_then(|m| m.as_ref().ok().copied());
-                    to_json(&ask_commission(&fleet, i, start, m).await)
+                    ask_commission(&fleet, i, start, m)
+                        .await
+                        .map(|r| to_json(&r))
                 }
             };
+            let Some(bytes) = bytes else { continue };
             if let Err(e) = query
                 .reply(keys[i].clone(), bytes)
                 .encoding(Encoding::APPLICATION_JSON)
@@ -727,7 +840,7 @@ async fn ask_commission(
     i: usize,
     start: bool,
     method: Option<Method>,
-) -> serde_json::Value {
+) -> Option<serde_json::Value> {
     let (tx, rx) = oneshot::channel();
     let msg = Msg::Commission {
         start,
@@ -736,11 +849,27 @@ async fn ask_commission(
     };
     if fleet.senders[i].try_send(msg).is_err() {
         fleet.shared[i].metrics.control_dropped();
-        return serde_json::json!({"error": "the vessel's input queue is full"});
+        return Some(serde_json::json!({"error": "the vessel's input queue is full"}));
     }
     match tokio::time::timeout(Duration::from_secs(5), rx).await {
         Ok(Ok(r)) => r,
-        _ => serde_json::json!({"error": "the vessel's monitor did not answer"}),
+        _ => Some(serde_json::json!({"error": "the vessel's monitor did not answer"})),
+    }
+}
+
+/// Asks vessel `i` for its state (`None`: not the holder, or no answer).
+async fn ask_state(fleet: &Fleet, i: usize) -> Option<Vec<u8>> {
+    let (tx, rx) = oneshot::channel();
+    if fleet.senders[i]
+        .try_send(Msg::StateQuery { reply: tx })
+        .is_err()
+    {
+        fleet.shared[i].metrics.control_dropped();
+        return None;
+    }
+    match tokio::time::timeout(Duration::from_secs(5), rx).await {
+        Ok(Ok(r)) => r,
+        _ => None,
     }
 }
 
@@ -752,18 +881,18 @@ fn refusal(reason: String) -> TriggerReply {
     }
 }
 
-async fn ask_vessel(fleet: &Fleet, i: usize, method: Method) -> TriggerReply {
+async fn ask_vessel(fleet: &Fleet, i: usize, method: Method) -> Option<TriggerReply> {
     let (tx, rx) = oneshot::channel();
     if fleet.senders[i]
         .try_send(Msg::Trigger { method, reply: tx })
         .is_err()
     {
         fleet.shared[i].metrics.control_dropped();
-        return refusal("the vessel's input queue is full".into());
+        return Some(refusal("the vessel's input queue is full".into()));
     }
     match tokio::time::timeout(Duration::from_secs(5), rx).await {
         Ok(Ok(r)) => r,
-        _ => refusal("the vessel's monitor did not answer".into()),
+        _ => Some(refusal("the vessel's monitor did not answer".into())),
     }
 }
 
@@ -782,6 +911,8 @@ mod tests {
             })],
             trigger_keys: vec![KeyExpr::try_from("vessels/self/fdi/trigger").unwrap()],
             commission_keys: vec![KeyExpr::try_from("vessels/self/fdi/commission").unwrap()],
+            state_keys: vec![KeyExpr::try_from("vessels/self/fdi/state").unwrap()],
+            roles: vec![watch::channel(owner::RoleView::claiming()).1],
             unknown: AtomicU64::new(0),
             queries_dropped: AtomicU64::new(0),
         };
@@ -792,11 +923,7 @@ mod tests {
     fn a_flood_is_dropped_and_counted_never_queued() {
         let (fleet, mut rx) = fleet(16);
         for _ in 0..100 {
-            fleet.dispatch(
-                Stream::Rudder,
-                "vessels/self/steering/rudderAngle",
-                b"{}".to_vec(),
-            );
+            fleet.dispatch(Stream::Rudder, "vessels/self/steering/rudderAngle", b"{}");
         }
         assert_eq!(fleet.shared[0].metrics.queue_dropped_count(), 84);
         let mut queued = 0;
@@ -809,12 +936,8 @@ mod tests {
     #[test]
     fn keys_of_other_vessels_are_counted_apart() {
         let (fleet, _rx) = fleet(16);
-        fleet.dispatch(
-            Stream::Heading,
-            "vessels/other/navigation/headingTrue",
-            vec![],
-        );
-        fleet.dispatch(Stream::Heading, "elsewhere", vec![]);
+        fleet.dispatch(Stream::Heading, "vessels/other/navigation/headingTrue", &[]);
+        fleet.dispatch(Stream::Heading, "elsewhere", &[]);
         assert_eq!(fleet.unknown.load(Ordering::Relaxed), 2);
         assert_eq!(fleet.vessel_of("vessels/self/fdi/trigger"), Some(0));
     }

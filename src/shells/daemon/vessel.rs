@@ -1,21 +1,37 @@
-//! One vessel's task: the only owner of its [`Monitor`] core. It decodes the samples its
-//! queue brings, feeds the core, publishes every output at once and in order (saving the state
-//! and the history first, when they are kept), checks silence and publishes statistics; and
-//! at start it takes up the vessel's saved state.
+//! One vessel's task: the only owner of its [`Monitor`] core. While this daemon drives the
+//! vessel (its role, from the ownership driver, is holder) it decodes the samples its queue
+//! brings, feeds the core, publishes every output at once and in order (saving the state and
+//! the history first, when they are kept, and publishing the state on `fdi/state` for the
+//! standbys), checks silence and publishes statistics.
+//!
+//! While it stands by it publishes nothing for the vessel: samples are dropped unread, a
+//! trigger or commission query is left to the holder (answered only when no holder is alive,
+//! with the refusal "standby, ..."), and every state the holder publishes is checked (format,
+//! vessel, and the fingerprint of the ship configuration and models it was made under: a
+//! state made under others is refused, with the reason) and kept, in memory and in the state
+//! directory. When it takes over it starts from a fresh core restored from that state (else
+//! from its state directory), publishes the restored alarm again and drives; a test the old
+//! holder was running is not continued (the new core has none). When it yields (another
+//! holder with a lower id: a healed partition) it stops at once, dropping what the core still
+//! had to say. Reports made while another daemon also drove are marked with
+//! `"concurrent_drivers": [ids]`.
 
+use super::owner::RoleView;
 use super::DaemonError;
 use super::{Msg, Shared, VesselSummary};
 use crate::core::monitor::abort::AbortCounts;
 use crate::core::monitor::input::RejectReason;
+use crate::core::monitor::VesselState;
 use crate::core::monitor::{Monitor, Output};
+use crate::core::ownership::Role;
 use crate::core::wire::{self, Input, Keys};
 use crate::shells::history::{History, Kind};
 use crate::shells::recording::{self, Recorder};
 use crate::shells::state::{Loaded, StateDir};
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
-use tokio::sync::mpsc;
+use tokio::sync::{mpsc, watch};
 use tokio_util::sync::CancellationToken;
 use zenoh::bytes::Encoding;
 use zenoh::pubsub::Publisher;
@@ -28,6 +44,8 @@ pub(super) struct Publishers {
     report: Publisher<'static>,
     notification: Publisher<'static>,
     stats: Option<Publisher<'static>>,
+    /// `fdi/state`: the vessel's state for the standbys.
+    state: Publisher<'static>,
 }
 
 impl Publishers {
@@ -70,6 +88,10 @@ impl Publishers {
         let notification = reliable(k.clone(), Priority::DataHigh)
             .await
             .map_err(DaemonError::declare("publisher", &k))?;
+        let k = keys.state();
+        let state = reliable(k.clone(), Priority::Data)
+            .await
+            .map_err(DaemonError::declare("publisher", &k))?;
         let stats = if stats {
             let k = stats_key(keys);
             Some(
@@ -90,6 +112,7 @@ impl Publishers {
             report,
             notification,
             stats,
+            state,
         })
     }
 }
@@ -130,6 +153,36 @@ pub(super) struct VesselTask {
     pub(super) recorder: Option<Arc<Mutex<Recorder>>>,
     /// What this vessel recorded: the channels' names and the messages written on each.
     pub(super) recording: Recording,
+    /// How to build a fresh core at a takeover.
+    pub(super) fresh: Fresh,
+    /// This daemon's id (`daemon.id`).
+    pub(super) daemon_id: String,
+    /// The role, from the ownership driver.
+    pub(super) role_rx: watch::Receiver<RoleView>,
+    /// Whether this daemon drives the vessel now.
+    pub(super) driving: bool,
+    /// The last state the holder published, checked (taken up at a takeover).
+    pub(super) replica: Option<VesselState>,
+    /// Replicated states refused (another format, vessel or fingerprint).
+    pub(super) refused_states: u64,
+    /// Other daemons that drove the vessel during the test under way (its report is marked).
+    pub(super) concurrent: BTreeSet<String>,
+}
+
+/// What a fresh core is made of.
+pub(super) struct Fresh {
+    pub core: crate::core::monitor::config::CoreConfig,
+    pub multisine: Option<crate::core::dsp::multisine::Multisine>,
+    pub estimator: Option<Arc<crate::core::estimator::Estimator>>,
+    /// The core's analysis records are wanted (recording).
+    pub analysis: bool,
+}
+
+/// `fdi/state`: the vessel's state and the daemon that published it.
+#[derive(Debug, serde::Serialize, serde::Deserialize)]
+struct Replicated {
+    daemon: String,
+    state: VesselState,
 }
 
 /// One vessel's side of the recording: its channels' names and its counts.
@@ -142,7 +195,13 @@ pub(super) struct Recording {
     report: String,
     notification: String,
     analysis: String,
-    /// Ship time of the last input sample (a malformed one is recorded at it) [s].
+    /// `fdi/rejected`.
+    rejected: String,
+    /// Per input stream (by index), the rejected records' budget.
+    rejected_budgets: Vec<recording::RejectedBudget>,
+    /// Rejected samples left out of the recording (over the budget).
+    rejected_suppressed: u64,
+    /// Ship time of the last accepted input sample (a rejected one is recorded at it) [s].
     last_input_t: f64,
     /// Messages written, per channel.
     counts: BTreeMap<String, u64>,
@@ -162,6 +221,12 @@ impl Recording {
             report: keys.report(),
             notification: keys.notification(),
             analysis: recording::analysis_key(keys),
+            rejected: recording::rejected_key(keys),
+            rejected_budgets: vec![
+                recording::RejectedBudget::default();
+                wire::Stream::BY_INDEX.len()
+            ],
+            rejected_suppressed: 0,
             last_input_t: 0.0,
             counts: BTreeMap::new(),
             errors: 0,
@@ -170,7 +235,8 @@ impl Recording {
 }
 
 impl VesselTask {
-    pub(super) async fn run(mut self, cancel: CancellationToken) -> VesselSummary {
+    /// Publishes the restored alarm notification again, if any.
+    async fn publish_restored(&mut self) {
         if let Some(n) = self.restored.take() {
             // An alarm stays an alarm across a restart: publish it again as soon as someone
             // listens (at most a couple of seconds' wait; published regardless after that).
@@ -188,6 +254,10 @@ impl VesselTask {
                 }
             }
         }
+    }
+
+    pub(super) async fn run(mut self, cancel: CancellationToken) -> VesselSummary {
+        let mut roles_open = true;
         let mut tick = tokio::time::interval(self.tick);
         tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
         let mut stats = self.stats_period.map(|p| {
@@ -199,7 +269,11 @@ impl VesselTask {
             tokio::select! {
                 biased;
                 _ = cancel.cancelled() => break,
-                _ = tick.tick() => {
+                changed = self.role_rx.changed(), if roles_open => match changed {
+                    Ok(()) => self.on_role().await,
+                    Err(_) => roles_open = false,
+                },
+                _ = tick.tick(), if self.driving => {
                     if let Some((t, at)) = self.last_heading {
                         self.monitor.handle_timeout(t + at.elapsed().as_secs_f64());
                         self.publish_outputs().await;
@@ -213,13 +287,15 @@ impl VesselTask {
             }
         }
         self.rx.close();
-        self.monitor.shutdown("daemon stopping");
-        let limit = self.shutdown_timeout;
-        if tokio::time::timeout(limit, self.publish_outputs())
-            .await
-            .is_err()
-        {
-            tracing::warn!(vessel = %self.name, "final publications timed out");
+        if self.driving {
+            self.monitor.shutdown("daemon stopping");
+            let limit = self.shutdown_timeout;
+            if tokio::time::timeout(limit, self.publish_outputs())
+                .await
+                .is_err()
+            {
+                tracing::warn!(vessel = %self.name, "final publications timed out");
+            }
         }
         let stats = self.stats_json();
         tracing::info!(vessel = %self.name, stats = %stats, "vessel statistics");
@@ -229,23 +305,172 @@ impl VesselTask {
         }
     }
 
+    /// Takes a change of role: take over, yield, or note the other drivers.
+    async fn on_role(&mut self) {
+        let view = self.role_rx.borrow_and_update().clone();
+        let drives = view.role.drives();
+        if drives && !self.driving {
+            self.take_over().await;
+        } else if !drives && self.driving {
+            self.driving = false;
+            let mut dropped = 0;
+            while self.monitor.poll_output().is_some() {
+                dropped += 1;
+            }
+            self.last_heading = None;
+            self.pending_heading = None;
+            tracing::warn!(vessel = %self.name, dropped_outputs = dropped, state = ?self.monitor.state(), "stopped driving ({}): the test under way is left to expire", view.describe());
+        }
+        if drives {
+            self.concurrent.extend(view.others_holding.iter().cloned());
+        }
+    }
+
+    /// Starts driving: a fresh core restored from the holder's replicated state (else from
+    /// the state directory), its alarm published again, its state published for the others.
+    async fn take_over(&mut self) {
+        let f = &self.fresh;
+        let mut m = Monitor::with_parts(
+            &f.core,
+            &self.name,
+            f.multisine.clone(),
+            f.estimator.clone(),
+        );
+        m.set_analysis_output(f.analysis);
+        let from_replica = match self.replica.take() {
+            Some(s) => {
+                let seq = s.test_seq;
+                match m.restore(s) {
+                    Ok(discarded) => {
+                        if let Some(why) = discarded {
+                            tracing::warn!(vessel = %self.name, "{why}");
+                        }
+                        tracing::info!(vessel = %self.name, alarm = ?m.alarm_state(), tests = seq, commissioning = %m.commissioning_text(), "state taken over from the holder's publication");
+                        true
+                    }
+                    Err(e) => {
+                        tracing::error!(vessel = %self.name, "replicated state refused: {e}");
+                        false
+                    }
+                }
+            }
+            None => false,
+        };
+        let restored = if from_replica {
+            m.last_notification().cloned()
+        } else {
+            self.state
+                .as_ref()
+                .and_then(|dir| restore(dir, &self.name, &mut m))
+        };
+        self.monitor = m;
+        self.seen_aborts = self.monitor.stats().aborts.clone();
+        self.shared.metrics.alarm(self.monitor.alarm_state());
+        self.last_heading = None;
+        self.pending_heading = None;
+        self.concurrent.clear();
+        self.driving = true;
+        self.restored = restored;
+        tracing::info!(vessel = %self.name, daemon = %self.daemon_id, "driving the vessel");
+        self.publish_restored().await;
+        self.save_state();
+        self.publish_state().await;
+    }
+
+    /// The vessel's state as published on `fdi/state`.
+    fn state_payload(&self) -> Option<Vec<u8>> {
+        serde_json::to_vec(&Replicated {
+            daemon: self.daemon_id.clone(),
+            state: self.monitor.saved_state(),
+        })
+        .ok()
+    }
+
+    /// Publishes the vessel's state for the standbys (the holder only).
+    async fn publish_state(&mut self) {
+        if !self.driving {
+            return;
+        }
+        if let Some(b) = self.state_payload() {
+            if let Err(e) = self.pubs.state.put(b).await {
+                tracing::warn!(vessel = %self.name, "publishing the state: {e}");
+            }
+        }
+    }
+
+    /// Takes a state published by the holder: checked, then kept (memory and state directory).
+    fn on_state(&mut self, payload: &[u8]) {
+        if self.driving {
+            return;
+        }
+        let refuse = |me: &mut Self, from: &str, why: String| {
+            me.refused_states += 1;
+            if me.refused_states.is_power_of_two() {
+                tracing::error!(vessel = %me.name, from, count = me.refused_states, "replicated state refused: {why}");
+            }
+        };
+        let r: Replicated = match serde_json::from_slice(payload) {
+            Ok(r) => r,
+            Err(e) => return refuse(self, "?", format!("not a vessel state: {e}")),
+        };
+        if r.daemon == self.daemon_id {
+            return;
+        }
+        if r.state.format != VesselState::FORMAT {
+            let why = format!(
+                "format `{}`, expected `{}`",
+                r.state.format,
+                VesselState::FORMAT
+            );
+            return refuse(self, &r.daemon, why);
+        }
+        if r.state.vessel != self.name {
+            let why = format!("made for vessel `{}`", r.state.vessel);
+            return refuse(self, &r.daemon, why);
+        }
+        let own = self.monitor.saved_state().fdi.fingerprint;
+        if let Some(why) = own.difference(&r.state.fdi.fingerprint) {
+            let why =
+                format!("made under another configuration or models than this daemon's: {why}");
+            return refuse(self, &r.daemon, why);
+        }
+        if self.replica.is_none() {
+            tracing::info!(vessel = %self.name, from = %r.daemon, tests = r.state.test_seq, "keeping the holder's state");
+        }
+        if let Some(dir) = &self.state {
+            if let Err(e) = tokio::task::block_in_place(|| dir.save(&r.state)) {
+                tracing::error!(vessel = %self.name, "saving the replicated state: {e}");
+            }
+        }
+        self.replica = Some(r.state);
+    }
+
     async fn handle(&mut self, msg: Msg) {
+        if !self.driving {
+            return self.handle_standby(msg);
+        }
         match msg {
+            Msg::State { .. } => {}
+            Msg::StateQuery { reply } => {
+                let _ = reply.send(self.state_payload());
+            }
             Msg::Sample {
                 stream,
                 payload,
+                len,
                 arrived,
             } => {
-                let decoded = wire::decode(stream, &payload);
-                if self.recorder.is_some() {
-                    if let Ok(i) = &decoded {
-                        self.recording.last_input_t = i.t();
-                    }
-                    let topic = self.recording.inputs[stream.index()].clone();
-                    let t = self.recording.last_input_t;
-                    self.record_message(&topic, recording::Kind::Input(stream), t, &payload);
-                }
-                match decoded {
+                // An oversized sample is not read (only its head was queued).
+                let decoded = if len > payload.len() {
+                    Err(format!(
+                        "{} sample of {len} bytes, over {} bytes: not read",
+                        stream.name(),
+                        super::MAX_SAMPLE_BYTES
+                    ))
+                } else {
+                    wire::decode(stream, &payload).map_err(|e| e.to_string())
+                };
+                let reason = match decoded {
                     Err(e) => {
                         self.shared
                             .metrics
@@ -257,8 +482,14 @@ impl VesselTask {
                                 .rejected(stream, RejectReason::Malformed);
                             tracing::warn!(vessel = %self.name, stream = stream.name(), count = n, "{e}");
                         }
+                        Some(if len > payload.len() {
+                            "oversized"
+                        } else {
+                            RejectReason::Malformed.name()
+                        })
                     }
                     Ok(input) => {
+                        let t = input.t();
                         let heading_t = match &input {
                             Input::Heading(s) => Some(s.t),
                             _ => None,
@@ -270,17 +501,35 @@ impl VesselTask {
                                     self.last_heading = Some((t, Instant::now()));
                                     self.pending_heading = Some((t, arrived));
                                 }
+                                // Recorded before its outputs, in the order it was handled.
+                                if self.recorder.is_some() {
+                                    self.recording.last_input_t = t;
+                                    let topic = self.recording.inputs[stream.index()].clone();
+                                    self.record_message(
+                                        &topic,
+                                        recording::Kind::Input(stream),
+                                        t,
+                                        &payload,
+                                    );
+                                }
+                                None
                             }
-                            Err(r) => self.shared.metrics.rejected(r.stream, r.reason),
+                            Err(r) => {
+                                self.shared.metrics.rejected(r.stream, r.reason);
+                                Some(r.reason.name())
+                            }
                         }
                     }
+                };
+                if let Some(reason) = reason {
+                    self.record_rejected(stream, reason, len, &payload);
                 }
                 self.publish_outputs().await;
             }
             Msg::Trigger { method, reply } => {
                 let r = self.monitor.trigger(method);
                 tracing::info!(vessel = %self.name, method = method.name(), accepted = r.accepted, test = ?r.test, reason = ?r.reason, "trigger");
-                let _ = reply.send(r);
+                let _ = reply.send(Some(r));
                 self.publish_outputs().await;
             }
             Msg::Commission {
@@ -298,6 +547,35 @@ impl VesselTask {
                     o.insert("vessel".into(), self.name.clone().into());
                     o.insert("started".into(), start.into());
                 }
+                let _ = reply.send(Some(r));
+                if start {
+                    self.publish_state().await;
+                }
+            }
+        }
+    }
+
+    /// A message while standing by: nothing is driven, nothing published.
+    fn handle_standby(&mut self, msg: Msg) {
+        let view = self.role_rx.borrow().clone();
+        // Left to the holder when one is alive (a second reply would race its answer).
+        let holder_alive = matches!(view.role, Role::Standby { holder: Some(_) });
+        match msg {
+            Msg::Sample { .. } => {}
+            Msg::State { payload } => self.on_state(&payload),
+            Msg::StateQuery { reply } => {
+                let _ = reply.send(None);
+            }
+            Msg::Trigger { reply, .. } => {
+                let r = (!holder_alive).then(|| crate::core::wire::TriggerReply {
+                    accepted: false,
+                    test: None,
+                    reason: Some(view.describe()),
+                });
+                let _ = reply.send(r);
+            }
+            Msg::Commission { reply, .. } => {
+                let r = (!holder_alive).then(|| serde_json::json!({"error": view.describe()}));
                 let _ = reply.send(r);
             }
         }
@@ -346,6 +624,24 @@ impl VesselTask {
         }
     }
 
+    /// Records a rejected sample as its reason, length and head, within the stream's budget
+    /// (`recording::RejectedBudget`); the rest are counted.
+    fn record_rejected(&mut self, stream: wire::Stream, reason: &str, len: usize, payload: &[u8]) {
+        if self.recorder.is_none() {
+            return;
+        }
+        let budget = &mut self.recording.rejected_budgets[stream.index()];
+        if !budget.take(Instant::now()) {
+            self.recording.rejected_suppressed += 1;
+            return;
+        }
+        let suppressed = std::mem::take(&mut budget.suppressed);
+        let b = recording::rejected_record(stream, reason, len, payload, suppressed);
+        let topic = self.recording.rejected.clone();
+        let t = self.recording.last_input_t;
+        self.record_message(&topic, recording::Kind::Rejected, t, &b);
+    }
+
     /// Records a completed test's analysis: one message per grid point.
     fn record_analysis(&mut self, a: &crate::core::monitor::AnalysisRecord) {
         let topic = self.recording.analysis.clone();
@@ -368,7 +664,10 @@ impl VesselTask {
     /// Drains the core and publishes every output on its key, in order (recording each first,
     /// when recording).
     async fn publish_outputs(&mut self) {
+        let mut state_changed = false;
         while let Some(out) = self.monitor.poll_output() {
+            state_changed |= matches!(&out, Output::Report(_) | Output::Notification(_))
+                || matches!(&out, Output::Status(s) if s.state == wire::MonitorState::Settling);
             let mut excitation_of: Option<Instant> = None;
             let (kind, t) = match &out {
                 Output::Excitation(e) => (recording::Kind::Excitation, e.t),
@@ -392,6 +691,8 @@ impl VesselTask {
                 }
                 Output::Status(s) => {
                     if s.state == wire::MonitorState::Settling {
+                        // A new test: marked only if another daemon drives during it.
+                        self.concurrent = self.role_rx.borrow().others_holding.clone();
                         // A test started: its id is taken, even if the daemon dies before it ends.
                         self.save_state();
                         if let Some(m) = s.method {
@@ -405,7 +706,25 @@ impl VesselTask {
                     // The decision is on disk before anyone hears of it.
                     self.save_state();
                     self.last_report_t = r.t_end;
-                    self.record(Kind::Report, r.t_end, r);
+                    // Made while another daemon also drove the vessel: marked.
+                    let marked = if self.concurrent.is_empty() {
+                        None
+                    } else {
+                        let mut v = serde_json::to_value(r).unwrap_or_default();
+                        if let Some(o) = v.as_object_mut() {
+                            o.insert(
+                                "concurrent_drivers".into(),
+                                serde_json::json!(self.concurrent),
+                            );
+                        }
+                        tracing::warn!(vessel = %self.name, test = %r.test, others = ?self.concurrent, "report made while another daemon drove too: marked");
+                        Some(v)
+                    };
+                    self.concurrent = self.role_rx.borrow().others_holding.clone();
+                    match &marked {
+                        Some(v) => self.record(Kind::Report, r.t_end, v),
+                        None => self.record(Kind::Report, r.t_end, r),
+                    }
                     let aborts = self.monitor.stats().aborts.clone();
                     let moved: Vec<(&'static str, u64)> = aborts
                         .iter()
@@ -425,7 +744,10 @@ impl VesselTask {
                         reason = ?r.reason,
                         "report"
                     );
-                    serde_json::to_vec(r)
+                    match &marked {
+                        Some(v) => serde_json::to_vec(v),
+                        None => serde_json::to_vec(r),
+                    }
                 }
                 Output::Notification(n) => {
                     self.record(Kind::Notification, self.last_report_t, n);
@@ -467,6 +789,9 @@ impl VesselTask {
                 }
             }
         }
+        if state_changed {
+            self.publish_state().await;
+        }
     }
 
     fn stats_json(&self) -> serde_json::Value {
@@ -487,9 +812,12 @@ impl VesselTask {
             },
             "excitation_clamped": s.excitation_clamped,
             "publish_errors": self.publish_errors,
+            "role": self.role_rx.borrow().describe(),
+            "replicated_states_refused": self.refused_states,
             "recorded": {
                 "messages": self.recording.counts,
                 "errors": self.recording.errors,
+                "rejected_suppressed": self.recording.rejected_suppressed,
             },
         })
     }
@@ -497,6 +825,10 @@ impl VesselTask {
     async fn publish_stats(&mut self) {
         let stats = self.stats_json();
         tracing::debug!(vessel = %self.name, stats = %stats, "vessel statistics");
+        // A standby publishes nothing on the vessel's keys (its counters are in its log).
+        if !self.driving {
+            return;
+        }
         if let Some(p) = &self.pubs.stats {
             if let Ok(b) = serde_json::to_vec(&stats) {
                 if let Err(e) = p.put(b).await {
