@@ -402,25 +402,26 @@ async fn the_standby_takes_over_an_alarm_with_the_state_after_sigkill_both_ways(
         .unwrap();
     let obs = Observer::new(&router_ep, "self", true).await;
     let owners = Ownership::new(&obs.session).await;
-    let extra = "[scheduler]\nenabled = false\n\n[fdi]\ncommissioning-tests = 1\n";
+    // The fewest commissioning tests the covariance's K-sample factor allows.
+    let extra = "[scheduler]\nenabled = false\n\n[fdi]\ncommissioning-tests = 5\n";
     let toml = |id: &str| daemon_toml(&dir, id, &router_ep, extra);
     let mut a = spawn_daemon(&dir, "a", &toml("a"));
     owners.wait("a", "holder", "a").await;
     let mut b = spawn_daemon(&dir, "b", &toml("b"));
     owners.wait("b", "standby", "a").await;
 
-    // Commissioning on a healthy ship, one test per method (about 2700 s of ship time); a
-    // displacement 30 % up from 3000 s on: tests until the alarm.
+    // Commissioning on a healthy ship, five tests per method (about 15,000 s of ship time); a
+    // displacement 30 % up from 20,000 s on: tests until the alarm.
     let mut cfg = Config::default();
-    cfg.fdi.commissioning_tests = 1;
+    cfg.fdi.commissioning_tests = 5;
     let mut scenario = Scenario::nominal(&cfg.sim(), 11);
-    scenario.faults = vec!["displacement_pct:+30@3000".parse().unwrap()];
+    scenario.faults = vec!["displacement_pct:+30@20000".parse().unwrap()];
     let (stop, ship_task) = ship(&cfg, &scenario, 0.0, None, &router_ep);
-    for m in ["clfrt", "hbt"] {
+    for m in ["clfrt", "hbt"].repeat(5) {
         let r = one_test(&obs, m).await;
         assert_eq!(r["residuals"]["reference"]["kind"], "commissioning", "{r}");
     }
-    for _ in 0..8 {
+    for _ in 0..12 {
         let r = one_test(&obs, "clfrt").await;
         assert_eq!(r["residuals"]["reference"]["kind"], "commissioned", "{r}");
         if obs
