@@ -303,11 +303,25 @@ fn ratio(s: Option<Scored>) -> f64 {
     s.map_or(0.0, |s| s.look.statistic / s.look.threshold)
 }
 
-/// The per-method sums of the newest `n` entries' whitened residuals, with their counts and
-/// offset errors (`n = 1`: the newest alone, wide or not; `n > 1`: entries on wide limits
-/// left out).
-pub fn method_sums(window: &VecDeque<Entry>, n: usize) -> Vec<(Method, [f64; 2], usize, f64)> {
-    let mut out: Vec<(Method, [f64; 2], usize, f64)> = Vec::new();
+/// One method's part of a look: the sums over its tests in the look.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MethodSums {
+    /// The method.
+    pub method: Method,
+    /// Sum of its whitened residuals.
+    pub sum: [f64; 2],
+    /// Sum of its tests' unit cause directions (speed log, displacement).
+    pub directions: [[f64; 2]; 2],
+    /// Its tests in the look.
+    pub tests: usize,
+    /// Its reference offset's relative error `c`.
+    pub offset_var: f64,
+}
+
+/// The per-method sums of the newest `n` entries (`n = 1`: the newest alone, wide or not;
+/// `n > 1`: entries on wide limits left out).
+pub fn method_sums(window: &VecDeque<Entry>, n: usize) -> Vec<MethodSums> {
+    let mut out: Vec<MethodSums> = Vec::new();
     for e in window.iter().rev().take(n) {
         let Some(z) = e.z else { continue };
         let c = match (e.offset_var, n) {
@@ -315,13 +329,24 @@ pub fn method_sums(window: &VecDeque<Entry>, n: usize) -> Vec<(Method, [f64; 2],
             (None, 1) => 0.0,
             (None, _) => continue,
         };
-        match out.iter_mut().find(|o| o.0 == e.method) {
+        let d = e.directions.map(isolation::unit);
+        match out.iter_mut().find(|o| o.method == e.method) {
             Some(o) => {
-                o.1[0] += z[0];
-                o.1[1] += z[1];
-                o.2 += 1;
+                for i in 0..2 {
+                    o.sum[i] += z[i];
+                    for (acc, di) in o.directions.iter_mut().zip(&d) {
+                        acc[i] += di[i];
+                    }
+                }
+                o.tests += 1;
             }
-            None => out.push((e.method, z, 1, c)),
+            None => out.push(MethodSums {
+                method: e.method,
+                sum: z,
+                directions: d,
+                tests: 1,
+                offset_var: c,
+            }),
         }
     }
     out
@@ -335,9 +360,9 @@ fn param_statistic(window: &VecDeque<Entry>, n: usize) -> Option<(f64, usize)> {
     }
     let t: f64 = sums
         .iter()
-        .map(|(_, s, k, c)| {
-            let k = *k as f64;
-            (s[0] * s[0] + s[1] * s[1]) / (k * (1.0 + k * c))
+        .map(|m| {
+            let (s, k) = (m.sum, m.tests as f64);
+            (s[0] * s[0] + s[1] * s[1]) / (k * (1.0 + k * m.offset_var))
         })
         .sum();
     t.is_finite().then_some((t, sums.len()))

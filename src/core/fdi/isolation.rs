@@ -24,54 +24,17 @@
 //! the parameter residuals (its lag changes the loop the networks learned), which the servo
 //! check measures directly.
 
-use super::decision::Entry;
-use crate::core::wire::{Cause, Method};
+use super::decision::{method_sums, Entry};
+use crate::core::wire::Cause;
 use std::collections::VecDeque;
 
 /// The parameter causes in the order of [`Entry::directions`].
 pub const PARAMETER_CAUSES: [Cause; 2] =
     [Cause::SpeedLog, Cause::DisplacementOrRudderEffectiveness];
 
-/// One method's part of a look: the sum of its whitened residuals and of its tests' unit
-/// directions, its tests and its offset's relative error.
-struct MethodSums {
-    method: Method,
-    sum: [f64; 2],
-    directions: [[f64; 2]; 2],
-    tests: usize,
-    offset_var: f64,
-}
-
 /// The per-cause costs `J_c` of the newest `n` entries.
 pub fn costs(window: &VecDeque<Entry>, n: usize) -> [f64; 2] {
-    let mut per: Vec<MethodSums> = Vec::new();
-    for e in window.iter().rev().take(n) {
-        let Some(z) = e.z else { continue };
-        let c = match (e.offset_var, n) {
-            (Some(c), _) => c,
-            (None, 1) => 0.0,
-            (None, _) => continue,
-        };
-        let d = e.directions.map(unit);
-        match per.iter_mut().find(|p| p.method == e.method) {
-            Some(p) => {
-                for i in 0..2 {
-                    p.sum[i] += z[i];
-                    for (acc, di) in p.directions.iter_mut().zip(&d) {
-                        acc[i] += di[i];
-                    }
-                }
-                p.tests += 1;
-            }
-            None => per.push(MethodSums {
-                method: e.method,
-                sum: z,
-                directions: d,
-                tests: 1,
-                offset_var: c,
-            }),
-        }
-    }
+    let per = method_sums(window, n);
     let mut j = [0.0; 2];
     for p in per {
         let k = p.tests as f64;
@@ -98,7 +61,7 @@ pub fn name(window: &VecDeque<Entry>, n: usize) -> Vec<Cause> {
 }
 
 /// `v / |v|` (0 stays 0).
-fn unit(v: [f64; 2]) -> [f64; 2] {
+pub fn unit(v: [f64; 2]) -> [f64; 2] {
     let n = (v[0] * v[0] + v[1] * v[1]).sqrt();
     if n > 0.0 && n.is_finite() {
         [v[0] / n, v[1] / n]
