@@ -486,7 +486,7 @@ pub(super) fn history(
         BLACK.stroke_width(1),
     ))
     .map_err(draw_err)?
-    .label(format!("fdi.chi2-threshold = {}", tick(&threshold)))
+    .label(format!("single-test limit = {}", tick(&threshold)))
     .legend(legend_line(BLACK));
     for m in [Method::Clfrt, Method::Hbt] {
         let color = method_color(m);

@@ -4,7 +4,7 @@
 //! |---|---|
 //! | a CLFRT report | Bode pair: the measured gain [dB] and phase [deg] at the tones with their 90 % intervals, over the nominal and the estimated ship's `b / (j w (j w + a))` |
 //! | an HBT report | Nyquist plane: the loop the relay sees, servo describing function times ship `S(w) G(j w)` (solid), and the ship alone `G(j w)` (dashed), nominal and estimated, the relay's `-1/N(A)` locus, the measured limit cycle on it (a circle), the measured response `G(j w_u)` (a cross), the describing-function predictions (triangles) |
-//! | a report history | the residuals against `t_end`: chi2 (circles, one per report) with `fdi.chi2-threshold`, and `z_speed`, `z_disp`, `z_rate` |
+//! | a report history | the residuals against `t_end`: chi2 (circles, one per report) with the sequential test's single-test limit (from `fdi.false-alarms-per-year`), and `z_speed`, `z_disp`, `z_rate` |
 //! | a recording | heading, rudder and excitation against time (an HBT limit cycle's time trace) |
 //!
 //! The nominal ship is the configuration's `[ship]` at its nominal speed and displacement; the
