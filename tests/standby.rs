@@ -485,19 +485,22 @@ async fn daemon_in_process(
         .unwrap()
 }
 
+/// One side of a partition: a router on a free loopback endpoint, and that endpoint.
+async fn partition() -> (String, zenoh::Session) {
+    let ep = endpoint();
+    let router = zenoh::open(loopback(ZenohMode::Router, &[ep.clone()], &[]).unwrap())
+        .await
+        .unwrap();
+    (ep, router)
+}
+
 /// A partition: two routers, daemon `a` behind one, daemon `b` and the lockstep ship behind
 /// the other; both hold the vessel, `b` drives the ship. A third router joins the two (the
 /// partition heals): `b` (the higher id) yields, `a` drives, and headings answered twice are
 /// those of the moment both saw the ship and not yet each other.
 #[tokio::test(flavor = "multi_thread")]
 async fn a_healed_partition_leaves_one_driver() {
-    let (ep_a, ep_b) = (endpoint(), endpoint());
-    let router_a = zenoh::open(loopback(ZenohMode::Router, &[ep_a.clone()], &[]).unwrap())
-        .await
-        .unwrap();
-    let router_b = zenoh::open(loopback(ZenohMode::Router, &[ep_b.clone()], &[]).unwrap())
-        .await
-        .unwrap();
+    let ((ep_a, router_a), (ep_b, router_b)) = (partition().await, partition().await);
     let mut cfg = common::daemon_config();
     cfg.scheduler.enabled = false;
     let obs = Observer::new(&ep_b, "self", true).await;
@@ -608,13 +611,7 @@ async fn a_state_of_another_configuration_is_refused_and_a_lone_standby_refuses_
 /// heals and `b` appears as a second holder (and yields).
 #[tokio::test(flavor = "multi_thread")]
 async fn a_report_made_while_two_held_the_vessel_is_marked() {
-    let (ep_a, ep_b) = (endpoint(), endpoint());
-    let router_a = zenoh::open(loopback(ZenohMode::Router, &[ep_a.clone()], &[]).unwrap())
-        .await
-        .unwrap();
-    let router_b = zenoh::open(loopback(ZenohMode::Router, &[ep_b.clone()], &[]).unwrap())
-        .await
-        .unwrap();
+    let ((ep_a, router_a), (ep_b, router_b)) = (partition().await, partition().await);
     let mut cfg = common::daemon_config();
     cfg.scheduler.enabled = false;
     let obs = Observer::new(&ep_a, "self", true).await;
