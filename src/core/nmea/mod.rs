@@ -36,6 +36,11 @@ use crate::core::config::{check_range_open_low, fail, ConfigError};
 use crate::core::wire::{Input, Scalar, StateValue, Stream};
 use serde::{Deserialize, Serialize};
 
+mod encode;
+mod lines;
+pub use encode::{datagram, sentence, tag_block, tag_time_ms, tick_sentences};
+pub use lines::{Line, LineBuffer};
+
 /// Metres per second in one knot.
 pub const KNOT_MPS: f64 = 1852.0 / 3600.0;
 /// Metres per second in one km/h.
@@ -734,81 +739,6 @@ fn framing_checksum_ok(s: &str) -> bool {
 // ---------------------------------------------------------------------------------------------
 // A byte stream cut into lines (TCP, a serial line)
 
-/// Cuts a byte stream into lines of at most [`MAX_LINE_BYTES`]. A longer line is dropped up
-/// to its end and reported once as [`Line::TooLong`]; the buffer never grows past the limit.
-#[derive(Debug, Default)]
-pub struct LineBuffer {
-    buf: Vec<u8>,
-    /// Inside an over-long line: drop bytes until the next `\n`.
-    skipping: bool,
-}
-
-/// One item out of a [`LineBuffer`].
-#[derive(Debug, PartialEq, Eq)]
-pub enum Line<'a> {
-    /// A complete line, without its `\n`.
-    Complete(&'a [u8]),
-    /// A line longer than [`MAX_LINE_BYTES`] was dropped.
-    TooLong,
-}
-
-impl LineBuffer {
-    /// An empty buffer (capacity [`MAX_LINE_BYTES`]).
-    pub fn new() -> Self {
-        Self {
-            buf: Vec::with_capacity(MAX_LINE_BYTES),
-            skipping: false,
-        }
-    }
-
-    /// Feeds `bytes`, calling `f` on every line completed (and once per over-long line).
-    pub fn push(&mut self, bytes: &[u8], mut f: impl FnMut(Line<'_>)) {
-        for chunk in bytes.split_inclusive(|b| *b == b'\n') {
-            let (body, ends) = match chunk.split_last() {
-                Some((b'\n', body)) => (body, true),
-                _ => (chunk, false),
-            };
-            if !self.skipping {
-                if self.buf.len() + body.len() > MAX_LINE_BYTES {
-                    self.buf.clear();
-                    self.skipping = true;
-                    f(Line::TooLong);
-                } else {
-                    self.buf.extend_from_slice(body);
-                }
-            }
-            if ends {
-                if !self.skipping {
-                    f(Line::Complete(&self.buf));
-                }
-                self.buf.clear();
-                self.skipping = false;
-            }
-        }
-    }
-
-    /// Bytes held (at most [`MAX_LINE_BYTES`]).
-    pub fn len(&self) -> usize {
-        self.buf.len()
-    }
-
-    /// Whether no partial line is held.
-    pub fn is_empty(&self) -> bool {
-        self.buf.is_empty()
-    }
-
-    /// The buffer's allocation [bytes] (stays at [`MAX_LINE_BYTES`]).
-    pub fn capacity(&self) -> usize {
-        self.buf.capacity()
-    }
-
-    /// Forgets a partial line (a reconnection).
-    pub fn clear(&mut self) {
-        self.buf.clear();
-        self.skipping = false;
-    }
-}
-
 impl Decoder {
     /// Feeds stream bytes received at `recv_s` through `lines` (over-long lines are counted
     /// as [`Reject::TooLong`]).
@@ -827,83 +757,4 @@ impl Decoder {
             }
         });
     }
-}
-
-// ---------------------------------------------------------------------------------------------
-// Sentences out (the simulated ship, tests)
-
-/// `$<talker><id>,<fields>*hh` (no line ending).
-pub fn sentence(talker: &str, id: &str, fields: &str) -> String {
-    let body = format!("{talker}{id},{fields}");
-    format!("${body}*{:02X}", xor(body.as_bytes()))
-}
-
-/// A tag block `\<params>*hh\`.
-pub fn tag_block(params: &str) -> String {
-    format!("\\{params}*{:02X}\\", xor(params.as_bytes()))
-}
-
-/// `t` [s] as the tag block's `c:` in milliseconds (rounded), and the `t` a decoder with
-/// `time-source = "tag-block-ms"` reads back from it.
-pub fn tag_time_ms(t: f64) -> (i64, f64) {
-    let ms = (t * 1000.0).round() as i64;
-    (ms, ms as f64 / 1000.0)
-}
-
-/// The sentences of one tick of samples, as instruments send them: RSA (rudder), VHW
-/// (speed), HTD (autopilot state and target, when the state is among `inputs`), HDT
-/// (heading) last. Three decimals of a degree and of a knot. `HTD`'s mode: `auto` -> S,
-/// anything else -> M.
-pub fn tick_sentences(inputs: &[Input]) -> Vec<String> {
-    let mut out = Vec::with_capacity(4);
-    let mut state = None;
-    let mut target = None;
-    let mut heading = None;
-    for i in inputs {
-        match i {
-            Input::Rudder(s) => out.push(sentence(
-                "AG",
-                "RSA",
-                &format!("{:.3},A,,V", s.value.to_degrees()),
-            )),
-            Input::Speed(s) => {
-                let kn = s.value / KNOT_MPS;
-                out.push(sentence(
-                    "VW",
-                    "VHW",
-                    &format!(",T,,M,{kn:.3},N,{:.3},K", s.value / KMH_MPS),
-                ));
-            }
-            Input::AutopilotState(s) => state = Some(s.value.clone()),
-            Input::TargetHeading(s) => target = Some(s.value),
-            Input::Heading(s) => heading = Some(s.value),
-            Input::DesignDisplacement(_) => {}
-        }
-    }
-    if let Some(state) = state {
-        let mode = if state == "auto" { "S" } else { "M" };
-        let target = target.map_or(String::new(), |v| format!("{:.3}", v.to_degrees()));
-        out.push(sentence(
-            "AG",
-            "HTD",
-            &format!("V,,,{mode},N,,,,,{target},,,T,A,A,A,"),
-        ));
-    }
-    if let Some(h) = heading {
-        out.push(sentence("HE", "HDT", &format!("{:.3},T", h.to_degrees())));
-    }
-    out
-}
-
-/// An IEC 61162-450 datagram: `UdPbC\0`, then each sentence behind a tag block
-/// `s:<source>,c:<ms>`, each line ended by CR LF.
-pub fn datagram(source: &str, time_ms: i64, sentences: &[String]) -> Vec<u8> {
-    let mut d = UDPBC.to_vec();
-    let tag = tag_block(&format!("s:{source},c:{time_ms}"));
-    for s in sentences {
-        d.extend_from_slice(tag.as_bytes());
-        d.extend_from_slice(s.as_bytes());
-        d.extend_from_slice(b"\r\n");
-    }
-    d
 }
