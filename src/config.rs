@@ -32,7 +32,7 @@ use crate::core::baseline::config::BaselineConfig;
 pub use crate::core::config::ConfigError;
 use crate::core::design::{ClfrtConfig, HbtConfig};
 use crate::core::estimator::config::EstimatorConfig;
-use crate::core::fdi::config::FdiConfig;
+use crate::core::fdi::config::{FdiConfig, ReferenceConfig};
 use crate::core::model::{SensorConfig, ServoConfig, ShipConfig};
 use crate::core::monitor::config::{CoreConfig, InputConfig, SafetyConfig, SchedulerConfig};
 use crate::shells::bridge::BridgeConfig;
@@ -47,7 +47,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 /// Sections a `[vessel.<name>]` table may override (the rest are daemon-wide).
-pub const VESSEL_SECTIONS: [&str; 15] = [
+pub const VESSEL_SECTIONS: [&str; 16] = [
     "ship",
     "servo",
     "autopilot",
@@ -62,6 +62,7 @@ pub const VESSEL_SECTIONS: [&str; 15] = [
     "input",
     "estimator",
     "fdi",
+    "reference",
     "baseline",
 ];
 
@@ -106,6 +107,8 @@ pub struct Config {
     pub estimator: EstimatorConfig,
     /// Fault detection and isolation: residual spreads, decision rule, alarm state.
     pub fdi: FdiConfig,
+    /// The vessel's own reference over its operating envelope.
+    pub reference: ReferenceConfig,
     /// The time-domain baseline (equation-error least squares of a and b).
     pub baseline: BaselineConfig,
     /// Per-vessel overrides (`[vessel.<name>.<section>]`), see the module documentation.
@@ -252,6 +255,7 @@ impl Config {
             input: self.input.clone(),
             estimator: self.estimator.clone(),
             fdi: self.fdi.clone(),
+            reference: self.reference.clone(),
             baseline: self.baseline.clone(),
         }
     }

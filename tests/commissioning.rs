@@ -65,7 +65,7 @@ async fn commissioning_survives_a_restart_then_a_fault_raises_the_alarm() {
     let obs = Observer::new(&ep, "self", false).await;
     let c = obs.commission("").await;
     assert_eq!(c["clfrt"]["state"], "commissioning", "{c}");
-    assert_eq!(c["clfrt"]["text"], "commissioning 0 of 5", "{c}");
+    assert_eq!(c["clfrt"]["text"], "commissioning 0 of at most 5", "{c}");
     let healthy = Scenario::nominal(&cfg.sim(), 11);
     let methods: Vec<&str> = ["clfrt", "hbt"].repeat(5);
     let reports = run_tests(&cfg, &healthy, 0.0, &ep, &obs, &methods).await;

@@ -127,8 +127,8 @@ pub(crate) fn commission(cfg: &Config, a: CommissionArgs) -> Result<(), Failure>
             println!("{v}: commissioning started");
         }
         println!(
-            "{:<6}  {:<14}  {:>5}  {:>4}  {:>14}  {:>16}  {:>12}",
-            "method", "state", "tests", "of", "speed offset", "displacement off", "at speed"
+            "{:<6}  {:<14}  {:>5}  {:>4}  {:>7}  {:>14}  {:>16}  {:>15}",
+            "method", "state", "tests", "of", "learned", "speed offset", "displacement off", "speeds learned"
         );
         for m in ["clfrt", "hbt"] {
             let x = &r[m];
@@ -137,18 +137,26 @@ pub(crate) fn commission(cfg: &Config, a: CommissionArgs) -> Result<(), Failure>
                     .as_f64()
                     .map_or("-".to_string(), |v| format!("{:+.2}{unit}", v * scale))
             };
+            let range = &x["reference"]["speed_range_mps"];
             println!(
-                "{:<6}  {:<14}  {:>5}  {:>4}  {:>14}  {:>16}  {:>12}",
+                "{:<6}  {:<14}  {:>5}  {:>4}  {:>7}  {:>14}  {:>16}  {:>15}",
                 m,
                 x["state"].as_str().unwrap_or("?"),
                 x["tests"].as_u64().unwrap_or(0),
                 x["of"].as_u64().unwrap_or(0),
+                x["reference"]["learned"]
+                    .as_u64()
+                    .map_or("-".to_string(), |v| v.to_string()),
                 f("speed_offset_mps", 1.0, " m/s"),
                 f("displacement_offset", 100.0, " %"),
-                x["reference"]["speed_log_mps"]
-                    .as_f64()
-                    .map_or("-".to_string(), |v| format!("{v:.2} m/s")),
+                match (range[0].as_f64(), range[1].as_f64()) {
+                    (Some(lo), Some(hi)) => format!("{lo:.1}-{hi:.1} m/s"),
+                    _ => "-".to_string(),
+                },
             );
+            if let Some(t) = x["text"].as_str().filter(|t| t.contains("inconsistent")) {
+                println!("        {t}");
+            }
         }
     }
     Ok(())

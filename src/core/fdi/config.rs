@@ -5,23 +5,130 @@
 //! sea anchors, the servo check's noise) or the commissioning.
 
 use crate::core::config::{check_count, check_range, check_range_open_low, fail, ConfigError};
+pub use super::envelope::Settings as Envelope;
 use serde::{Deserialize, Serialize};
 
-/// The commissioning keys of `[fdi]` (see `crate::core::fdi::reference`).
+/// What the reference needs, from `[fdi]`, `[reference]` and the decision's limits (see
+/// `crate::core::fdi::reference`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Commissioning {
-    /// K: tests per method (0: the design reference for good).
+    /// K: at most this many tests per method (0: the design reference for good).
     pub tests: u32,
     /// Speed spread floor while commissioning [m/s].
     pub wide_speed_mps: f64,
     /// Displacement spread floor while commissioning [fraction of D_nom].
     pub wide_displacement: f64,
-    /// The reference's speed band [m/s].
-    pub speed_band_mps: f64,
     /// Physical floor of the speed residual's standard deviation [m/s].
     pub floor_speed_mps: f64,
     /// Physical floor of the displacement residual's standard deviation [fraction].
     pub floor_displacement: f64,
+    /// The regression over the operating envelope.
+    pub envelope: Envelope,
+    /// Learn healthy tests after commissioning.
+    pub learn: bool,
+    /// At most this many learned tests per method.
+    pub memory: usize,
+    /// The speed-log fault commissioning must resolve [m/s].
+    pub resolve_speed_mps: f64,
+    /// The displacement fault commissioning must resolve [fraction].
+    pub resolve_displacement: f64,
+    /// `h_1`: the decision's single-test limit.
+    pub single_limit: f64,
+    /// The change-point test's tail probability per (look, split).
+    pub change_alpha: f64,
+}
+
+/// The `[reference]` section: the vessel's own reference over its operating envelope (see
+/// `crate::core::fdi::reference` and `crate::core::fdi::envelope`).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
+pub struct ReferenceConfig {
+    /// Learn the vessel's healthy tests after commissioning (new operating points, slow
+    /// changes); false: the commissioning sample alone, predicted over the envelope.
+    pub learn: bool,
+    /// Kernel width in speed of the local regression [m/s]: tests this far apart lend each
+    /// other half their weight.
+    pub bandwidth_speed_mps: f64,
+    /// Kernel width in declared loading [ln D]: 0.1 is about 10 % of the displacement.
+    pub bandwidth_loading: f64,
+    /// Prior standard deviation of the offset's slope in speed: `[e_u, e_D]` [m/s per m/s,
+    /// fraction of D per m/s].
+    pub slope_speed: [f64; 2],
+    /// Prior standard deviation of the offset's slope in declared loading: `[e_u, e_D]`
+    /// [m/s, fraction of D, per unit of ln D].
+    pub slope_loading: [f64; 2],
+    /// At most this many learned tests per method.
+    pub memory_tests: u32,
+    /// Commissioning ends when a speed-log bias of this size would cross the single-test
+    /// limit with 95 % probability [m/s] (and the displacement's below)...
+    pub resolve_speed_mps: f64,
+    /// ... and a displacement change of this fraction would.
+    pub resolve_displacement: f64,
+}
+
+impl Default for ReferenceConfig {
+    fn default() -> Self {
+        Self {
+            learn: true,
+            bandwidth_speed_mps: 1.0,
+            bandwidth_loading: 0.1,
+            slope_speed: [0.5, 0.03],
+            slope_loading: [4.0, 0.3],
+            memory_tests: 200,
+            resolve_speed_mps: 0.5,
+            resolve_displacement: 0.1,
+        }
+    }
+}
+
+impl ReferenceConfig {
+    /// The regression's settings.
+    pub fn envelope(&self) -> Envelope {
+        Envelope {
+            bandwidth: [self.bandwidth_speed_mps, self.bandwidth_loading],
+            slope_speed: self.slope_speed,
+            slope_loading: self.slope_loading,
+        }
+    }
+
+    /// Checks the section's limits; the error names the key and its allowed range.
+    pub fn check(&self) -> Result<(), ConfigError> {
+        check_range_open_low(
+            "reference.bandwidth-speed-mps",
+            self.bandwidth_speed_mps,
+            0.0,
+            20.0,
+        )?;
+        check_range_open_low("reference.bandwidth-loading", self.bandwidth_loading, 0.0, 2.0)?;
+        let pair = |key: &str, p: [f64; 2], hi: [f64; 2]| -> Result<(), ConfigError> {
+            for (v, h) in p.iter().zip(hi) {
+                if !(v.is_finite() && *v > 0.0 && *v <= h) {
+                    return Err(fail(
+                        key,
+                        format!("[{}, {}]", p[0], p[1]),
+                        &format!("[e_u, e_D], each in (0, {h}] for e_u and (0, {}] for e_D", hi[1]),
+                    ));
+                }
+            }
+            Ok(())
+        };
+        pair("reference.slope-speed", self.slope_speed, [10.0, 1.0])?;
+        pair("reference.slope-loading", self.slope_loading, [100.0, 10.0])?;
+        check_count("reference.memory-tests", self.memory_tests, 6, 5000)?;
+        check_range_open_low(
+            "reference.resolve-speed-mps",
+            self.resolve_speed_mps,
+            0.0,
+            10.0,
+        )?;
+        check_range_open_low(
+            "reference.resolve-displacement",
+            self.resolve_displacement,
+            0.0,
+            1.0,
+        )?;
+        Ok(())
+    }
 }
 
 /// Fault detection and isolation (see `crate::core::fdi`). Pairs are `[calm, moderate]`.
@@ -36,16 +143,15 @@ pub struct FdiConfig {
     /// The longest window of the vessel's tests (both methods) the sequential test looks
     /// back over; an alarm clears after this many tests under the alert limits.
     pub window_tests: u32,
-    /// Commissioning: completed tests per method that set the vessel's own reference (0: the
-    /// design reference for good; else at least 5, which the covariance's K-sample factor
-    /// needs).
+    /// Commissioning: at most this many completed tests per method set the vessel's own
+    /// reference, fewer when they resolve `reference.resolve-*` (0: the design reference for
+    /// good; else at least 5, which the covariance's K-sample factor needs; from 6 the
+    /// sample is checked for a change inside it).
     pub commissioning_tests: u32,
     /// Speed spread floor while commissioning (and outside the reference's speed band) [m/s].
     pub commissioning_spread_speed_mps: f64,
     /// Displacement spread floor while commissioning [fraction of the nominal displacement].
     pub commissioning_spread_displacement: f64,
-    /// The reference holds for speed logs within this of the commissioning's mean [m/s].
-    pub commissioning_speed_band_mps: f64,
     /// Physical floor of the speed residual's standard deviation under the vessel's own
     /// reference [m/s]: the speed log's noise (the log is the speed residual's reference).
     pub floor_speed_mps: f64,
@@ -77,7 +183,6 @@ impl Default for FdiConfig {
             commissioning_tests: 8,
             commissioning_spread_speed_mps: 2.2,
             commissioning_spread_displacement: 0.25,
-            commissioning_speed_band_mps: 1.0,
             floor_speed_mps: 0.05,
             floor_displacement: 0.004,
             wave_band_rad_s: [0.4, 2.0],
@@ -159,6 +264,10 @@ pub const REMOVED_KEYS: &[(&str, &str)] = &[
     ),
     ("commissioned-floor-displacement", "fdi.floor-displacement"),
     (
+        "commissioning-speed-band-mps",
+        "reference.bandwidth-speed-mps (the reference follows the ship over its envelope)",
+    ),
+    (
         "baseline-clfrt-speed-sigma-mps",
         "baseline.clfrt-speed-sigma-mps",
     ),
@@ -195,15 +304,26 @@ pub fn check_removed<'a>(
 }
 
 impl FdiConfig {
-    /// The commissioning keys.
-    pub fn commissioning(&self) -> Commissioning {
+    /// What the reference needs, with `[reference]` and the decision's `limits`.
+    pub fn commissioning(
+        &self,
+        r: &ReferenceConfig,
+        limits: &super::decision::Limits,
+    ) -> Commissioning {
+        let looks = super::changepoint::looks(self.commissioning_tests) as f64;
         Commissioning {
             tests: self.commissioning_tests,
             wide_speed_mps: self.commissioning_spread_speed_mps,
             wide_displacement: self.commissioning_spread_displacement,
-            speed_band_mps: self.commissioning_speed_band_mps,
             floor_speed_mps: self.floor_speed_mps,
             floor_displacement: self.floor_displacement,
+            envelope: r.envelope(),
+            learn: r.learn,
+            memory: r.memory_tests as usize,
+            resolve_speed_mps: r.resolve_speed_mps,
+            resolve_displacement: r.resolve_displacement,
+            single_limit: limits.param[0],
+            change_alpha: self.false_alarms_per_year / 365.25 / looks,
         }
     }
 
@@ -234,12 +354,6 @@ impl FdiConfig {
             self.commissioning_spread_displacement,
             0.0,
             1.0,
-        )?;
-        check_range_open_low(
-            "fdi.commissioning-speed-band-mps",
-            self.commissioning_speed_band_mps,
-            0.0,
-            30.0,
         )?;
         check_range("fdi.floor-speed-mps", self.floor_speed_mps, 0.0, 5.0)?;
         check_range("fdi.floor-displacement", self.floor_displacement, 0.0, 0.5)?;

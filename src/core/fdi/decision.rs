@@ -4,12 +4,14 @@
 //! ## Model
 //!
 //! Each completed test k of method m gives a whitened parameter residual `z_k = L_k^-1 r_k`
-//! (`L_k L_k' = Sigma_k`, the covariance of the reference it was measured against,
-//! `crate::core::fdi::reference`) and, when it had a servo check, the servo's one-sided score
-//! `z_rate,k >= 0`. For a healthy ship (H0): the `z_k` are independent standard normal 2-vectors
-//! about a reference offset whose error is shared by every test of a method, with covariance
-//! `c_m I` (`c_m = 1/K` for the vessel's reference, 0 for the design's); `z_rate` is a
-//! normal score clipped at 0. A fault that began `n` tests ago (H1(n)) shifts every later
+//! (`L_k L_k' = Sigma_k`, the covariance of its residual against the reference it was
+//! measured against, the reference's own error included: `crate::core::fdi::reference`) and,
+//! when it had a servo check, the servo's one-sided score `z_rate,k >= 0`. For a healthy ship
+//! (H0): the `z_k` are standard normal 2-vectors; the part of each that is the reference
+//! offset's error, at most a share `c_m` of its variance in any direction, is shared by every
+//! test of a method (0 for the design's reference; `1 / (K + 1)` for K tests at one point;
+//! near 1 at an operating point the vessel has not been tested at); the rest is independent
+//! from test to test; `z_rate` is a normal score clipped at 0. A fault that began `n` tests ago (H1(n)) shifts every later
 //! `z_k` of method m by a constant `d_m` (each method sees the fault its own way: the two are
 //! free) and the servo score by a constant `d_s > 0`.
 //!
@@ -19,12 +21,14 @@
 //! likelihood, is, per channel,
 //!
 //! ```text
-//! T_n = sum_m |sum_{k in last n, method m} z_k|^2 / (n_m (1 + n_m c_m))    chi2 with 2 M_n dof
+//! T_n = sum_m |sum_{k in last n, method m} z_k|^2 / (n_m (1 + (n_m - 1) c_m))  chi2, 2 M_n dof
 //! S_n = sum_{k in last n} z_rate,k / sqrt(n_s)                             N(0, 1) or below
 //! ```
 //!
-//! (`n_m` of the last n tests are of method m, `M_n` methods among them; the servo's clip at 0
-//! makes `S_n` stochastically smaller than a normal score: conservative). A test measured on
+//! (`n_m` of the last n tests are of method m, `M_n` methods among them; the sum's covariance
+//! is at most `n_m (1 + (n_m - 1) c_m) I`, so `T_n` errs low where the share is below `c_m`:
+//! conservative; the servo's clip at 0 makes `S_n` stochastically smaller than a normal
+//! score: conservative too). A test measured on
 //! wide design limits (commissioning, outside the commissioned speed band) enters only its
 //! own look, `n = 1`: its residual is the model's bias on this ship, the same at every test,
 //! and no average shrinks it.
@@ -116,7 +120,8 @@ pub struct Entry {
     pub method: Method,
     /// The whitened parameter residual (`None`: none measured).
     pub z: Option<[f64; 2]>,
-    /// The reference offset's relative error `c` (`None`: wide design limits).
+    /// The reference offset error's share `c` of the residual's variance (`None`: wide
+    /// design limits).
     pub offset_var: Option<f64>,
     /// The reference it was measured against (a new one for the method drops its older
     /// tests from the window).
@@ -314,7 +319,7 @@ pub struct MethodSums {
     pub directions: [[f64; 2]; 2],
     /// Its tests in the look.
     pub tests: usize,
-    /// Its reference offset's relative error `c`.
+    /// Its reference offset error's share `c` (the largest among its tests in the look).
     pub offset_var: f64,
 }
 
@@ -332,6 +337,7 @@ pub fn method_sums(window: &VecDeque<Entry>, n: usize) -> Vec<MethodSums> {
         let d = e.directions.map(isolation::unit);
         match out.iter_mut().find(|o| o.method == e.method) {
             Some(o) => {
+                o.offset_var = o.offset_var.max(c);
                 for i in 0..2 {
                     o.sum[i] += z[i];
                     for (acc, di) in o.directions.iter_mut().zip(&d) {
@@ -362,7 +368,7 @@ fn param_statistic(window: &VecDeque<Entry>, n: usize) -> Option<(f64, usize)> {
         .iter()
         .map(|m| {
             let (s, k) = (m.sum, m.tests as f64);
-            (s[0] * s[0] + s[1] * s[1]) / (k * (1.0 + k * m.offset_var))
+            (s[0] * s[0] + s[1] * s[1]) / (k * (1.0 + (k - 1.0) * m.offset_var))
         })
         .sum();
     t.is_finite().then_some((t, sums.len()))

@@ -38,7 +38,7 @@ pub fn costs(window: &VecDeque<Entry>, n: usize) -> [f64; 2] {
     let mut j = [0.0; 2];
     for p in per {
         let k = p.tests as f64;
-        let scale = k * (1.0 + k * p.offset_var);
+        let scale = k * (1.0 + (k - 1.0) * p.offset_var);
         let s = p.sum;
         for (cost, dir) in j.iter_mut().zip(p.directions) {
             let u = unit(dir);

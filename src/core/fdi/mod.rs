@@ -30,8 +30,10 @@
 //! per-test limit, for comparison only. A heading-sensor drift moves none of the residuals:
 //! the features are drift-free by construction (docs/fdi.md).
 
+pub mod changepoint;
 pub mod config;
 pub mod decision;
+pub mod envelope;
 mod fit;
 pub mod isolation;
 pub mod reference;
@@ -42,7 +44,7 @@ pub mod stats;
 use crate::core::baseline::config::BaselineConfig;
 use crate::core::estimator::model::{Target, Uncertainty};
 use crate::core::estimator::{Estimator, EstimatorScratch};
-use crate::core::fdi::config::FdiConfig;
+use crate::core::fdi::config::{FdiConfig, ReferenceConfig};
 use crate::core::model::ShipConfig;
 pub use crate::core::model::{displacement_from_b, speed_from_a};
 use crate::core::monitor::config::CoreConfig;
@@ -52,7 +54,7 @@ use crate::core::wire::residuals::{
 };
 use crate::core::wire::{AlarmState, Cause, Decision, Estimate, Features, Method, Notification};
 use decision::{Entry, Limits, Sequential};
-use reference::{Basis, Commissioning, Measured, Raw};
+use reference::{Added, Basis, Commissioning, Measured, Phase, Raw};
 pub use report::{Fingerprint, MISMATCH_ADVICE};
 use serde::{Deserialize, Serialize};
 use stats::Cov2;
@@ -129,6 +131,7 @@ pub struct FdiState {
 #[derive(Debug, Clone)]
 pub struct Fdi {
     cfg: FdiConfig,
+    reference_cfg: ReferenceConfig,
     baseline_cfg: BaselineConfig,
     ship: ShipConfig,
     servo_time_constant_s: f64,
@@ -200,6 +203,7 @@ impl Fdi {
     pub fn new(cfg: &CoreConfig) -> Self {
         Self {
             cfg: cfg.fdi.clone(),
+            reference_cfg: cfg.reference.clone(),
             baseline_cfg: cfg.baseline.clone(),
             ship: cfg.ship.clone(),
             servo_time_constant_s: cfg.servo.time_constant_s,
@@ -222,6 +226,28 @@ impl Fdi {
         &self.limits
     }
 
+    /// What the reference needs (`[fdi]`, `[reference]` and the limits).
+    pub fn settings(&self) -> reference::Settings {
+        self.cfg.commissioning(&self.reference_cfg, &self.limits)
+    }
+
+    /// Per method (CLFRT, HBT), what the vessel has learned.
+    pub fn learned(&self) -> &[Commissioning; 2] {
+        &self.commissioning
+    }
+
+    /// A sentence when a method's commissioning sample held a change (an alert until
+    /// commissioned again).
+    fn inconsistent(&self) -> Option<String> {
+        let s = self.settings();
+        let texts: Vec<String> = [Method::Clfrt, Method::Hbt]
+            .iter()
+            .filter(|&&m| matches!(self.commissioning[method_index(m)].phase, Phase::Inconsistent { .. }))
+            .map(|&m| format!("{} {}", m.name().to_uppercase(), self.commissioning[method_index(m)].describe(&s)))
+            .collect();
+        (!texts.is_empty()).then(|| texts.join("; "))
+    }
+
     /// Records which models estimate (their checksums, [`Estimator::fingerprint`]).
     pub fn set_models(&mut self, fingerprint: Option<String>) {
         self.fingerprint.models = fingerprint;
@@ -239,7 +265,7 @@ impl Fdi {
 
     /// Per method, the commissioning's progress and reference.
     pub fn commissioning_status(&self) -> CommissioningStatus {
-        let s = self.cfg.commissioning();
+        let s = self.settings();
         let per = |m: Method| {
             let c = &self.commissioning[method_index(m)];
             MethodCommissioning {
@@ -258,15 +284,15 @@ impl Fdi {
 
     /// Every method has its own reference, or commissioning is off.
     pub fn commissioned(&self) -> bool {
-        let s = self.cfg.commissioning();
+        let s = self.settings();
         self.commissioning
             .iter()
-            .all(|c| s.tests == 0 || c.reference.is_some())
+            .all(|c| s.tests == 0 || c.phase == Phase::Learning)
     }
 
     /// One line per method: "CLFRT commissioning 2 of 5, HBT commissioned (...)".
     pub fn commissioning_text(&self) -> String {
-        let s = self.cfg.commissioning();
+        let s = self.settings();
         [Method::Clfrt, Method::Hbt]
             .iter()
             .map(|&m| {
@@ -323,6 +349,7 @@ impl Fdi {
     /// The vessel's alarm state.
     pub fn alarm_state(&self) -> AlarmState {
         match self.sequential.state {
+            TrackState::Normal if self.inconsistent().is_some() => AlarmState::Alert,
             TrackState::Normal => AlarmState::Normal,
             TrackState::Alert => AlarmState::Alert,
             TrackState::Alarm => AlarmState::Alarm,
@@ -376,6 +403,7 @@ impl Fdi {
             speed_sigma_mps: su,
             displacement_sigma: sd / d_nom_t,
             speed_log_mps: u_log,
+            displacement_declared_t: d_nom_t,
         };
         let ok = [raw.speed_mps, raw.displacement, g]
             .iter()
@@ -413,13 +441,11 @@ impl Fdi {
         let raw = estimate.and_then(|(e, est, scratch)| {
             self.nn_raw(method, features, e, d_nom_t, est, scratch, frac)
         });
-        let settings = self.cfg.commissioning();
-        let basis = raw.map(|(r, _, _)| self.commissioning[i].basis(&settings, r.speed_log_mps));
-        let measured = match (raw, &basis) {
-            (Some((r, _, _)), Some(b)) => Some(Commissioning::measure(b, &settings, &r)),
-            _ => None,
-        };
-        let z = measured.and_then(|m| m.cov.whiten(m.r));
+        let settings = self.settings();
+        let measured_basis = raw.map(|(r, _, _)| self.commissioning[i].measure(&settings, &r));
+        let basis = measured_basis.map(|(b, _)| b);
+        let measured = measured_basis.map(|(_, m)| m);
+        let z = measured.and_then(|m| m.whitened());
         let servo = self.servo_check(features);
         let parameters = match (measured, z) {
             (Some(m), Some(z)) => Some(parameter_report(&m, z, d_nom_t)),
@@ -445,18 +471,28 @@ impl Fdi {
                 },
             )
         });
-        // A healthy commissioning test joins the vessel's reference: within the wide limits'
-        // alert level, its own look.
-        let mut completed = false;
-        if let (Some((r, _, _)), Some(Basis::Commissioning { .. }), Some(z)) = (raw, &basis, z) {
-            let quiet = z[0] * z[0] + z[1] * z[1] <= self.limits.param_alert[0];
-            if self.cfg.enabled && quiet {
-                completed = self.commissioning[i].add(&settings, &r);
-                if completed {
+        // A healthy test joins what the vessel has learned: while commissioning, within the
+        // wide limits' alert level; after, when its own look is under the alarm limit and
+        // the vessel is not in alarm after it (a step the prediction calls a fault is a
+        // fault, never a new point). An alert does not stop learning: a reference learned
+        // from too few tests alerts on healthy tests, and only learning them cures it.
+        let mut added = Added::Nothing;
+        if let (Some((r, _, _)), Some(b), Some(z)) = (raw, &basis, z) {
+            let q = z[0] * z[0] + z[1] * z[1];
+            let alarm = step.as_ref().is_some_and(|s| s.state == TrackState::Alarm);
+            let learn = match b {
+                Basis::Commissioning { .. } => q <= self.limits.param_alert[0],
+                Basis::Vessel(_) => q <= self.limits.param[0] && !alarm,
+                _ => false,
+            };
+            if self.cfg.enabled && learn {
+                added = self.commissioning[i].add(&settings, &r);
+                if added == Added::Completed {
                     self.generation[i] += 1;
                 }
             }
         }
+        let completed = added == Added::Completed;
         let fit = match method {
             Method::Clfrt => fit::model_fit(features, &self.ship, &self.cfg),
             Method::Hbt => None,
@@ -470,10 +506,14 @@ impl Fdi {
             d_nom_t,
             frac,
         );
-        let (state, isolation) = match &step {
+        let (mut state, isolation) = match &step {
             Some(s) => (s.state, s.isolation.clone()),
             None => (self.sequential.state, Vec::new()),
         };
+        let inconsistent = self.inconsistent();
+        if inconsistent.is_some() && state == TrackState::Normal {
+            state = TrackState::Alert;
+        }
         let decision = match (&step, &parameters, &servo) {
             (Some(_), None, None) | (None, _, _) => Decision::Inconclusive,
             _ => match state {
@@ -508,20 +548,25 @@ impl Fdi {
             baseline: Some(baseline),
             servo_time_constant_s: Some(self.servo_time_constant_s),
         };
-        let commissioning_text = match &basis {
-            Some(Basis::Commissioning { .. }) if completed => Some(format!(
+        let commissioning_text = match (&basis, added) {
+            (_, Added::Inconsistent { .. }) | (Some(Basis::Inconsistent { .. }), _) => {
+                inconsistent.clone()
+            }
+            (Some(Basis::Commissioning { .. }), _) if completed => Some(format!(
                 "commissioning complete: {}",
                 self.commissioning[i].describe(&settings)
             )),
-            Some(Basis::Commissioning { .. }) => Some(format!(
+            (Some(Basis::Commissioning { .. }), _) => Some(format!(
                 "{} (wide design limits)",
                 self.commissioning[i].describe(&settings)
             )),
-            Some(Basis::OutsideBand(r)) => Some(format!(
-                "speed outside the commissioned {:.1} +- {:.1} m/s: wide design limits",
-                r.speed_log_mps, settings.speed_band_mps
+            (Some(Basis::Vessel(p)), _) if p.nearest > 1.0 => Some(format!(
+                "operating point {:.1} m/s, {:.0} t not yet learned: reference predicted from {:.1} tests' worth",
+                raw.map_or(f64::NAN, |r| r.0.speed_log_mps),
+                d_nom_t,
+                p.support
             )),
-            _ => None,
+            _ => inconsistent.clone(),
         };
         let summary = report::summary(
             self.cfg.enabled,
@@ -549,22 +594,31 @@ impl Fdi {
 
     /// The report's `reference` for method index `i` under `basis`.
     fn reference_report(&self, i: usize, basis: &Basis, d_nom_t: f64) -> ReferenceReport {
-        let s = self.cfg.commissioning();
+        let s = self.settings();
         let c = &self.commissioning[i];
         let kind = match basis {
             Basis::Design => ReferenceKind::Design,
             Basis::Commissioning { .. } => ReferenceKind::Commissioning,
-            Basis::Commissioned(_) => ReferenceKind::Commissioned,
-            Basis::OutsideBand(_) => ReferenceKind::OutsideCommissionedBand,
+            Basis::Inconsistent { .. } => ReferenceKind::CommissioningInconsistent,
+            Basis::Vessel(p) if p.nearest <= 1.0 => ReferenceKind::Commissioned,
+            Basis::Vessel(_) => ReferenceKind::Predicted,
         };
         let r = c.reference;
+        let p = match basis {
+            Basis::Vessel(p) => Some(*p),
+            _ => None,
+        };
         ReferenceReport {
             kind,
             text: c.describe(&s),
             tests: c.tests,
             of: s.tests,
-            speed_offset_mps: r.map(|r| r.speed_offset_mps),
-            displacement_offset_t: r.map(|r| r.displacement_offset * d_nom_t),
+            learned: r.map(|r| r.learned),
+            speed_offset_mps: p.map(|p| p.offset[0]),
+            displacement_offset_t: p.map(|p| p.offset[1] * d_nom_t),
+            offset_speed_sigma_mps: p.map(|p| p.cov.xx.sqrt()),
+            offset_displacement_sigma_t: p.map(|p| p.cov.yy.sqrt() * d_nom_t),
+            support: p.map(|p| p.support),
             correlation: r.map(|r| r.covariance.correlation()),
             speed_log_mps: r.map(|r| r.speed_log_mps),
         }

@@ -1,107 +1,166 @@
-//! The parity reference of one method: the design's, or the vessel's own after commissioning.
+//! The parity reference of one method: the design's, or the vessel's own, learned from its
+//! healthy tests over its operating envelope.
 //!
 //! A real ship is never the training model (a second-order hull, Norrbin damping, a dead band,
 //! an autopilot of its own): on such a ship the networks' estimates carry a bias of their own,
-//! constant for the ship at its operating point, that the design spreads (the estimator's
-//! error on the training model: 0.2 % of D, 0.06 m/s in a calm sea) read as a fault. The paper's
+//! which depends on the operating point (speed, loading) and is constant there, that the
+//! design spreads (the estimator's error on the training model) read as a fault. The paper's
 //! premise is that the features are nominal if, and only if, the plant's parameters are: so
-//! the reference a test is compared with is the vessel's own healthy behaviour.
+//! the reference a test is compared with is the vessel's own healthy behaviour at the test's
+//! operating point.
 //!
 //! ## Raw residuals
 //!
-//! Per completed test with an estimate, against the design (see the module above):
+//! Per completed test with an estimate, against the design:
 //!
 //! ```text
 //! e_u = u_est - u_log - m_u            [m/s]
-//! e_D = (D_est - D_nom - m_D) / D_nom  [-]     (relative: a reference survives a new D_nom)
+//! e_D = (D_est - D_nom - m_D) / D_nom  [-]     (D_nom the declared displacement)
 //! ```
 //!
 //! with `s_u`, `s_D` (relative) the design spreads at the test's sea index.
 //!
-//! ## Commissioning (the first `fdi.commissioning-tests` = K tests of each method)
+//! ## Commissioning: the first tests of each method
 //!
-//! Decisions use the design reference with standard deviations widened to
-//! `max(s_u, fdi.commissioning-spread-speed-mps)` and `max(s_D,
-//! fdi.commissioning-spread-displacement)`, uncorrelated: wide enough that no ship of the
-//! family alarms on its own structural bias, narrow enough that a gross fault still does.
-//! Each test within those limits adds `(e_u, e_D, s_u, s_D, u_log)` to the sample; after K
-//! of them the reference is the sample's mean `mu` (the offset) and covariance `S` (n - 1),
-//! full: on a hull unlike the training model the speed and displacement errors correlate
-//! strongly (-0.5 to -0.98 measured on second-order hulls), and a fault that moves one of
-//! them alone stands far out in the direction the healthy scatter does not take.
-//!
-//! ## The vessel's own reference (after commissioning)
-//!
-//! For a test at a sea whose design spreads are `s = (s_u, s_D)`:
+//! Decisions use the design reference with wide limits (`fdi.commissioning-spread-*`,
+//! uncorrelated): no ship of the family alarms on its own structural bias, a gross fault
+//! still does. Each test within those limits' alert level joins the sample. Commissioning
+//! ends as soon as the evidence allows (`resolved`): at `n >= 6` tests (5 when
+//! `fdi.commissioning-tests` is 5) when the reference resolves the faults it must
+//! (`reference.resolve-speed-mps`, `reference.resolve-displacement`): per component,
 //!
 //! ```text
-//! r     = e - mu                                       residual [m/s, fraction]
-//! Sigma = kappa_K D S D + diag(f_u^2, f_D^2)           its covariance
-//! D     = diag(s_u / sbar_u, s_D / sbar_D)             the sample's sea carried to the test's
-//! kappa_K = (K - 1) / (K - p - 2),  p = 2              the K-sample factor
+//! resolve_j >= (sqrt(t_j) + z_0.95) sd_j,   sd_j^2 = sbar_j^2 S~_jj (1 + 1/n) + f_j^2
+//! t_j = nu_j (exp(h_1 / (nu_j - 1)) - 1),   nu_j = nu (1 + f_j^2 / (sd_j^2 - f_j^2))
 //! ```
 //!
-//! - `sbar` is the mean design spread over the sample: the vessel's scatter is carried from
-//!   the sea it was learned in to the test's by the estimator's own growth of error with the
-//!   sea (the design spreads' ratio).
-//! - `kappa_K` is the expectation of Hotelling's statistic over the chi-square's: with `S`
-//!   estimated from K tests, `E[r' S^-1 r] = p (K - 1) / (K - p - 2)` against `p` for the
-//!   true covariance (a Wishart matrix's inverse has mean `Sigma^-1 (K - 1) / (K - p - 2)`).
-//!   K = 8: 1.75; K = 20: 1.19. Hence K >= 5.
-//! - `f_u = fdi.floor-speed-mps` (the speed log's noise: the log is the speed residual's
-//!   reference) and `f_D = fdi.floor-displacement` (how well a healthy ship's displacement is
-//!   known between declarations): error sources the commissioning sample cannot see, added
-//!   as independent variances. They also bound the covariance's smallest eigenvalue, which K
-//!   tests under-estimate most.
-//! - The offset `mu` carries the error `Sigma / K`, shared by every later test: the decision
-//!   counts it (`crate::core::fdi::decision`).
+//! (`h_1` the decision's single-test limit; `t_j` the statistic whose calibrated value is
+//! `h_1`; `z_0.95` = 1.645: a fault of that size crosses the limit in one test with 95 %
+//! probability), and at `fdi.commissioning-tests` tests at the latest.
+//! From the sixth test on, every new test runs the change-point test over the sample
+//! (`crate::core::fdi::changepoint`): a change inside it ("commissioning inconsistent: a
+//! change at test k") raises an alert and the sample sets no reference; decisions stay on the
+//! wide limits until commissioning starts again (`helmwatch commission`).
 //!
-//! A structural bias depends on the operating point: a test whose speed log lies more than
-//! `fdi.commissioning-speed-band-mps` from the commissioning's mean speed falls back to the
-//! wide design reference (reported as such) until the vessel is commissioned again.
-//! Commissioning starts again on request (the `fdi/commission` queryable, `helmwatch
-//! commission`), and when the saved reference was made under another ship configuration or
-//! other models (the daemon says which).
+//! ## The vessel's own reference, and learning
+//!
+//! After commissioning the reference is the local regression of the learned tests
+//! (`crate::core::fdi::envelope`): at a test's operating point `x` it predicts the offset
+//! `mu(x)` with the error covariance `Omega(x)`, and the scatter's shape `S~` (design-spread
+//! units, `nu` effective dof). For a test with design spreads `s = (s_u, s_D)`:
+//!
+//! ```text
+//! r     = e - mu(x)                                         residual [m/s, fraction]
+//! Sigma = diag(s) S~ diag(s) + Omega(x) + diag(f_u^2, f_D^2)
+//! T     = r' Sigma^-1 r,   T' = (nu - 1) ln(1 + T / nu)      calibrated
+//! c     = max share of Sigma that Omega(x) is                shared by later tests
+//! ```
+//!
+//! - With `S~` estimated from `nu` dof, `T` is Hotelling's `T^2(2, nu)` for a healthy test
+//!   (tests at one point, no floors: exactly), whose tail `P(T^2 > t) = (1 + t / nu)^(-(nu -
+//!   1) / 2)` is far heavier than the chi-square's at small `nu` (a covariance from 8 tests is
+//!   sometimes much too small). `T'` is the chi-square (2 dof) statistic of the same tail
+//!   probability: the whitened residual is scaled by `sqrt(T' / T)` (`Measured::whitened`),
+//!   so the decision's chi-square limits hold test by test; `T' -> T` as the vessel's tests
+//!   are learned. The floors, being known, add degrees of freedom along the residual: `nu_eff
+//!   = nu / (the learned part's share of the residual's variance in its own direction)` (the
+//!   conservative root of Satterthwaite's approximation, as in `changepoint`).
+//! - `kappa = nu / (nu - p - 1)` (the mean of Hotelling's over the chi-square's) sizes what
+//!   commissioning must resolve: 4 at K = 5, 1.75 at K = 8, 1.05 after 60 tests.
+//! - `f_u = fdi.floor-speed-mps` (the speed log's noise) and `f_D = fdi.floor-displacement`
+//!   (how well a healthy ship's displacement is known between declarations): error sources
+//!   the learned tests cannot see.
+//! - `c` (the decision's `offset_var`) is the offset error's share, the same for every later
+//!   test at this point: the decision does not average it away (`crate::core::fdi::decision`).
+//!
+//! A test at a point never visited gets the prediction from the points learned, with its
+//! wider interval (the kernel's and the slope prior's); a fault the prediction calls one is a
+//! fault. A test is learned (`reference.learn`) when its own look is under the alarm's
+//! single-test limit and the vessel is not in alarm after it: the new point is learned from
+//! its own healthy tests, the reference follows slow changes, and what the vessel's scatter
+//! looks like stops resting on a handful of tests. An alert does not stop learning: learning
+//! only the quiet tests of a reference whose covariance came out too small keeps it too small
+//! (measured by the decision's Monte Carlo: 4.8 times the budget that way, 0.64 learning all
+//! but alarms). At most `reference.memory-tests` are kept; beyond, the
+//! oldest test of the most populated soft bin goes. Commissioning starts again on request
+//! (the `fdi/commission` queryable, `helmwatch commission`) and when the saved reference was
+//! made under another ship configuration or other models (the daemon says which).
 
 pub use super::config::Commissioning as Settings;
+use super::changepoint;
+use super::envelope::{self, Prediction, Sample, Shape};
 use super::stats::Cov2;
 use serde::{Deserialize, Serialize};
 
 /// The residual vector's dimension (speed, displacement).
 const P: f64 = 2.0;
 
-/// What commissioning has measured for one method, and the reference it set.
+/// The one-sided normal quantile of the power commissioning resolves its faults with (95 %).
+pub const RESOLVE_POWER_Z: f64 = 1.645;
+
+/// Where one method's reference stands.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", tag = "phase")]
+pub enum Phase {
+    /// Gathering the commissioning sample.
+    #[default]
+    Commissioning,
+    /// The sample held a change at test `at`: no reference until commissioned again.
+    Inconsistent {
+        /// The first test after the change (1-based).
+        at: u32,
+        /// The change-point statistic.
+        statistic: f64,
+    },
+    /// Commissioned; learning its healthy tests.
+    Learning,
+}
+
+/// What one method has learned of the vessel.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct Commissioning {
-    /// Tests in the sample so far (completed, with an estimate, within the wide limits).
+    /// Tests in the commissioning sample.
     pub tests: u32,
-    /// Sums over the sample: `e_u`, `e_D`, `s_u`, `s_D`, `u_log`.
-    sum: [f64; 5],
-    /// Sums of `e_u^2`, `e_D^2`, `e_u e_D`.
-    sum_sq: [f64; 3],
-    /// The vessel's own reference, once the sample is complete.
+    /// Where it stands.
+    pub phase: Phase,
+    /// The learned tests (the commissioning sample, then healthy tests), oldest first.
+    pub samples: Vec<Sample>,
+    /// Tests learned after commissioning.
+    pub learned: u32,
+    /// The scatter's shape over the learned tests.
+    pub shape: Option<Shape>,
+    /// A summary of the vessel's reference, once commissioned.
     pub reference: Option<Reference>,
 }
 
-/// The vessel's own healthy reference of one method.
+/// A summary of the vessel's own reference of one method (status, plots).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct Reference {
-    /// Tests it was made of (K).
+    /// Tests it was commissioned on (K).
     pub tests: u32,
-    /// Offset of `e_u` [m/s].
+    /// Tests it has learned in all (commissioning included).
+    pub learned: u32,
+    /// Offset of `e_u` at the learned tests' mean operating point [m/s].
     pub speed_offset_mps: f64,
-    /// Offset of `e_D` [fraction of D_nom].
+    /// Offset of `e_D` there [fraction of D_nom].
     pub displacement_offset: f64,
-    /// Sample covariance of `(e_u, e_D)` [(m/s)^2, m/s x fraction, fraction^2].
+    /// The scatter's covariance at the learned tests' mean design spreads [(m/s)^2, m/s x
+    /// fraction, fraction^2].
     pub covariance: Cov2,
-    /// Mean design spread of the speed over the sample [m/s].
+    /// Its effective degrees of freedom.
+    pub dof: f64,
+    /// Mean design spread of the speed over the learned tests [m/s].
     pub speed_design_sigma_mps: f64,
-    /// Mean design spread of the displacement over the sample [fraction].
+    /// Mean design spread of the displacement [fraction].
     pub displacement_design_sigma: f64,
-    /// Mean speed log over the sample [m/s].
+    /// Mean speed log of the learned tests [m/s].
     pub speed_log_mps: f64,
+    /// Slowest and fastest learned speed log [m/s].
+    pub speed_range_mps: [f64; 2],
+    /// Lightest and heaviest learned declared displacement [t].
+    pub displacement_range_t: [f64; 2],
 }
 
 /// One test's raw residuals against the design (see the module doc).
@@ -117,6 +176,19 @@ pub struct Raw {
     pub displacement_sigma: f64,
     /// Speed log over the test [m/s].
     pub speed_log_mps: f64,
+    /// The declared (nominal) displacement in force [t].
+    pub displacement_declared_t: f64,
+}
+
+impl Raw {
+    fn sample(&self) -> Sample {
+        Sample {
+            e: [self.speed_mps, self.displacement],
+            s: [self.speed_sigma_mps, self.displacement_sigma],
+            speed_mps: self.speed_log_mps,
+            displacement_t: self.displacement_declared_t,
+        }
+    }
 }
 
 /// Which reference a test was measured against.
@@ -124,17 +196,20 @@ pub struct Raw {
 pub enum Basis {
     /// No commissioning configured: the design's own spreads.
     Design,
-    /// Commissioning, this test being number `done + 1` of `of` when it joins the sample.
+    /// Commissioning, this test being number `done + 1` of at most `of` when it joins.
     Commissioning {
         /// Tests in the sample before this one.
         done: u32,
-        /// K.
+        /// `fdi.commissioning-tests`.
         of: u32,
     },
-    /// The vessel's own reference.
-    Commissioned(Reference),
-    /// The vessel's reference exists but this test's speed lies outside its band.
-    OutsideBand(Reference),
+    /// The commissioning sample held a change at test `at`: wide limits.
+    Inconsistent {
+        /// The first test after the change.
+        at: u32,
+    },
+    /// The vessel's own, predicted at the test's operating point.
+    Vessel(Prediction),
 }
 
 /// A test's residual against a reference.
@@ -142,160 +217,376 @@ pub enum Basis {
 pub struct Measured {
     /// `(r_u [m/s], r_D [fraction])`.
     pub r: [f64; 2],
-    /// Its covariance for a healthy ship (without the offset's error).
+    /// Its covariance for a healthy ship (the offset's error included).
     pub cov: Cov2,
-    /// The offset's error relative to `cov`, shared by every test against this reference:
-    /// `Some(1/K)` for the vessel's, `Some(0)` for the design's, `None` on wide design limits
-    /// (the residual there is the model's bias on this ship, the same at every test: no
-    /// average over tests shrinks it).
+    /// The offset error's share of `cov`, shared by every later test against this reference
+    /// (`Some(0)` for the design's); `None` on wide design limits (the residual there is the
+    /// model's bias on this ship, the same at every test: no average over tests shrinks it).
     pub offset_var: Option<f64>,
+    /// The degrees of freedom the learned part of `cov` was estimated with (infinite:
+    /// nothing learned).
+    pub dof: f64,
+    /// The learned part of `cov` (the rest, the floors, is known).
+    pub learned: Cov2,
+}
+
+impl Measured {
+    /// The whitened residual, calibrated: `z = L^-1 r` (`L L' = cov`) scaled so that
+    /// `|z|^2` has the chi-square's tail where `r' cov^-1 r` has Hotelling's (see the module
+    /// doc); `None` unless `cov` is positive definite.
+    pub fn whitened(&self) -> Option<[f64; 2]> {
+        let z = self.cov.whiten(self.r)?;
+        let t = z[0] * z[0] + z[1] * z[1];
+        let k = calibration(t, self.effective_dof());
+        Some([z[0] * k, z[1] * k])
+    }
+
+    /// The degrees of freedom along the residual: `nu T / (y' A y)`, `y = Sigma^-1 r`, `A`
+    /// the learned part: the known floors' share of the residual's variance in its own
+    /// direction adds degrees of freedom (the conservative root of Satterthwaite's
+    /// approximation, `nu / share_learned`).
+    pub fn effective_dof(&self) -> f64 {
+        if !self.dof.is_finite() {
+            return f64::INFINITY;
+        }
+        let Cov2 { xx, xy, yy } = self.cov;
+        let det = xx * yy - xy * xy;
+        if !(det > 0.0) {
+            return self.dof;
+        }
+        let y = [
+            (yy * self.r[0] - xy * self.r[1]) / det,
+            (xx * self.r[1] - xy * self.r[0]) / det,
+        ];
+        let t = self.r[0] * y[0] + self.r[1] * y[1];
+        let a = self.learned;
+        let ya = y[0] * y[0] * a.xx + 2.0 * y[0] * y[1] * a.xy + y[1] * y[1] * a.yy;
+        if ya > 0.0 && t > 0.0 {
+            (self.dof * t / ya).max(self.dof)
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+/// The factor `sqrt(T' / T)` that maps Hotelling's `T^2(2, nu)` statistic `t` onto the
+/// chi-square (2 dof) of the same tail probability: `P(T^2 > t) = (1 + t / nu)^(-(nu - 1) /
+/// 2)`, so `T' = (nu - 1) ln(1 + t / nu)`.
+pub fn calibration(t: f64, nu: f64) -> f64 {
+    if !nu.is_finite() || !(t > 0.0) {
+        return 1.0;
+    }
+    let nu = nu.max(P + 1.5);
+    ((nu - 1.0) * (t / nu).ln_1p() / t).sqrt()
+}
+
+/// What adding a test did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Added {
+    /// Nothing (not gathering, or not a finite test).
+    Nothing,
+    /// Joined the commissioning sample.
+    Sample,
+    /// Completed commissioning.
+    Completed,
+    /// Found the commissioning sample inconsistent.
+    Inconsistent {
+        /// The first test after the change.
+        at: u32,
+    },
+    /// Learned after commissioning.
+    Learned,
 }
 
 impl Commissioning {
     /// Whether the sample is still being gathered (and commissioning is configured).
     pub fn in_progress(&self, s: &Settings) -> bool {
-        s.tests > 0 && self.reference.is_none()
+        s.tests > 0 && self.phase == Phase::Commissioning
     }
 
-    /// The basis for a test at `speed_log_mps`.
-    pub fn basis(&self, s: &Settings, speed_log_mps: f64) -> Basis {
-        if s.tests == 0 {
-            return Basis::Design;
-        }
-        match self.reference {
-            None => Basis::Commissioning {
-                done: self.tests,
-                of: s.tests,
-            },
-            Some(r) if (speed_log_mps - r.speed_log_mps).abs() > s.speed_band_mps => {
-                Basis::OutsideBand(r)
-            }
-            Some(r) => Basis::Commissioned(r),
-        }
-    }
-
-    /// The residual of `raw` against `basis`.
-    pub fn measure(basis: &Basis, s: &Settings, raw: &Raw) -> Measured {
+    /// The basis and residual of `raw`.
+    pub fn measure(&self, s: &Settings, raw: &Raw) -> (Basis, Measured) {
         let e = [raw.speed_mps, raw.displacement];
-        match basis {
-            Basis::Design => Measured {
+        let wide = Measured {
+            r: e,
+            cov: Cov2::diag(
+                raw.speed_sigma_mps.max(s.wide_speed_mps),
+                raw.displacement_sigma.max(s.wide_displacement),
+            ),
+            offset_var: None,
+            dof: f64::INFINITY,
+            learned: Cov2::default(),
+        };
+        if s.tests == 0 {
+            let m = Measured {
                 r: e,
                 cov: Cov2::diag(raw.speed_sigma_mps, raw.displacement_sigma),
                 offset_var: Some(0.0),
-            },
-            Basis::Commissioning { .. } | Basis::OutsideBand(_) => Measured {
-                r: e,
-                cov: Cov2::diag(
-                    raw.speed_sigma_mps.max(s.wide_speed_mps),
-                    raw.displacement_sigma.max(s.wide_displacement),
-                ),
-                offset_var: None,
-            },
-            Basis::Commissioned(r) => {
-                let k = f64::from(r.tests.max(1));
-                let ratio = |now: f64, then: f64| if then > 0.0 { now / then } else { 1.0 };
-                let carried = r.covariance.scaled(
-                    ratio(raw.speed_sigma_mps, r.speed_design_sigma_mps),
-                    ratio(raw.displacement_sigma, r.displacement_design_sigma),
-                );
-                Measured {
-                    r: [e[0] - r.speed_offset_mps, e[1] - r.displacement_offset],
-                    cov: carried
-                        .times(kappa(r.tests))
-                        .plus(Cov2::diag(s.floor_speed_mps, s.floor_displacement)),
-                    offset_var: Some(1.0 / k),
+                dof: f64::INFINITY,
+                learned: Cov2::default(),
+            };
+            return (Basis::Design, m);
+        }
+        let commissioning = Basis::Commissioning {
+            done: self.tests,
+            of: s.tests,
+        };
+        match self.phase {
+            Phase::Commissioning => (commissioning, wide),
+            Phase::Inconsistent { at, .. } => (Basis::Inconsistent { at }, wide),
+            Phase::Learning => {
+                let Some(shape) = self.shape else {
+                    return (commissioning, wide);
+                };
+                let Some(p) = envelope::predict(
+                    &self.samples,
+                    &s.envelope,
+                    &shape,
+                    raw.speed_log_mps,
+                    raw.displacement_declared_t,
+                ) else {
+                    return (commissioning, wide);
+                };
+                let learned = shape
+                    .cov
+                    .scaled(raw.speed_sigma_mps, raw.displacement_sigma)
+                    .plus(p.cov);
+                let floors = Cov2::diag(s.floor_speed_mps, s.floor_displacement);
+                let cov = learned.plus(floors);
+                let m = Measured {
+                    r: [e[0] - p.offset[0], e[1] - p.offset[1]],
+                    cov,
+                    offset_var: Some(p.cov.max_ratio(cov)),
+                    dof: shape.dof,
+                    learned,
+                };
+                (Basis::Vessel(p), m)
+            }
+        }
+    }
+
+    /// Adds a healthy test (the caller has judged it so): to the commissioning sample, or
+    /// to what the vessel has learned.
+    pub fn add(&mut self, s: &Settings, raw: &Raw) -> Added {
+        let smp = raw.sample();
+        let finite = smp.e.iter().chain(&smp.s).all(|v| v.is_finite())
+            && smp.s.iter().all(|v| *v > 0.0)
+            && smp.speed_mps.is_finite()
+            && smp.displacement_t.is_finite()
+            && smp.displacement_t > 0.0;
+        if !finite || s.tests == 0 {
+            return Added::Nothing;
+        }
+        match self.phase {
+            Phase::Commissioning => {
+                self.samples.push(smp);
+                self.tests += 1;
+                if let Some((k, t)) = changepoint::change_point(
+                    &self.samples,
+                    &s.envelope,
+                    [s.floor_speed_mps, s.floor_displacement],
+                    s.change_alpha,
+                ) {
+                    let at = k as u32 + 1;
+                    self.phase = Phase::Inconsistent { at, statistic: t };
+                    return Added::Inconsistent { at };
+                }
+                self.shape = envelope::shape(&self.samples, &s.envelope);
+                let least = s.tests.min(changepoint::MIN_TESTS as u32);
+                if self.tests >= s.tests || (self.tests >= least && self.resolved(s)) {
+                    self.phase = Phase::Learning;
+                    self.summarize(s);
+                    Added::Completed
+                } else {
+                    Added::Sample
                 }
             }
+            Phase::Learning if s.learn => {
+                self.samples.push(smp);
+                self.learned += 1;
+                forget(&mut self.samples, s);
+                if let Some(sh) = envelope::shape(&self.samples, &s.envelope) {
+                    self.shape = Some(sh);
+                }
+                self.summarize(s);
+                Added::Learned
+            }
+            _ => Added::Nothing,
         }
     }
 
-    /// Adds a healthy commissioning test; sets the reference at the K-th. Returns whether
-    /// this test completed the commissioning.
-    pub fn add(&mut self, s: &Settings, raw: &Raw) -> bool {
-        if !self.in_progress(s) {
-            return false;
-        }
-        let x = [
-            raw.speed_mps,
-            raw.displacement,
-            raw.speed_sigma_mps,
-            raw.displacement_sigma,
-            raw.speed_log_mps,
-        ];
-        if x.iter().any(|v| !v.is_finite()) {
-            return false;
-        }
-        self.tests += 1;
-        for (acc, v) in self.sum.iter_mut().zip(x) {
-            *acc += v;
-        }
-        self.sum_sq[0] += x[0] * x[0];
-        self.sum_sq[1] += x[1] * x[1];
-        self.sum_sq[2] += x[0] * x[1];
-        if self.tests < s.tests {
-            return false;
-        }
-        let n = f64::from(self.tests);
-        let mean = |i: usize| self.sum[i] / n;
-        let co = |sq: f64, a: usize, b: usize| {
-            if self.tests < 2 {
-                0.0
-            } else {
-                (sq - n * mean(a) * mean(b)) / (n - 1.0)
-            }
+    /// A reference commissioned on `raws` as they are: no change-point test, no early end
+    /// (the decision's Monte Carlo, tools); `None` with fewer than 5 finite tests.
+    pub fn commissioned_on(s: &Settings, raws: &[Raw]) -> Option<Self> {
+        let samples: Vec<Sample> = raws.iter().map(Raw::sample).collect();
+        let shape = envelope::shape(&samples, &s.envelope)?;
+        let mut c = Self {
+            tests: samples.len() as u32,
+            phase: Phase::Learning,
+            samples,
+            learned: 0,
+            shape: Some(shape),
+            reference: None,
         };
+        (c.tests >= 5).then(|| {
+            c.summarize(s);
+            c
+        })
+    }
+
+    /// Whether the sample resolves the faults commissioning must (see the module doc).
+    fn resolved(&self, s: &Settings) -> bool {
+        let Some(sh) = self.shape else { return false };
+        let n = self.samples.len() as f64;
+        let mean_s = |j: usize| self.samples.iter().map(|x| x.s[j]).sum::<f64>() / n;
+        // A fault of `resolve_j` in component j alone: its test's variance there, and the
+        // statistic it must reach for the calibrated one to cross the single-test limit.
+        let multiple = |j: usize, var: f64, floor: f64| {
+            let learned = mean_s(j).powi(2) * var * (1.0 + 1.0 / n);
+            let sd = (learned + floor * floor).sqrt();
+            let nu = if learned > 0.0 {
+                sh.dof * (1.0 + floor * floor / learned)
+            } else {
+                f64::INFINITY
+            };
+            let t = if nu.is_finite() {
+                nu * (s.single_limit / (nu - 1.0)).exp_m1()
+            } else {
+                s.single_limit
+            };
+            (t.sqrt() + RESOLVE_POWER_Z) * sd
+        };
+        s.resolve_speed_mps >= multiple(0, sh.cov.xx, s.floor_speed_mps)
+            && s.resolve_displacement >= multiple(1, sh.cov.yy, s.floor_displacement)
+    }
+
+    /// Updates the summary from the learned tests.
+    fn summarize(&mut self, s: &Settings) {
+        let (Some(sh), false) = (self.shape, self.samples.is_empty()) else {
+            return;
+        };
+        let n = self.samples.len() as f64;
+        let mean = |f: &dyn Fn(&Sample) -> f64| self.samples.iter().map(f).sum::<f64>() / n;
+        let range = |f: &dyn Fn(&Sample) -> f64| {
+            self.samples
+                .iter()
+                .map(f)
+                .fold([f64::INFINITY, f64::NEG_INFINITY], |r, v| [r[0].min(v), r[1].max(v)])
+        };
+        let s_u = mean(&|x| x.s[0]);
+        let s_d = mean(&|x| x.s[1]);
+        let u = mean(&|x| x.speed_mps);
+        let d = mean(&|x| x.displacement_t.ln()).exp();
+        let off = envelope::predict(&self.samples, &s.envelope, &sh, u, d).map_or(
+            [mean(&|x| x.e[0]), mean(&|x| x.e[1])],
+            |p| p.offset,
+        );
         self.reference = Some(Reference {
             tests: self.tests,
-            speed_offset_mps: mean(0),
-            displacement_offset: mean(1),
-            covariance: Cov2 {
-                xx: co(self.sum_sq[0], 0, 0).max(0.0),
-                xy: co(self.sum_sq[2], 0, 1),
-                yy: co(self.sum_sq[1], 1, 1).max(0.0),
-            },
-            speed_design_sigma_mps: mean(2),
-            displacement_design_sigma: mean(3),
-            speed_log_mps: mean(4),
+            learned: self.samples.len() as u32,
+            speed_offset_mps: off[0],
+            displacement_offset: off[1],
+            covariance: sh.cov.scaled(s_u, s_d),
+            dof: sh.dof,
+            speed_design_sigma_mps: s_u,
+            displacement_design_sigma: s_d,
+            speed_log_mps: u,
+            speed_range_mps: range(&|x| x.speed_mps),
+            displacement_range_t: range(&|x| x.displacement_t),
         });
-        true
     }
 
-    /// Starts again: the sample and the reference are dropped.
+    /// The reference over speed at the declared displacement `d_t`: per speed, the
+    /// predicted offset `(e_u, e_D)` and its standard deviations (the prediction's, the
+    /// shape's at the learned tests' mean design spreads and the floors). For plots.
+    pub fn curve(&self, s: &Settings, speeds: &[f64], d_t: f64) -> Vec<(f64, [f64; 2], [f64; 2])> {
+        let (Some(sh), Some(r)) = (self.shape, self.reference) else {
+            return Vec::new();
+        };
+        let k = kappa(sh.dof);
+        speeds
+            .iter()
+            .filter_map(|&u| {
+                let p = envelope::predict(&self.samples, &s.envelope, &sh, u, d_t)?;
+                let sd = |var: f64, pv: f64, floor: f64| (k * (var + pv) + floor * floor).sqrt();
+                Some((
+                    u,
+                    p.offset,
+                    [
+                        sd(r.covariance.xx, p.cov.xx, s.floor_speed_mps),
+                        sd(r.covariance.yy, p.cov.yy, s.floor_displacement),
+                    ],
+                ))
+            })
+            .collect()
+    }
+
+    /// Starts again: the sample, what was learned and the reference are dropped.
     pub fn restart(&mut self) {
         *self = Self::default();
     }
 
-    /// `off` (no commissioning configured), `commissioning` or `commissioned`.
+    /// `off`, `commissioning`, `inconsistent` or `commissioned`.
     pub fn state(&self, s: &Settings) -> &'static str {
-        match (s.tests, &self.reference) {
+        match (s.tests, self.phase) {
             (0, _) => "off",
-            (_, None) => "commissioning",
-            (_, Some(_)) => "commissioned",
+            (_, Phase::Commissioning) => "commissioning",
+            (_, Phase::Inconsistent { .. }) => "inconsistent",
+            (_, Phase::Learning) => "commissioned",
         }
     }
 
-    /// Status text: "commissioning k of K", "commissioned (K tests at u m/s)" or "design".
+    /// Status text: "commissioning k of at most K", "commissioned (...)", or why not.
     pub fn describe(&self, s: &Settings) -> String {
-        match (s.tests, &self.reference) {
-            (0, _) => "design reference (commissioning off)".into(),
-            (_, None) => format!("commissioning {} of {}", self.tests, s.tests),
-            (_, Some(r)) => format!(
-                "commissioned ({} tests at {:.1} m/s)",
-                r.tests, r.speed_log_mps
+        match (s.tests, self.phase, &self.reference) {
+            (0, _, _) => "design reference (commissioning off)".into(),
+            (_, Phase::Commissioning, _) => {
+                format!("commissioning {} of at most {}", self.tests, s.tests)
+            }
+            (_, Phase::Inconsistent { at, .. }, _) => format!(
+                "commissioning inconsistent: a change at test {at} of {}; commission again after repairs",
+                self.tests
             ),
+            (_, Phase::Learning, Some(r)) => format!(
+                "commissioned ({} tests, {} learned, {:.1}-{:.1} m/s)",
+                r.tests, r.learned, r.speed_range_mps[0], r.speed_range_mps[1]
+            ),
+            (_, Phase::Learning, None) => "commissioned".into(),
         }
     }
 }
 
-/// The K-sample factor `(K - 1) / (K - p - 2)` (see the module doc); 1 for K <= p + 2, which
-/// the configuration's limits exclude.
-pub fn kappa(k: u32) -> f64 {
-    let k = f64::from(k);
-    if k > P + 2.0 {
-        (k - 1.0) / (k - P - 2.0)
-    } else {
-        1.0
+/// Keeps at most `s.memory` tests: the oldest of the most populated soft bin goes.
+fn forget(samples: &mut Vec<Sample>, s: &Settings) {
+    while samples.len() > s.memory.max(changepoint::MIN_TESTS) {
+        let bin = |x: &Sample| {
+            (
+                (x.speed_mps / s.envelope.bandwidth[0]).round() as i64,
+                (x.displacement_t.max(1e-9).ln() / s.envelope.bandwidth[1]).round() as i64,
+            )
+        };
+        let mut counts: Vec<((i64, i64), usize)> = Vec::new();
+        for x in samples.iter() {
+            let b = bin(x);
+            match counts.iter_mut().find(|(k, _)| *k == b) {
+                Some((_, c)) => *c += 1,
+                None => counts.push((b, 1)),
+            }
+        }
+        let Some(&(fullest, _)) = counts.iter().max_by_key(|(_, c)| *c) else {
+            return;
+        };
+        if let Some(i) = samples.iter().position(|x| bin(x) == fullest) {
+            samples.remove(i);
+        }
     }
+}
+
+/// The Hotelling factor `nu / (nu - p - 1)` for a shape with `nu` effective dof (see the
+/// module doc); `nu <= p + 1.5` is taken as `p + 1.5` (a factor of `nu / 0.5`).
+pub fn kappa(nu: f64) -> f64 {
+    let nu = nu.max(P + 1.5);
+    nu / (nu - P - 1.0)
 }
 
 impl Basis {
@@ -304,148 +595,13 @@ impl Basis {
         match self {
             Basis::Design => "design",
             Basis::Commissioning { .. } => "commissioning",
-            Basis::Commissioned(_) => "commissioned",
-            Basis::OutsideBand(_) => "outside_commissioned_band",
+            Basis::Inconsistent { .. } => "commissioning_inconsistent",
+            Basis::Vessel(p) if p.nearest <= 1.0 => "commissioned",
+            Basis::Vessel(_) => "predicted",
         }
     }
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn settings() -> Settings {
-        Settings {
-            tests: 5,
-            wide_speed_mps: 1.0,
-            wide_displacement: 0.1,
-            speed_band_mps: 1.0,
-            floor_speed_mps: 0.0,
-            floor_displacement: 0.0,
-        }
-    }
-
-    fn raw(e_u: f64, e_d: f64) -> Raw {
-        Raw {
-            speed_mps: e_u,
-            displacement: e_d,
-            speed_sigma_mps: 0.05,
-            displacement_sigma: 0.002,
-            speed_log_mps: 7.0,
-        }
-    }
-
-    const SAMPLE: [(f64, f64); 5] = [
-        (1.0, -0.20),
-        (1.2, -0.22),
-        (0.8, -0.18),
-        (1.1, -0.20),
-        (0.9, -0.21),
-    ];
-
-    #[test]
-    fn the_reference_is_the_sample_mean_and_covariance() {
-        let s = settings();
-        let mut c = Commissioning::default();
-        for (i, (u, d)) in SAMPLE.iter().enumerate() {
-            assert!(matches!(
-                c.basis(&s, 7.0),
-                Basis::Commissioning { done, of: 5 } if done == i as u32
-            ));
-            assert_eq!(c.add(&s, &raw(*u, *d)), i == 4);
-        }
-        let r = c.reference.unwrap();
-        // Two-pass sample moments (n - 1), computed here independently.
-        let n = SAMPLE.len() as f64;
-        let mu = SAMPLE
-            .iter()
-            .fold((0.0, 0.0), |a, x| (a.0 + x.0 / n, a.1 + x.1 / n));
-        let cov = |f: &dyn Fn(&(f64, f64)) -> f64| SAMPLE.iter().map(f).sum::<f64>() / (n - 1.0);
-        let sxx = cov(&|x| (x.0 - mu.0).powi(2));
-        let sxy = cov(&|x| (x.0 - mu.0) * (x.1 - mu.1));
-        let syy = cov(&|x| (x.1 - mu.1).powi(2));
-        assert!((r.speed_offset_mps - mu.0).abs() < 1e-12);
-        assert!((r.displacement_offset - mu.1).abs() < 1e-12);
-        assert!((r.covariance.xx - sxx).abs() < 1e-12);
-        assert!((r.covariance.xy - sxy).abs() < 1e-13);
-        assert!((r.covariance.yy - syy).abs() < 1e-14);
-        assert!(
-            r.covariance.correlation() < -0.5,
-            "the sample is anti-correlated"
-        );
-        assert_eq!(c.describe(&s), "commissioned (5 tests at 7.0 m/s)");
-        assert!(!c.add(&s, &raw(9.0, 9.0)));
-        assert_eq!(c.reference.unwrap(), r);
-    }
-
-    #[test]
-    fn the_test_covariance_carries_the_sea_the_k_factor_and_the_floors() {
-        let s = Settings {
-            floor_speed_mps: 0.05,
-            floor_displacement: 0.004,
-            ..settings()
-        };
-        let mut c = Commissioning::default();
-        for (u, d) in SAMPLE {
-            c.add(&s, &raw(u, d));
-        }
-        let r = c.reference.unwrap();
-        let basis = c.basis(&s, 7.2);
-        let m = Commissioning::measure(&basis, &s, &raw(1.3, -0.2));
-        assert!((m.r[0] - (1.3 - r.speed_offset_mps)).abs() < 1e-12);
-        assert_eq!(m.offset_var, Some(0.2));
-        // kappa_5 = 4 / 1 = 4.
-        assert_eq!(kappa(5), 4.0);
-        assert_eq!(kappa(8), 1.75);
-        assert!((m.cov.xx - (4.0 * r.covariance.xx + 0.05f64.powi(2))).abs() < 1e-12);
-        assert!((m.cov.xy - 4.0 * r.covariance.xy).abs() < 1e-12);
-        assert!((m.cov.yy - (4.0 * r.covariance.yy + 0.004f64.powi(2))).abs() < 1e-15);
-        // A sea with three times the design spread of the speed: its variance x9, the
-        // covariance x3, the displacement's untouched.
-        let mut rough = raw(1.3, -0.2);
-        rough.speed_sigma_mps = 0.15;
-        let m3 = Commissioning::measure(&basis, &s, &rough);
-        assert!((m3.cov.xx - (36.0 * r.covariance.xx + 0.0025)).abs() < 1e-12);
-        assert!((m3.cov.xy - 12.0 * r.covariance.xy).abs() < 1e-12);
-        assert!((m3.cov.yy - m.cov.yy).abs() < 1e-18);
-    }
-
-    #[test]
-    fn commissioning_is_wide_and_outside_the_band_falls_back_to_it() {
-        let s = settings();
-        let mut c = Commissioning::default();
-        let m = Commissioning::measure(&c.basis(&s, 7.0), &s, &raw(1.0, -0.2));
-        assert_eq!(m.cov, Cov2::diag(1.0, 0.1));
-        assert_eq!(m.offset_var, None);
-        for (u, d) in SAMPLE {
-            c.add(&s, &raw(u, d));
-        }
-        assert!(matches!(c.basis(&s, 8.1), Basis::OutsideBand(_)));
-        assert!(matches!(c.basis(&s, 5.9), Basis::OutsideBand(_)));
-        assert!(matches!(c.basis(&s, 7.9), Basis::Commissioned(_)));
-        let m = Commissioning::measure(&c.basis(&s, 8.1), &s, &raw(1.0, -0.2));
-        assert_eq!(
-            (m.r, m.cov, m.offset_var),
-            ([1.0, -0.2], Cov2::diag(1.0, 0.1), None)
-        );
-        c.restart();
-        assert!(c.in_progress(&s));
-        assert_eq!(c.describe(&s), "commissioning 0 of 5");
-    }
-
-    #[test]
-    fn without_commissioning_the_design_reference_serves() {
-        let s = Settings {
-            tests: 0,
-            ..settings()
-        };
-        let mut c = Commissioning::default();
-        assert_eq!(c.basis(&s, 7.0), Basis::Design);
-        assert!(!c.add(&s, &raw(1.0, 0.0)));
-        let m = Commissioning::measure(&Basis::Design, &s, &raw(1.0, -0.2));
-        assert_eq!(
-            (m.r, m.cov, m.offset_var),
-            ([1.0, -0.2], Cov2::diag(0.05, 0.002), Some(0.0))
-        );
-    }
-}
+#[path = "reference_tests.rs"]
+mod tests;

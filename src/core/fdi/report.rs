@@ -19,7 +19,7 @@ pub const MISMATCH_ADVICE: &str = "the ship's response is not the trained model'
 
 /// The version of the decision's model: a reference made under another is discarded (its
 /// covariance means something else).
-const DECISION_MODEL: u32 = 2;
+const DECISION_MODEL: u32 = 3;
 
 /// The `model_mismatch` warning of a fit, if its chi-square is over `threshold`.
 pub fn mismatch(fit: &ModelFit, threshold: f64) -> Option<ModelMismatch> {

@@ -5,7 +5,7 @@ use crate::core::baseline::config::BaselineConfig;
 use crate::core::config::{check_count, check_range, check_range_open_low, fail, ConfigError};
 use crate::core::design::{ClfrtConfig, HbtConfig};
 use crate::core::estimator::config::EstimatorConfig;
-use crate::core::fdi::config::FdiConfig;
+use crate::core::fdi::config::{FdiConfig, ReferenceConfig};
 use crate::core::model::{SensorConfig, ServoConfig, ShipConfig};
 use crate::core::wire::Method;
 use serde::{Deserialize, Serialize};
@@ -227,6 +227,8 @@ pub struct CoreConfig {
     pub estimator: EstimatorConfig,
     /// Fault detection and isolation.
     pub fdi: FdiConfig,
+    /// The vessel's own reference over its operating envelope.
+    pub reference: ReferenceConfig,
     /// The time-domain baseline.
     pub baseline: BaselineConfig,
 }
@@ -249,6 +251,7 @@ impl CoreConfig {
         self.input.check()?;
         self.estimator.check()?;
         self.fdi.check()?;
+        self.reference.check()?;
         let nyquist = std::f64::consts::PI * self.sensors.rate_hz;
         if self.fdi.wave_band_rad_s[1] > nyquist {
             return Err(fail(

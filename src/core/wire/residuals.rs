@@ -144,10 +144,12 @@ pub enum ReferenceKind {
     Design,
     /// Commissioning: the design's, with wide limits.
     Commissioning,
-    /// The vessel's own.
+    /// The commissioning sample held a change: wide limits until commissioned again.
+    CommissioningInconsistent,
+    /// The vessel's own, at an operating point within a bandwidth of a learned test.
     Commissioned,
-    /// The vessel's own exists, the speed is outside its band: wide limits.
-    OutsideCommissionedBand,
+    /// The vessel's own, predicted at an operating point not yet learned (a wider interval).
+    Predicted,
 }
 
 /// The reference a test was measured against.
@@ -159,18 +161,31 @@ pub struct ReferenceReport {
     pub text: String,
     /// Tests in the commissioning sample.
     pub tests: u32,
-    /// Tests commissioning takes.
+    /// Tests commissioning takes at most.
     pub of: u32,
-    /// The reference's speed offset [m/s].
+    /// Tests the vessel's reference has learned (commissioning included).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub learned: Option<u32>,
+    /// The reference's speed offset at this test's operating point [m/s].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub speed_offset_mps: Option<f64>,
-    /// The reference's displacement offset [t] at the nominal displacement in force.
+    /// The reference's displacement offset [t] at this test's operating point and the
+    /// nominal displacement in force.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub displacement_offset_t: Option<f64>,
-    /// The correlation of speed and displacement errors in the commissioning sample.
+    /// The standard deviation of the speed offset's prediction [m/s].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub offset_speed_sigma_mps: Option<f64>,
+    /// The standard deviation of the displacement offset's prediction [t].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub offset_displacement_sigma_t: Option<f64>,
+    /// The learned tests' kernel weight at this operating point [tests].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub support: Option<f64>,
+    /// The correlation of speed and displacement errors in the learned tests.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub correlation: Option<f64>,
-    /// The commissioning's mean speed log [m/s].
+    /// The learned tests' mean speed log [m/s].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub speed_log_mps: Option<f64>,
 }

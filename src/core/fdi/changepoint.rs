@@ -1,0 +1,273 @@
+//! A change inside the commissioning sample: the two-segment mean-shift test.
+//!
+//! A fault present from the first commissioning test is indistinguishable from the ship's
+//! own normal (only the wide design limits can see it); one that arises *during*
+//! commissioning splits the sample in two. For every split `k` (the first `k` tests, the
+//! other `n - k`), the difference of the segments' mean residuals `d = mean_B - mean_A` is
+//! compared with its healthy covariance
+//!
+//! ```text
+//! C_k = (S_p / nu + F) (1/k + 1/(n - k)) + Psi       nu = n - 2
+//! T_k = d' C_k^-1 d
+//! ```
+//!
+//! - `S_p` the within-segment scatter matrix (sum of squares about each segment's mean),
+//!   `F = diag(floors^2)` the physical floors (`fdi.floor-*`);
+//! - `Psi` the operating point's share: when the segments' mean speed or declared loading
+//!   differ by `(du, dl)`, the offset may move by the slope prior's `(tau_u du, tau_l dl)`
+//!   (`crate::core::fdi::envelope`): a change of operating point is no change of health.
+//!
+//! Without floors and `Psi`, `T_k` is Hotelling's two-sample statistic: `T^2 (p = 2, nu) =
+//! nu (alpha^(-2 / (nu - 1)) - 1)` at tail probability `alpha`, heavy at small `nu` (a scatter
+//! matrix from 4 dof is sometimes far too small). The floors add known variance, so the sum
+//! has more degrees of freedom: Satterthwaite's approximation gives `nu (1 + f_j^2 / v_j)^2`
+//! (`v_j = S_p,jj / nu`), which a Monte Carlo of healthy samples (the ignored test
+//! `change_point_false_flags`) finds 5-7 times over budget where scatter and floors are of
+//! a size; its square root, `nu_eff = nu (1 + f_j^2 / v_j)` (the smaller of the two
+//! components), keeps every case measured within the budget. The limit is Hotelling's at
+//! `nu_eff` (the chi-square's, `2 ln(1 / alpha)`, when the floors dominate).
+//!
+//! The sample is declared inconsistent at the split with the largest `T_k` over its limit.
+//! Budget: one ship-day of the alarm budget per commissioning, `alpha_c = F / 365.25`
+//! (`fdi.false-alarms-per-year` = 0.1: 2.7e-4), spent evenly over the (look, split) pairs a
+//! commissioning can make (Bonferroni: `alpha_c / L`). Needs `n >= 6` (`nu = 4`).
+use super::envelope::{Sample, Settings as Envelope};
+use super::stats::Cov2;
+
+/// The fewest tests the test runs on.
+pub const MIN_TESTS: usize = 6;
+
+/// The number of (look, split) pairs a commissioning of up to `k_max` tests can make.
+pub fn looks(k_max: u32) -> usize {
+    (MIN_TESTS..=k_max.max(MIN_TESTS as u32) as usize)
+        .map(|n| n - 1)
+        .sum::<usize>()
+        .max(1)
+}
+
+/// Hotelling's `T^2 (p = 2, nu)` at tail probability `alpha`.
+pub fn hotelling2_isf(alpha: f64, nu: f64) -> f64 {
+    if nu <= 1.0 {
+        return f64::INFINITY;
+    }
+    nu * (-2.0 / (nu - 1.0) * alpha.ln()).exp_m1()
+}
+
+/// The split with the largest statistic over its limit: `(k, T_k)` (the change at test
+/// `k + 1`), or `None`. `alpha` is each (look, split)'s tail probability.
+pub fn change_point(
+    samples: &[Sample],
+    env: &Envelope,
+    floors: [f64; 2],
+    alpha: f64,
+) -> Option<(usize, f64)> {
+    let n = samples.len();
+    if n < MIN_TESTS {
+        return None;
+    }
+    let nu = (n - 2) as f64;
+    // Prefix sums of e, e e' and the operating point: every split in O(1).
+    let mut pre = vec![Sums::default(); n + 1];
+    for (i, s) in samples.iter().enumerate() {
+        pre[i + 1] = pre[i].plus(s);
+    }
+    let total = pre[n];
+    let mut best: Option<(usize, f64)> = None;
+    for k in 1..n {
+        let a = pre[k];
+        let b = total.minus(&a);
+        let (ma, xa) = a.means();
+        let (mb, xb) = b.means();
+        let sp = a.scatter().plus(b.scatter());
+        let f = 1.0 / k as f64 + 1.0 / (n - k) as f64;
+        let (du, dl) = (xb[0] - xa[0], xb[1] - xa[1]);
+        let psi =
+            |j: usize| (env.slope_speed[j] * du).powi(2) + (env.slope_loading[j] * dl).powi(2);
+        let per = sp.times(1.0 / nu);
+        let nu_eff = |v: f64, f: f64| {
+            if v > 0.0 {
+                nu * (1.0 + f * f / v)
+            } else {
+                f64::INFINITY
+            }
+        };
+        let dof = nu_eff(per.xx, floors[0]).min(nu_eff(per.yy, floors[1]));
+        let limit = if dof.is_finite() {
+            hotelling2_isf(alpha, dof)
+        } else {
+            2.0 * (1.0 / alpha).ln()
+        };
+        let c = per
+            .plus(Cov2::diag(floors[0], floors[1]))
+            .times(f)
+            .plus(Cov2 {
+                xx: psi(0),
+                xy: 0.0,
+                yy: psi(1),
+            });
+        let Some(z) = c.whiten([mb[0] - ma[0], mb[1] - ma[1]]) else {
+            continue;
+        };
+        let t = z[0] * z[0] + z[1] * z[1];
+        if t > limit && best.is_none_or(|(_, bt)| t > bt) {
+            best = Some((k, t));
+        }
+    }
+    best
+}
+
+/// Sums over a run of samples: count, `e`, `e e'` (xx, xy, yy), `(u, ln D)`.
+#[derive(Debug, Clone, Copy, Default)]
+struct Sums {
+    n: f64,
+    e: [f64; 2],
+    ee: [f64; 3],
+    x: [f64; 2],
+}
+
+impl Sums {
+    fn plus(self, s: &Sample) -> Self {
+        Self {
+            n: self.n + 1.0,
+            e: [self.e[0] + s.e[0], self.e[1] + s.e[1]],
+            ee: [
+                self.ee[0] + s.e[0] * s.e[0],
+                self.ee[1] + s.e[0] * s.e[1],
+                self.ee[2] + s.e[1] * s.e[1],
+            ],
+            x: [
+                self.x[0] + s.speed_mps,
+                self.x[1] + s.displacement_t.max(1e-9).ln(),
+            ],
+        }
+    }
+
+    fn minus(self, o: &Self) -> Self {
+        Self {
+            n: self.n - o.n,
+            e: [self.e[0] - o.e[0], self.e[1] - o.e[1]],
+            ee: [self.ee[0] - o.ee[0], self.ee[1] - o.ee[1], self.ee[2] - o.ee[2]],
+            x: [self.x[0] - o.x[0], self.x[1] - o.x[1]],
+        }
+    }
+
+    /// Mean residual and mean operating point.
+    fn means(&self) -> ([f64; 2], [f64; 2]) {
+        let n = self.n.max(1.0);
+        ([self.e[0] / n, self.e[1] / n], [self.x[0] / n, self.x[1] / n])
+    }
+
+    /// The scatter about the mean, `sum (e - m)(e - m)'`.
+    fn scatter(&self) -> Cov2 {
+        let (m, _) = self.means();
+        Cov2 {
+            xx: (self.ee[0] - self.n * m[0] * m[0]).max(0.0),
+            xy: self.ee[1] - self.n * m[0] * m[1],
+            yy: (self.ee[2] - self.n * m[1] * m[1]).max(0.0),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+    use rand_distr::{Distribution, StandardNormal};
+
+    fn env() -> Envelope {
+        Envelope {
+            bandwidth: [1.0, 0.1],
+            slope_speed: [0.5, 0.03],
+            slope_loading: [4.0, 0.3],
+        }
+    }
+
+    fn sample(rng: &mut ChaCha8Rng, shift: [f64; 2], u: f64) -> Sample {
+        let n = |r: &mut ChaCha8Rng| -> f64 { StandardNormal.sample(r) };
+        Sample {
+            e: [0.8 + 0.08 * n(rng) + shift[0], -0.1 + 0.004 * n(rng) + shift[1]],
+            s: [0.05, 0.002],
+            speed_mps: u,
+            displacement_t: 7000.0,
+        }
+    }
+
+    #[test]
+    fn a_shift_in_the_middle_is_found_at_its_test_and_a_healthy_sample_is_not() {
+        let alpha = 2.7e-4 / looks(8) as f64;
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        // A +12 % displacement from the fourth test on (k = 3).
+        let shifted: Vec<Sample> = (0..8)
+            .map(|i| sample(&mut rng, if i >= 3 { [0.0, 0.12] } else { [0.0; 2] }, 7.0))
+            .collect();
+        let (k, t) = change_point(&shifted, &env(), [0.05, 0.004], alpha).unwrap();
+        assert_eq!(k, 3);
+        assert!(t > 300.0, "{t}");
+        // A healthy sample, and the same at a change of speed of 1.5 m/s mid-sample with
+        // an offset moving as the slope prior allows (0.5 m/s per m/s: 1 sd).
+        let mut flagged = 0;
+        for _ in 0..2000 {
+            let ok: Vec<Sample> = (0..8).map(|_| sample(&mut rng, [0.0; 2], 7.0)).collect();
+            flagged += usize::from(change_point(&ok, &env(), [0.05, 0.004], alpha).is_some());
+        }
+        assert_eq!(flagged, 0);
+        let moved: Vec<Sample> = (0..8)
+            .map(|i| {
+                let (u, de) = if i >= 4 { (5.5, 0.75) } else { (7.0, 0.0) };
+                sample(&mut rng, [de, 0.0], u)
+            })
+            .collect();
+        assert!(change_point(&moved, &env(), [0.05, 0.004], alpha).is_none());
+        // Too few tests: no verdict.
+        assert!(change_point(&shifted[..5], &env(), [0.05, 0.004], alpha).is_none());
+        assert_eq!(looks(8), 5 + 6 + 7);
+    }
+
+    #[test]
+    fn the_hotelling_limit_matches_tables_and_tends_to_the_chi_square() {
+        // T^2(2, nu) = 2 nu / (nu - 1) F(2, nu - 1); F(2, 5) at 5 % is 5.786 (tables):
+        // nu = 6 gives 13.89.
+        assert!((hotelling2_isf(0.05, 6.0) - 2.4 * 5.786).abs() < 0.01);
+        // nu -> infinity: chi2_2 at 1e-4 = 2 ln 1e4 = 18.42.
+        let chi2 = 2.0 * 1e4f64.ln();
+        assert!((hotelling2_isf(1e-4, 1e7) - chi2).abs() < 1e-3);
+        assert!(hotelling2_isf(1e-4, 50.0) > chi2 && hotelling2_isf(1e-4, 6.0) > 10.0 * chi2);
+    }
+
+    /// False "inconsistent" on healthy samples by Monte Carlo: scatter at and above the
+    /// floors, every look of a commissioning of up to 8 (`cargo test --profile ci --lib
+    /// change_point_false_flags -- --ignored --nocapture`).
+    #[test]
+    #[ignore]
+    fn change_point_false_flags() {
+        let alpha = 2.7e-4 / looks(8) as f64;
+        for (su, sd) in [(0.05, 0.004), (0.1, 0.004), (0.3, 0.01), (1.0, 0.03)] {
+            let mut rng = ChaCha8Rng::seed_from_u64(11);
+            let runs = 200_000;
+            let mut flagged = 0;
+            for _ in 0..runs {
+                let n = |r: &mut ChaCha8Rng| -> f64 { StandardNormal.sample(r) };
+                let v: Vec<Sample> = (0..8)
+                    .map(|_| {
+                        let a = n(&mut rng);
+                        let b = n(&mut rng);
+                        Sample {
+                            e: [su * a, sd * (-0.9 * a + 0.436 * b)],
+                            s: [0.05, 0.002],
+                            speed_mps: 7.0,
+                            displacement_t: 7000.0,
+                        }
+                    })
+                    .collect();
+                let any = (MIN_TESTS..=8)
+                    .any(|m| change_point(&v[..m], &env(), [0.05, 0.004], alpha).is_some());
+                flagged += usize::from(any);
+            }
+            println!(
+                "scatter ({su}, {sd}): {flagged} of {runs} flagged: {:.2e} per commissioning (budget 2.7e-4)",
+                flagged as f64 / runs as f64
+            );
+        }
+    }
+}

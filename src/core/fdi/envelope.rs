@@ -1,0 +1,319 @@
+//! The vessel's healthy residual over its operating envelope: a local linear regression with
+//! a prior on its slopes, and the prediction interval it gives at a new operating point.
+//!
+//! ## Model
+//!
+//! A healthy test of one method at the operating point `x = (u, l)` (`u` the speed log
+//! [m/s], `l = ln D_decl` the declared displacement's logarithm) has the raw residual
+//! (`crate::core::fdi::reference`) `e = m(x) + eps`, with
+//!
+//! - `m(x)` the networks' structural bias on this ship: smooth in `x`, unknown, learned;
+//! - `eps ~ N(0, S_sea S~ S_sea)`: the test-to-test scatter, its *shape* `S~` (a 2 x 2
+//!   covariance in units of the design spreads) the same over the envelope, carried to a
+//!   test's sea by that test's design spreads `S_sea = diag(s_u, s_D)`.
+//!
+//! Near a point `x*`, `m(x) ~ a_0 + a_u (u - u*) + a_l (l - l*)` per component. Each
+//! component is fitted by weighted least squares over the learned tests, each test weighted
+//! by its noise (`1 / (s_ij^2 S~_jj)`) and by a kernel of its distance from `x*`,
+//!
+//! ```text
+//! w = 1 / (1 + d^2),   d^2 = ((u - u*) / b_u)^2 + ((l - l*) / b_l)^2
+//! ```
+//!
+//! (`reference.bandwidth-speed-mps`, `reference.bandwidth-loading`): a soft bin, the method
+//! of bins of wind-turbine power curves (IEC 61400-12) made continuous, and ISO 19030's
+//! reference conditions made local. The slopes carry a Gaussian prior of mean 0 and standard
+//! deviations `reference.slope-speed` and `reference.slope-loading` (per component): how
+//! fast a network's bias on a ship unlike its training model may change across the
+//! envelope. The intercept has a flat prior. The fit's intercept is the predicted offset at
+//! `x*`; its posterior variance `(A^-1)_00` is the prediction's own: small where the ship
+//! has been tested, growing with the distance from what was learned (the kernel and the
+//! slope prior), never the design's wide limits.
+//!
+//! The shape `S~` is the scatter of the learned tests about the fit at their own points,
+//! normalised by their design spreads, over the effective degrees of freedom `nu = n -
+//! sum_i h_ii` (`h_ii` the leverage of test i at its own point): `n - 1` when every test was
+//! at one point, the sample covariance. It is computed twice: first with the raw scatter as
+//! the noise weights, then with the first pass's shape.
+
+use super::stats::Cov2;
+use nalgebra::{Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
+
+/// Smallest noise variance in design-spread units (a sample with no scatter at all).
+const MIN_SHAPE_VAR: f64 = 1e-8;
+
+/// One learned healthy test.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Sample {
+    /// Raw residual `(e_u [m/s], e_D [fraction of D_nom])`.
+    pub e: [f64; 2],
+    /// Design spreads at its sea `(s_u [m/s], s_D [fraction])`.
+    pub s: [f64; 2],
+    /// Speed log [m/s].
+    pub speed_mps: f64,
+    /// Declared displacement [t].
+    pub displacement_t: f64,
+}
+
+impl Sample {
+    fn x(&self) -> [f64; 2] {
+        [self.speed_mps, self.displacement_t.max(1e-9).ln()]
+    }
+}
+
+/// The regression's settings (from `[reference]`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settings {
+    /// Kernel widths `(b_u [m/s], b_l [ln D])`.
+    pub bandwidth: [f64; 2],
+    /// Prior standard deviation of the slopes in speed `(e_u [m/s per m/s], e_D [per m/s])`.
+    pub slope_speed: [f64; 2],
+    /// Prior standard deviation of the slopes in `ln D` `(e_u [m/s], e_D [fraction])`.
+    pub slope_loading: [f64; 2],
+}
+
+/// The shape of the healthy scatter, in units of the design spreads.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Shape {
+    /// `S~`.
+    pub cov: Cov2,
+    /// Its effective degrees of freedom `nu`.
+    pub dof: f64,
+}
+
+/// The predicted healthy offset at one operating point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Prediction {
+    /// `m(x*)`: `(e_u [m/s], e_D [fraction])`.
+    pub offset: [f64; 2],
+    /// Its error's covariance (physical units; the shape taken as known).
+    pub cov: Cov2,
+    /// The kernel weight the learned tests lend this point (tests' worth).
+    pub support: f64,
+    /// Distance to the nearest learned test, in bandwidths.
+    pub nearest: f64,
+}
+
+/// The kernel weight and squared distance between two operating points.
+fn kernel(st: &Settings, a: [f64; 2], b: [f64; 2]) -> (f64, f64) {
+    let du = (a[0] - b[0]) / st.bandwidth[0];
+    let dl = (a[1] - b[1]) / st.bandwidth[1];
+    let d2 = du * du + dl * dl;
+    (1.0 / (1.0 + d2), d2)
+}
+
+/// One component's local fit at `at`: `(intercept, its variance)`.
+fn fit_component(
+    samples: &[Sample],
+    st: &Settings,
+    at: [f64; 2],
+    j: usize,
+    noise: f64,
+) -> Option<(f64, f64)> {
+    let prior = |sd: f64| 1.0 / sd.max(1e-12).powi(2);
+    let mut a = Matrix3::from_diagonal(&Vector3::new(
+        0.0,
+        prior(st.slope_speed[j]),
+        prior(st.slope_loading[j]),
+    ));
+    let mut b = Vector3::zeros();
+    for smp in samples {
+        let x = smp.x();
+        let (w, _) = kernel(st, x, at);
+        let var = smp.s[j] * smp.s[j] * noise.max(MIN_SHAPE_VAR);
+        if !(var > 0.0) {
+            continue;
+        }
+        let phi = Vector3::new(1.0, x[0] - at[0], x[1] - at[1]);
+        a += phi * phi.transpose() * (w / var);
+        b += phi * (w * smp.e[j] / var);
+    }
+    let inv = a.try_inverse()?;
+    let coef = inv * b;
+    let v = inv[(0, 0)];
+    (coef[0].is_finite() && v.is_finite() && v >= 0.0).then_some((coef[0], v))
+}
+
+/// Both components' local fits at `at`, with the noise variances `noise` (`S~_jj`).
+fn fit(samples: &[Sample], st: &Settings, at: [f64; 2], noise: [f64; 2]) -> Option<[(f64, f64); 2]> {
+    Some([
+        fit_component(samples, st, at, 0, noise[0])?,
+        fit_component(samples, st, at, 1, noise[1])?,
+    ])
+}
+
+/// The shape of the scatter of `samples` (at least 2 of them) about their local fit.
+pub fn shape(samples: &[Sample], st: &Settings) -> Option<Shape> {
+    let n = samples.len();
+    if n < 2 {
+        return None;
+    }
+    // Pass 0: the raw normalised scatter about its mean (an over-estimate when the offset
+    // moves over the samples) as the noise weights.
+    let norm: Vec<[f64; 2]> = samples
+        .iter()
+        .map(|s| [s.e[0] / s.s[0], s.e[1] / s.s[1]])
+        .collect();
+    let mean = |i: usize| norm.iter().map(|v| v[i]).sum::<f64>() / n as f64;
+    let (m0, m1) = (mean(0), mean(1));
+    let var = |i: usize, m: f64| norm.iter().map(|v| (v[i] - m).powi(2)).sum::<f64>() / (n - 1) as f64;
+    let mut noise = [var(0, m0), var(1, m1)];
+    // The fit at each distinct operating point, once (a commissioning sample is often at
+    // one point: one fit for all).
+    let mut points: Vec<[f64; 2]> = Vec::new();
+    let index: Vec<usize> = samples
+        .iter()
+        .map(|s| {
+            let x = s.x();
+            points.iter().position(|p| *p == x).unwrap_or_else(|| {
+                points.push(x);
+                points.len() - 1
+            })
+        })
+        .collect();
+    let mut out = None;
+    for _ in 0..2 {
+        let fits: Vec<[(f64, f64); 2]> = points
+            .iter()
+            .map(|&x| fit(samples, st, x, noise))
+            .collect::<Option<_>>()?;
+        let (mut xx, mut xy, mut yy, mut lev) = (0.0, 0.0, 0.0, 0.0);
+        for (s, &i) in samples.iter().zip(&index) {
+            let f = fits[i];
+            let r = [(s.e[0] - f[0].0) / s.s[0], (s.e[1] - f[1].0) / s.s[1]];
+            xx += r[0] * r[0];
+            xy += r[0] * r[1];
+            yy += r[1] * r[1];
+            // The leverage of the test on its own fit, the components' mean.
+            let h0 = f[0].1 / (s.s[0] * s.s[0] * noise[0].max(MIN_SHAPE_VAR));
+            let h1 = f[1].1 / (s.s[1] * s.s[1] * noise[1].max(MIN_SHAPE_VAR));
+            lev += 0.5 * (h0 + h1);
+        }
+        let dof = (n as f64 - lev).max(1.0);
+        let cov = Cov2 {
+            xx: xx / dof,
+            xy: xy / dof,
+            yy: yy / dof,
+        };
+        if ![cov.xx, cov.xy, cov.yy].iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        noise = [cov.xx, cov.yy];
+        out = Some(Shape { cov, dof });
+    }
+    out
+}
+
+/// The predicted offset at the operating point `(speed_mps, displacement_t)`.
+pub fn predict(
+    samples: &[Sample],
+    st: &Settings,
+    shape: &Shape,
+    speed_mps: f64,
+    displacement_t: f64,
+) -> Option<Prediction> {
+    let at = [speed_mps, displacement_t.max(1e-9).ln()];
+    let f = fit(samples, st, at, [shape.cov.xx, shape.cov.yy])?;
+    let rho = shape.cov.correlation();
+    let (support, nearest) = samples.iter().fold((0.0, f64::INFINITY), |(w, d), s| {
+        let (wi, d2) = kernel(st, s.x(), at);
+        (w + wi, d.min(d2.sqrt()))
+    });
+    Some(Prediction {
+        offset: [f[0].0, f[1].0],
+        cov: Cov2 {
+            xx: f[0].1,
+            xy: rho * (f[0].1 * f[1].1).sqrt(),
+            yy: f[1].1,
+        },
+        support,
+        nearest,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn st() -> Settings {
+        Settings {
+            bandwidth: [1.0, 0.1],
+            slope_speed: [0.5, 0.03],
+            slope_loading: [4.0, 0.3],
+        }
+    }
+
+    fn smp(e: [f64; 2], u: f64, d: f64) -> Sample {
+        Sample {
+            e,
+            s: [0.1, 0.01],
+            speed_mps: u,
+            displacement_t: d,
+        }
+    }
+
+    #[test]
+    fn at_one_point_the_fit_is_the_sample_mean_and_the_shape_its_covariance() {
+        let data = [(1.0, -0.20), (1.2, -0.22), (0.8, -0.18), (1.1, -0.20), (0.9, -0.21)];
+        let samples: Vec<Sample> = data.iter().map(|&(a, b)| smp([a, b], 7.0, 7000.0)).collect();
+        let sh = shape(&samples, &st()).unwrap();
+        // Independent two-pass moments (n - 1), in design-spread units.
+        let n = 5.0;
+        let mu = data.iter().fold((0.0, 0.0), |a, x| (a.0 + x.0 / n, a.1 + x.1 / n));
+        let sxx = data.iter().map(|x| (x.0 - mu.0).powi(2)).sum::<f64>() / 4.0 / 0.01;
+        let sxy = data.iter().map(|x| (x.0 - mu.0) * (x.1 - mu.1)).sum::<f64>() / 4.0 / 0.001;
+        let syy = data.iter().map(|x| (x.1 - mu.1).powi(2)).sum::<f64>() / 4.0 / 1e-4;
+        assert!((sh.dof - 4.0).abs() < 1e-9, "{}", sh.dof);
+        assert!((sh.cov.xx - sxx).abs() < 1e-9 * sxx);
+        assert!((sh.cov.xy - sxy).abs() < 1e-9 * sxy.abs());
+        assert!((sh.cov.yy - syy).abs() < 1e-9 * syy);
+        let p = predict(&samples, &st(), &sh, 7.0, 7000.0).unwrap();
+        assert!((p.offset[0] - mu.0).abs() < 1e-12);
+        assert!((p.offset[1] - mu.1).abs() < 1e-12);
+        // The mean's variance: S / n in physical units.
+        assert!((p.cov.xx - sxx * 0.01 / n).abs() < 1e-9 * p.cov.xx);
+        assert!((p.cov.yy - syy * 1e-4 / n).abs() < 1e-9 * p.cov.yy);
+        assert!((p.support - 5.0).abs() < 1e-12 && p.nearest == 0.0);
+    }
+
+    #[test]
+    fn away_from_the_learned_point_the_interval_grows_by_the_kernel_and_the_slope_prior() {
+        let samples: Vec<Sample> = [(1.0, -0.20), (1.2, -0.22), (0.8, -0.18), (1.1, -0.20), (0.9, -0.21)]
+            .iter()
+            .map(|&(a, b)| smp([a, b], 7.0, 7000.0))
+            .collect();
+        let sh = shape(&samples, &st()).unwrap();
+        let du = 1.5;
+        let p = predict(&samples, &st(), &sh, 7.0 + du, 7000.0).unwrap();
+        // By hand: all data at one distance d = 1.5 bandwidths, weight w = 1 / (1 + d^2);
+        // intercept variance = 1 / W + du^2 tau^2 with W = n w / sigma^2.
+        let w = 1.0 / (1.0 + du * du);
+        for (j, (var, tau)) in [(sh.cov.xx * 0.01, 0.5), (sh.cov.yy * 1e-4, 0.03)].iter().enumerate() {
+            let want = var / (5.0 * w) + du * du * tau * tau;
+            let got = [p.cov.xx, p.cov.yy][j];
+            assert!((got - want).abs() < 1e-9 * want, "{j}: {got} vs {want}");
+        }
+        // The offset is still the sample's (the prior slope is 0).
+        assert!((p.offset[0] - 1.0).abs() < 1e-12);
+        assert!((p.nearest - 1.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn two_learned_speeds_give_the_slope_between_them() {
+        // e_u = 1 - (u - 7) exactly (the estimate does not follow the speed), e_D flat,
+        // with a small scatter.
+        let mut samples = Vec::new();
+        for (k, u) in [7.0, 7.0, 7.0, 7.0, 5.5, 5.5, 5.5, 5.5].iter().enumerate() {
+            let wob = [0.01, -0.01, 0.005, -0.005][k % 4];
+            samples.push(smp([1.0 - (u - 7.0) + wob, -0.2 + wob / 10.0], *u, 7000.0));
+        }
+        let sh = shape(&samples, &st()).unwrap();
+        let p = predict(&samples, &st(), &sh, 6.25, 7000.0).unwrap();
+        assert!((p.offset[0] - 1.75).abs() < 0.01, "{:?}", p.offset);
+        assert!((p.offset[1] + 0.2).abs() < 0.002);
+        // Between two learned points the interval is far narrower than the prior's alone
+        // (0.75 m/s x 0.5 = 0.375 m/s).
+        assert!(p.cov.xx.sqrt() < 0.05, "{}", p.cov.xx.sqrt());
+    }
+}

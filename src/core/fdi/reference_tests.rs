@@ -1,0 +1,266 @@
+use super::*;
+use crate::core::fdi::config::{FdiConfig, ReferenceConfig};
+use crate::core::fdi::decision::Limits;
+
+fn settings(k: u32) -> Settings {
+    let fdi = FdiConfig {
+        commissioning_tests: k,
+        commissioning_spread_speed_mps: 1.0,
+        commissioning_spread_displacement: 0.1,
+        floor_speed_mps: 0.0,
+        floor_displacement: 0.0,
+        ..FdiConfig::default()
+    };
+    let limits = Limits::new(fdi.false_alarms_per_year, 3720.0, fdi.window_tests);
+    fdi.commissioning(&ReferenceConfig::default(), &limits)
+}
+
+fn raw_at(e_u: f64, e_d: f64, u: f64, d: f64) -> Raw {
+    Raw {
+        speed_mps: e_u,
+        displacement: e_d,
+        speed_sigma_mps: 0.05,
+        displacement_sigma: 0.002,
+        speed_log_mps: u,
+        displacement_declared_t: d,
+    }
+}
+
+fn raw(e_u: f64, e_d: f64) -> Raw {
+    raw_at(e_u, e_d, 7.0, 7000.0)
+}
+
+const SAMPLE: [(f64, f64); 5] = [
+    (1.0, -0.20),
+    (1.2, -0.22),
+    (0.8, -0.18),
+    (1.1, -0.20),
+    (0.9, -0.21),
+];
+
+fn commissioned(s: &Settings) -> Commissioning {
+    let mut c = Commissioning::default();
+    for (u, d) in SAMPLE {
+        c.add(s, &raw(u, d));
+    }
+    assert_eq!(c.phase, Phase::Learning);
+    c
+}
+
+#[test]
+fn the_reference_is_the_sample_mean_and_covariance() {
+    let s = settings(5);
+    let mut c = Commissioning::default();
+    for (i, (u, d)) in SAMPLE.iter().enumerate() {
+        let (b, _) = c.measure(&s, &raw(*u, *d));
+        assert!(matches!(b, Basis::Commissioning { done, of: 5 } if done == i as u32));
+        let want = if i == 4 { Added::Completed } else { Added::Sample };
+        assert_eq!(c.add(&s, &raw(*u, *d)), want);
+    }
+    let r = c.reference.unwrap();
+    // Two-pass sample moments (n - 1), computed here independently.
+    let n = SAMPLE.len() as f64;
+    let mu = SAMPLE
+        .iter()
+        .fold((0.0, 0.0), |a, x| (a.0 + x.0 / n, a.1 + x.1 / n));
+    let cov = |f: &dyn Fn(&(f64, f64)) -> f64| SAMPLE.iter().map(f).sum::<f64>() / (n - 1.0);
+    let sxx = cov(&|x| (x.0 - mu.0).powi(2));
+    let sxy = cov(&|x| (x.0 - mu.0) * (x.1 - mu.1));
+    let syy = cov(&|x| (x.1 - mu.1).powi(2));
+    assert!((r.speed_offset_mps - mu.0).abs() < 1e-12);
+    assert!((r.displacement_offset - mu.1).abs() < 1e-12);
+    assert!((r.covariance.xx - sxx).abs() < 1e-9 * sxx);
+    assert!((r.covariance.xy - sxy).abs() < 1e-9 * sxy.abs());
+    assert!((r.covariance.yy - syy).abs() < 1e-9 * syy);
+    assert!((r.dof - 4.0).abs() < 1e-9);
+    assert!(r.covariance.correlation() < -0.5, "the sample is anti-correlated");
+    assert_eq!(c.describe(&s), "commissioned (5 tests, 5 learned, 7.0-7.0 m/s)");
+}
+
+#[test]
+fn the_test_covariance_carries_the_sea_the_offset_error_the_k_factor_and_the_floors() {
+    let s = Settings {
+        floor_speed_mps: 0.05,
+        floor_displacement: 0.004,
+        ..settings(5)
+    };
+    let c = commissioned(&s);
+    let r = c.reference.unwrap();
+    let (b, m) = c.measure(&s, &raw(1.3, -0.2));
+    assert_eq!(b.name(), "commissioned");
+    assert!((m.r[0] - (1.3 - r.speed_offset_mps)).abs() < 1e-12);
+    // The mean's error S / 5 on top of S, and the floors; Hotelling's tail with nu = 4 is
+    // the calibration's business (`Measured::whitened`), kappa only sizes commissioning.
+    assert_eq!(kappa(4.0), 4.0);
+    assert_eq!(kappa(7.0), 1.75);
+    let want = |v: f64, f: f64| v * 1.2 + f * f;
+    assert!((m.cov.xx - want(r.covariance.xx, 0.05)).abs() < 1e-9 * m.cov.xx);
+    assert!((m.cov.xy - 1.2 * r.covariance.xy).abs() < 1e-9 * m.cov.xy.abs());
+    assert!((m.cov.yy - want(r.covariance.yy, 0.004)).abs() < 1e-9 * m.cov.yy);
+    // The floors add degrees of freedom along the residual: nu / (the learned share).
+    let learned = r.covariance.times(1.2);
+    assert_eq!(m.dof, 4.0);
+    for (a, b) in [(m.learned.xx, learned.xx), (m.learned.xy, learned.xy), (m.learned.yy, learned.yy)] {
+        assert!((a - b).abs() < 1e-12 * b.abs(), "{a} vs {b}");
+    }
+    let y = {
+        let c = m.cov;
+        let det = c.xx * c.yy - c.xy * c.xy;
+        [(c.yy * m.r[0] - c.xy * m.r[1]) / det, (c.xx * m.r[1] - c.xy * m.r[0]) / det]
+    };
+    let t = m.r[0] * y[0] + m.r[1] * y[1];
+    let ya = y[0] * y[0] * learned.xx + 2.0 * y[0] * y[1] * learned.xy + y[1] * y[1] * learned.yy;
+    assert!((m.effective_dof() - 4.0 * t / ya).abs() < 1e-9 * m.effective_dof());
+    assert!(m.effective_dof() > 4.0);
+    // The shared share: the mean's error over the whole, largest where the floors weigh
+    // least; without floors it is 1 / (K + 1) in every direction.
+    let c0 = commissioned(&settings(5));
+    let (_, m0) = c0.measure(&settings(5), &raw(1.3, -0.2));
+    assert!((m0.offset_var.unwrap() - 1.0 / 6.0).abs() < 1e-7, "{:?}", m0.offset_var);
+    assert!(m.offset_var.unwrap() < 1.0 / 6.0 && m.offset_var.unwrap() > 0.0);
+    // A sea with three times the design spread of the speed: its variance x9, the
+    // covariance x3, the displacement's untouched.
+    let mut rough = raw(1.3, -0.2);
+    rough.speed_sigma_mps = 0.15;
+    let (_, m3) = c0.measure(&settings(5), &rough);
+    let r0 = c0.reference.unwrap();
+    // The scatter is carried (x9, x3), the offset's error is not (it is the sample's).
+    assert!((m3.cov.xx - m0.cov.xx - 8.0 * r0.covariance.xx).abs() < 1e-9 * m3.cov.xx);
+    assert!((m3.cov.xy - m0.cov.xy - 2.0 * r0.covariance.xy).abs() < 1e-9 * m3.cov.xy.abs());
+    assert!((m3.cov.yy - m0.cov.yy).abs() < 1e-12 * m0.cov.yy);
+}
+
+#[test]
+fn commissioning_is_wide_and_ends_as_soon_as_the_sample_resolves_its_faults() {
+    let s = Settings {
+        floor_speed_mps: 0.05,
+        floor_displacement: 0.004,
+        ..settings(8)
+    };
+    let mut c = Commissioning::default();
+    let (_, m) = c.measure(&s, &raw(1.0, -0.2));
+    assert_eq!((m.cov, m.offset_var), (Cov2::diag(1.0, 0.1), None));
+    // A scatter of 0.015 m/s and 0.1 %, well under the floors: six tests resolve 0.5 m/s
+    // and 10 % (the least the change-point test needs).
+    let tight = [0.0, 0.02, -0.02, 0.01, -0.01, 0.0, 0.015, -0.015];
+    for (i, w) in tight.iter().enumerate() {
+        let a = c.add(&s, &raw(1.0 + w, -0.2 + w / 20.0));
+        if i == 5 {
+            assert_eq!(a, Added::Completed);
+            break;
+        }
+        assert_eq!(a, Added::Sample);
+    }
+    assert_eq!(c.tests, 6);
+    // A scatter of 0.3 m/s: the speed-log bias of 0.5 m/s is not resolved: all 8 tests.
+    let mut wide = Commissioning::default();
+    for (i, w) in tight.iter().enumerate() {
+        let a = wide.add(&s, &raw(1.0 + 15.0 * w, -0.2 + w / 20.0));
+        assert_eq!(a == Added::Completed, i == 7, "{i}: {a:?}");
+    }
+}
+
+#[test]
+fn a_change_inside_the_commissioning_sample_sets_no_reference() {
+    let s = settings(8);
+    let mut c = Commissioning::default();
+    let scatter = [0.0, 0.02, -0.02, 0.01, -0.01, 0.0];
+    let mut last = Added::Nothing;
+    for (i, w) in scatter.iter().enumerate() {
+        // +12 % displacement from the fourth test on.
+        let shift = if i >= 3 { 0.12 } else { 0.0 };
+        last = c.add(&s, &raw(1.0 + 4.0 * w, -0.2 + w / 10.0 + shift));
+    }
+    assert_eq!(last, Added::Inconsistent { at: 4 });
+    assert!(c.reference.is_none());
+    assert_eq!(c.state(&s), "inconsistent");
+    assert!(c.describe(&s).starts_with("commissioning inconsistent: a change at test 4"));
+    let (b, m) = c.measure(&s, &raw(1.0, -0.2));
+    assert_eq!(b.name(), "commissioning_inconsistent");
+    assert_eq!(m.offset_var, None);
+    // Nothing more is gathered until commissioning starts again.
+    assert_eq!(c.add(&s, &raw(1.0, -0.2)), Added::Nothing);
+    c.restart();
+    assert!(c.in_progress(&s));
+    assert_eq!(c.describe(&s), "commissioning 0 of at most 8");
+}
+
+#[test]
+fn a_new_operating_point_is_predicted_wider_then_learned() {
+    let s = settings(5);
+    let mut c = commissioned(&s);
+    let at_home = c.measure(&s, &raw(1.0, -0.2)).1;
+    // 1.5 m/s faster, and the offset of e_u has moved by -0.75 m/s there (the estimate
+    // follows half the speed change): predicted, within its wider interval.
+    let (b, m) = c.measure(&s, &raw_at(0.25, -0.2, 8.5, 7000.0));
+    assert_eq!(b.name(), "predicted");
+    assert!(m.cov.xx > 10.0 * at_home.cov.xx, "{} vs {}", m.cov.xx, at_home.cov.xx);
+    let z = m.cov.whiten(m.r).unwrap();
+    assert!(z[0] * z[0] + z[1] * z[1] < 9.0, "{z:?}");
+    assert!(m.offset_var.unwrap() > 0.9);
+    // Learned: four tests there and the point is the vessel's own.
+    for w in [0.0, 0.02, -0.02, 0.01] {
+        assert_eq!(c.add(&s, &raw_at(0.25 + w, -0.2, 8.5, 7000.0)), Added::Learned);
+    }
+    let (b, m) = c.measure(&s, &raw_at(0.25, -0.2, 8.5, 7000.0));
+    assert_eq!(b.name(), "commissioned");
+    assert!(m.r[0].abs() < 0.1, "{:?}", m.r);
+    assert!(m.cov.xx < 4.0 * at_home.cov.xx, "{} vs {}", m.cov.xx, at_home.cov.xx);
+    // A +12 % displacement there now crosses the single-test limit (26.9) on its own.
+    let (_, f) = c.measure(&s, &raw_at(0.25, -0.08, 8.5, 7000.0));
+    let z = f.cov.whiten(f.r).unwrap();
+    assert!(z[0] * z[0] + z[1] * z[1] > 27.0, "{z:?}");
+    // The declared loading is an operating point too: 20 % lighter is predicted.
+    let (b, _) = c.measure(&s, &raw_at(0.25, -0.2, 8.5, 5600.0));
+    assert_eq!(b.name(), "predicted");
+}
+
+#[test]
+fn memory_keeps_the_newest_of_the_fullest_bin() {
+    let s = Settings {
+        memory: 8,
+        ..settings(5)
+    };
+    let mut c = commissioned(&s);
+    for k in 0..6 {
+        c.add(&s, &raw_at(1.0, -0.2, 9.0, 7000.0 + k as f64));
+    }
+    assert_eq!(c.samples.len(), 8);
+    // The 7 m/s bin (5 tests) gave way until both held 4.
+    let at = |u: f64| c.samples.iter().filter(|x| x.speed_mps == u).count();
+    assert_eq!((at(7.0), at(9.0)), (4, 4));
+    assert_eq!(c.samples.last().unwrap().displacement_t, 7005.0);
+}
+
+#[test]
+fn without_commissioning_the_design_reference_serves() {
+    let s = settings(0);
+    let mut c = Commissioning::default();
+    assert_eq!(c.add(&s, &raw(1.0, 0.0)), Added::Nothing);
+    let (b, m) = c.measure(&s, &raw(1.0, -0.2));
+    assert_eq!(b, Basis::Design);
+    assert_eq!(
+        (m.r, m.cov, m.offset_var),
+        ([1.0, -0.2], Cov2::diag(0.05, 0.002), Some(0.0))
+    );
+}
+
+#[test]
+fn the_calibration_maps_hotellings_tail_onto_the_chi_squares() {
+    // T^2(2, 6) at 5 % is 13.89 (2 x 6 / 5 x F(2, 5) = 2.4 x 5.786); chi2_2 at 5 % is 5.991.
+    let t = 2.4 * 5.786;
+    let k = calibration(t, 6.0);
+    assert!((k * k * t - 5.991).abs() < 0.01, "{}", k * k * t);
+    // Known covariance: unchanged; many dof: nearly so.
+    assert_eq!(calibration(30.0, f64::INFINITY), 1.0);
+    assert!((calibration(30.0, 1e6) - 1.0).abs() < 1e-4);
+    let m = Measured {
+        r: [0.3, 0.0],
+        cov: Cov2::diag(0.1, 0.01),
+        offset_var: Some(0.0),
+        dof: 6.0,
+        learned: Cov2::diag(0.1, 0.01),
+    };
+    let z = m.whitened().unwrap();
+    assert!((z[0] * z[0] - 5.0 * (1.0 + 9.0 / 6.0f64).ln()).abs() < 1e-12);
+}
