@@ -7,7 +7,8 @@ use crate::core::model::SeaState;
 /// its drawn operating point and the one after the change, the test's phase (`commissioning`,
 /// `test` for a classic scenario after commissioning, else `before change`, `after change`,
 /// `after fault`), whether the fault was present, the operating point the report saw (mean
-/// speed log, nominal displacement in force) and its decision and residuals.
+/// speed log, nominal displacement in force), the reference's kind, and its decision and
+/// residuals.
 pub(super) fn write_outcomes(
     w: &mut impl std::io::Write,
     label: &str,
@@ -35,6 +36,7 @@ pub(super) fn write_outcomes(
                     "displacement_nominal_t": nan_null(t.displacement_nominal_t),
                     "decision": t.decision,
                     "state": t.state,
+                    "reference": t.reference_kind,
                     "inconsistent": t.inconsistent,
                     "isolation": t.isolation,
                     "chi2": nan_null(t.q_param),

@@ -85,6 +85,9 @@ pub struct TestOutcome {
     pub displacement_nominal_t: f64,
     /// The vessel's track state after the test (`residuals.decision.state`).
     pub state: Option<TrackState>,
+    /// The reference the test was measured against (`residuals.reference.kind`, e.g.
+    /// `commissioned`, `outside_commissioned_band`).
+    pub reference_kind: Option<String>,
     /// The report says the commissioning was inconsistent (`commissioning inconsistent` in
     /// its message, or `inconsistent` in `residuals.reference`).
     pub inconsistent: bool,
@@ -175,6 +178,11 @@ pub(super) fn outcome_of(r: &Report) -> TestOutcome {
         displacement_nominal_t: res.displacement_nominal_t.unwrap_or(nan),
         state: res.decision.as_ref().map(|d| d.state),
         inconsistent: says_inconsistent(r),
+        reference_kind: res
+            .reference
+            .as_ref()
+            .and_then(|x| serde_json::to_value(x).ok())
+            .and_then(|v| v.get("kind").and_then(|k| k.as_str()).map(String::from)),
     }
 }
 

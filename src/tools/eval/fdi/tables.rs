@@ -239,9 +239,17 @@ pub(super) fn envelope_table(
             broken(c.broken)
         );
         let p = operating_point(&runs);
+        let declared = if p.declared_tests > 0 {
+            format!(
+                "; the declared D in force in {} of {} tests",
+                p.declared_seen, p.declared_tests
+            )
+        } else {
+            String::new()
+        };
         notes.push(format!(
-            "{}: after commissioning, {} tests with a speed log, at most {:.3} m/s from the scheduled speed; {} of {} tests after a declared loading had it as their nominal displacement",
-            row.label, p.tests, p.speed_error_max_mps, p.declared_seen, p.declared_tests
+            "{}: speed log within {:.3} m/s of the scheduled speed ({} tests after commissioning){declared}",
+            row.label, p.speed_error_max_mps, p.tests
         ));
     }
     println!();

@@ -30,6 +30,7 @@ fn outcome(decision: Decision, raw0: f64) -> TestOutcome {
         displacement_nominal_t: 6000.0,
         state: None,
         inconsistent: false,
+        reference_kind: None,
     }
 }
 
@@ -116,6 +117,11 @@ fn outcomes_are_one_json_line_per_test() {
     assert!(lines[0]["raw"][0].is_null());
     assert!(lines[0]["chi2_actuator"].is_null());
     assert_eq!(lines[1]["phase"], "test");
+    assert_eq!(lines[1]["speed_log_mps"], 7.0);
+    assert_eq!(lines[1]["displacement_nominal_t"], 6000.0);
+    assert_eq!(lines[1]["fault_present"], false);
+    assert!(lines[1]["speed_after_mps"].is_null());
+    assert!(lines[1]["reference"].is_null());
     assert_eq!(lines[2]["test"], 1);
     assert_eq!(lines[2]["decision"], "fault");
     assert_eq!(lines[2]["isolation"][0], "speed_log");
