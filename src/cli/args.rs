@@ -232,7 +232,8 @@ pub(crate) struct EvalArgs {
     /// With --fdi: runs per nominal scenario (each of `--tests` tests).
     #[arg(long, default_value_t = 60)]
     pub(crate) nominal_runs: usize,
-    /// With --fdi: tests per run.
+    /// With --fdi: tests per run (of each method with --in-turn) after commissioning;
+    /// --scenarios envelope: after the change, and after a later fault's onset.
     #[arg(long, default_value_t = 4)]
     pub(crate) tests: usize,
     /// With --fdi: only this method (default both).
@@ -264,6 +265,12 @@ pub(crate) struct EvalArgs {
     /// tests of each; the windows count tests of each method), instead of one method per run.
     #[arg(long)]
     pub(crate) in_turn: bool,
+    /// With --fdi: which scenario sets run: `classic` (faults from commissioning's end at one
+    /// operating point), `envelope` (the speed and/or the declared loading change after
+    /// commissioning; displacement faults after a speed change), `commissioning` (faults
+    /// arising during commissioning), or `all` (docs/fdi.md, "Operating points").
+    #[arg(long, value_name = "SET", default_value = "classic")]
+    pub(crate) scenarios: crate::tools::eval::fdi::ScenarioSet,
 }
 
 #[derive(Debug, Args)]

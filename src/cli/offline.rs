@@ -197,6 +197,7 @@ pub(crate) fn eval_fdi(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
     o.member = a.member.clone();
     o.outcomes = a.outcomes.clone();
     o.in_turn = a.in_turn;
+    o.scenarios = a.scenarios;
     if let Some(m) = a.method {
         o.methods = vec![m];
     }

@@ -113,6 +113,14 @@ impl Autopilot {
         }
     }
 
+    /// New gains (a speed-scheduled autopilot at a new speed), without a bump: the integral
+    /// is rescaled so that its share of the command, Kp I / Ti, is unchanged.
+    pub fn set_gains(&mut self, gains: PidGains) {
+        let share = self.gains.kp * self.integral_rad_s / self.gains.ti_s;
+        self.integral_rad_s = share * gains.ti_s / gains.kp;
+        self.gains = gains;
+    }
+
     /// Target heading [rad] in [0, 2 pi).
     pub fn target_rad(&self) -> f64 {
         self.target_rad

@@ -338,6 +338,25 @@ impl MmgHull {
         Ok(hull)
     }
 
+    /// A new design speed u0 (the ship's speed is changed, not a fault): the propeller
+    /// revolutions for a steady straight course at `speed_mps`, the rudder derivatives at it,
+    /// and the surge speed set to it (sway, yaw and position unchanged).
+    pub fn set_speed_mps(&mut self, speed_mps: f64) -> Result<(), MmgError> {
+        if !(speed_mps.is_finite() && speed_mps > 0.0) {
+            return Err(MmgError::Particulars {
+                length_m: self.length_m,
+                speed_mps,
+            });
+        }
+        self.speed_mps = speed_mps;
+        self.n_rps = self.self_propulsion_rps()?;
+        let (_, y_delta, n_delta) = self.rudder_derivatives();
+        self.y_delta_n = y_delta;
+        self.n_delta_nm = n_delta;
+        self.state.u_mps = speed_mps;
+        Ok(())
+    }
+
     /// Ship length L [m].
     pub fn length_m(&self) -> f64 {
         self.length_m

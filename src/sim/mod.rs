@@ -32,6 +32,16 @@
 //! speed   = u scale + bias + n_u                      [m/s]  (scale 1, bias 0 unless faulted)
 //! ```
 //!
+//! ## Operating point
+//!
+//! The speed and the loading may change during a run, as on a passage; neither is a fault.
+//! [`Ship::set_speed_mps`] sets u (the MMG hull: its propeller revolutions for that steady
+//! speed and its surge speed; a speed-scheduled autopilot re-tunes without a bump), and the
+//! speed log reads it from the next tick. [`Ship::set_loading_t`] sets the true displacement
+//! and declares it: from the next tick the ship publishes `design/displacement` (in kg) with
+//! its status, every `sensors.status-period-s`. Displacement faults act on the displacement in
+//! force (a `displacement_pct` fault stays relative to it).
+//!
 //! ## Integration
 //!
 //! The autopilot's command is held over the tick (zero-order hold). The tick is cut into
@@ -253,13 +263,17 @@ pub struct Ship {
     /// Sub-steps per tick and their length [s].
     substeps: u32,
     h_s: f64,
-    /// Hull coefficients for a full sub-step (a depends only on the constant speed).
+    /// Hull coefficients for a full sub-step (a depends only on the speed).
     full: HullStep,
     a_per_s: f64,
     hull: Hull,
     /// The hull's structure beyond the first order, and the state it adds (None: the exact
     /// first-order hull).
     general: Option<(config::StructureConfig, GeneralHull)>,
+    /// The autopilot's tuning (re-tuned at a speed change when it is speed-scheduled).
+    autopilot_cfg: config::AutopilotConfig,
+    /// The displacement the ship declares as `design/displacement` [t] (None: none declared).
+    declared_displacement_t: Option<f64>,
     /// The MMG hull, when `structure.hull = "kvlcc2-mmg"` (heading and turn rate are copied
     /// into `hull` after every piece), and the nominal displacement its mass refers to [t].
     mmg: Option<MmgHull>,
@@ -394,6 +408,8 @@ impl Ship {
             a_per_s: a,
             hull,
             general,
+            autopilot_cfg: cfg.autopilot.clone(),
+            declared_displacement_t: None,
             mmg,
             nominal_displacement_t: cfg.ship.nominal_displacement_t,
             servo: Servo::new(
@@ -470,8 +486,9 @@ impl Ship {
     /// rudder, speed, (autopilot state, target heading when due), heading LAST. Appends to `out`.
     ///
     /// The state and target are due every `sensors.status-period-s` from the start, and at the
-    /// first tick after either changes. Only the state's string is allocated (once per status
-    /// period); reuse `out` between calls.
+    /// first tick after either changes; the declared displacement (after
+    /// [`Ship::set_loading_t`], in kg) goes out with them, after the target. Only the state's
+    /// string is allocated (once per status period); reuse `out` between calls.
     pub fn publish(&mut self, out: &mut Vec<Input>) {
         let m = self.measure();
         let t = self.clock_s() + self.outlier_s();
@@ -495,6 +512,12 @@ impl Ship {
                 t,
                 value: self.autopilot.target_rad(),
             }));
+            if let Some(d) = self.declared_displacement_t {
+                out.push(Input::DesignDisplacement(Scalar {
+                    t,
+                    value: d * 1000.0,
+                }));
+            }
             self.status_dirty = false;
             while self.start_s + self.status_count as f64 * self.status_period_s <= now + 1e-9 {
                 self.status_count += 1;
@@ -618,6 +641,63 @@ impl Ship {
             .map_or(self.servo.delta_rad(), Backlash::blade_rad)
     }
 
+    /// The ship's speed through water becomes `speed_mps` from the next tick (not a fault):
+    /// the Nomoto hull's a, the MMG hull's propeller revolutions (set for a steady straight
+    /// course at that speed) and its surge speed, and a speed-scheduled autopilot's gains
+    /// (re-tuned without a bump in its command). Refuses a speed that is not finite and > 0.
+    pub fn set_speed_mps(&mut self, speed_mps: f64) -> Result<(), SimError> {
+        if !(speed_mps.is_finite() && speed_mps > 0.0) {
+            return Err(SimError::Scenario {
+                field: "speed_mps",
+                value: speed_mps,
+                allowed: "finite and > 0",
+            });
+        }
+        let (a, _) = self.ship_cfg.nomoto(speed_mps, self.displacement_t);
+        let gains = match &mut self.mmg {
+            Some(m) => {
+                m.set_speed_mps(speed_mps)?;
+                let (k, t) = m.linear(Side::Starboard, 1.0, 1.0).first_order();
+                self.autopilot_cfg
+                    .speed_scheduling
+                    .then(|| self.autopilot_cfg.gains_for_first_order(k, t))
+            }
+            None => self
+                .autopilot_cfg
+                .speed_scheduling
+                .then(|| self.autopilot_cfg.gains_at(&self.ship_cfg, speed_mps)),
+        };
+        if let Some(g) = gains {
+            self.autopilot.set_gains(g);
+        }
+        self.speed_mps = speed_mps;
+        self.a_per_s = a;
+        self.full = HullStep::new(a, self.h_s);
+        Ok(())
+    }
+
+    /// The ship is loaded to `displacement_t` (its true displacement from the next tick, not
+    /// a fault) and declares it: `design/displacement` (kg) goes out with the status at the
+    /// next tick and every status period after. Refuses a value that is not finite and > 0.
+    pub fn set_loading_t(&mut self, displacement_t: f64) -> Result<(), SimError> {
+        if !(displacement_t.is_finite() && displacement_t > 0.0) {
+            return Err(SimError::Scenario {
+                field: "displacement_t",
+                value: displacement_t,
+                allowed: "finite and > 0",
+            });
+        }
+        self.displacement_t = displacement_t;
+        self.declared_displacement_t = Some(displacement_t);
+        self.status_dirty = true;
+        Ok(())
+    }
+
+    /// The displacement the ship declares [t] (None until [`Ship::set_loading_t`]).
+    pub fn declared_displacement_t(&self) -> Option<f64> {
+        self.declared_displacement_t
+    }
+
     /// Sets the autopilot's target course [rad] (published at the next tick).
     pub fn set_course(&mut self, course_rad: f64) {
         self.autopilot.set_target_rad(course_rad);
@@ -684,3 +764,6 @@ impl Ship {
 fn normal(rng: &mut ChaCha8Rng) -> f64 {
     StandardNormal.sample(rng)
 }
+
+#[cfg(test)]
+mod oppoint_tests;

@@ -1,0 +1,378 @@
+//! One run of the suite: a drawn ship and a monitor in lockstep, its tests triggered one
+//! after the other, the operating point changed and the fault injected on schedule, and each
+//! report read into a [`TestOutcome`].
+
+use super::scenarios::{draw, FdiScenario, Onset, ScenarioSet};
+use super::FdiEvalOptions;
+use crate::config::Config;
+use crate::core::estimator::Estimator;
+use crate::core::model::SeaState;
+use crate::core::monitor::{Monitor, Output};
+use crate::core::wire::residuals::TrackState;
+use crate::core::wire::Method;
+use crate::core::wire::{Cause, Decision, Outcome, Report};
+use crate::drivers::probe::Lockstep;
+use std::sync::Arc;
+
+/// Tests of the ship a commissioning run goes on for after commissioning ends.
+pub const AFTER_COMMISSIONING_TESTS: usize = 2;
+
+/// Where a test sits in its run's schedule.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Phase {
+    /// A commissioning test (a commissioning scenario's fault may be present: see
+    /// [`TestOutcome::fault_present`]).
+    Commissioning,
+    /// A classic scenario's test after commissioning (its fault present, if it has one).
+    Test,
+    /// After commissioning, before any change and without a fault.
+    BeforeChange,
+    /// After the change of operating point, before any fault.
+    AfterChange,
+    /// After commissioning with the fault present.
+    AfterFault,
+}
+
+impl Phase {
+    /// The tag in the outcomes file.
+    pub fn name(self) -> &'static str {
+        match self {
+            Phase::Commissioning => "commissioning",
+            Phase::Test => "test",
+            Phase::BeforeChange => "before change",
+            Phase::AfterChange => "after change",
+            Phase::AfterFault => "after fault",
+        }
+    }
+}
+
+/// One test's outcome as the suite reads it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TestOutcome {
+    /// The test's method.
+    pub method: Method,
+    /// Completed (else aborted or no report).
+    pub completed: bool,
+    /// The method's decision.
+    pub decision: Decision,
+    /// The method's isolation.
+    pub isolation: Vec<Cause>,
+    /// The baseline's decision (`residuals.baseline.outcome`).
+    pub baseline_decision: Decision,
+    /// The baseline's isolation.
+    pub baseline_isolation: Vec<Cause>,
+    /// The method's parameter chi-square (NaN without residuals).
+    pub q_param: f64,
+    /// The test's sea index.
+    pub sea_index: f64,
+    /// The CLFRT model fit's chi-square (NaN for HBT).
+    pub fit_chi2: f64,
+    /// The servo check's chi-square (NaN without one).
+    pub q_actuator: f64,
+    /// The method's normalised speed and displacement residuals (NaN without).
+    pub z: [f64; 2],
+    /// The raw residuals against the design (`residuals.raw`: `e_u` [m/s], `e_D`, `s_u`
+    /// [m/s], `s_D`, `u_log` [m/s], `dD/du_log` [t per m/s]; NaN without).
+    pub raw: [f64; 6],
+    /// The test's place in the schedule.
+    pub phase: Phase,
+    /// Whether the scenario's fault was present during the test.
+    pub fault_present: bool,
+    /// The mean speed log over the test (`features.speed_log_mps`) [m/s] (NaN without).
+    pub speed_log_mps: f64,
+    /// The nominal displacement in force (`residuals.displacement_nominal_t`) [t] (NaN
+    /// without).
+    pub displacement_nominal_t: f64,
+    /// The vessel's track state after the test (`residuals.decision.state`).
+    pub state: Option<TrackState>,
+    /// The reference the test was measured against (`residuals.reference.kind`, e.g.
+    /// `commissioned`, `outside_commissioned_band`).
+    pub reference_kind: Option<String>,
+    /// The report says the commissioning was inconsistent (`commissioning inconsistent` in
+    /// its message, or `inconsistent` in `residuals.reference`).
+    pub inconsistent: bool,
+}
+
+/// One run: the drawn ship and its tests.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunOutcome {
+    /// Drawn speed [m/s].
+    pub speed_mps: f64,
+    /// Drawn displacement [t].
+    pub displacement_t: f64,
+    /// The speed after the change [m/s] (NaN: no speed change).
+    pub speed_after_mps: f64,
+    /// The declared displacement after the change [t] (NaN: none declared).
+    pub declared_after_t: f64,
+    /// The commissioning's tests (a commissioning scenario's fault arises among them).
+    pub commissioning: Vec<TestOutcome>,
+    /// Tests in order after commissioning (classic: after the fault's onset; fewer when the
+    /// ship refused or timed out).
+    pub tests: Vec<TestOutcome>,
+    /// Why the run ended early, if it did.
+    pub error: Option<String>,
+}
+
+impl RunOutcome {
+    fn broken(error: String) -> Self {
+        RunOutcome {
+            speed_mps: f64::NAN,
+            displacement_t: f64::NAN,
+            speed_after_mps: f64::NAN,
+            declared_after_t: f64::NAN,
+            commissioning: Vec::new(),
+            tests: Vec::new(),
+            error: Some(error),
+        }
+    }
+}
+
+/// Whether a report says its commissioning was inconsistent.
+fn says_inconsistent(r: &Report) -> bool {
+    let message = r
+        .message
+        .to_lowercase()
+        .contains("commissioning inconsistent");
+    let reference = r
+        .residuals
+        .reference
+        .as_ref()
+        .and_then(|x| serde_json::to_string(x).ok())
+        .is_some_and(|s| s.to_lowercase().contains("inconsistent"));
+    message || reference
+}
+
+pub(super) fn outcome_of(r: &Report) -> TestOutcome {
+    let res = &r.residuals;
+    let bl = res.baseline.as_ref();
+    let nan = f64::NAN;
+    let p = res.parameters.as_ref();
+    TestOutcome {
+        method: r.method,
+        completed: r.outcome == Outcome::Completed,
+        decision: r.decision,
+        isolation: r.isolation.clone(),
+        baseline_decision: bl.map_or(Decision::Inconclusive, |b| b.outcome),
+        baseline_isolation: bl.map(|b| b.isolation.clone()).unwrap_or_default(),
+        q_param: p.map_or(nan, |p| p.chi2),
+        sea_index: res.sea_index.unwrap_or(nan),
+        fit_chi2: res.model_fit.as_ref().map_or(nan, |f| f.chi2),
+        q_actuator: res
+            .servo_check
+            .as_ref()
+            .map_or(nan, |s| s.z_rate * s.z_rate),
+        z: p.map_or([nan; 2], |p| [p.z_speed, p.z_displacement]),
+        raw: res.raw.as_ref().map_or([nan; 6], |r| {
+            [
+                r.speed_mps,
+                r.displacement,
+                r.speed_sigma_mps,
+                r.displacement_sigma,
+                r.speed_log_mps,
+                r.dd_du_t_per_mps,
+            ]
+        }),
+        phase: Phase::Test,
+        fault_present: false,
+        speed_log_mps: r.features.speed_log_mps().unwrap_or(nan),
+        displacement_nominal_t: res.displacement_nominal_t.unwrap_or(nan),
+        state: res.decision.as_ref().map(|d| d.state),
+        inconsistent: says_inconsistent(r),
+        reference_kind: res
+            .reference
+            .as_ref()
+            .and_then(|x| serde_json::to_value(x).ok())
+            .and_then(|v| v.get("kind").and_then(|k| k.as_str()).map(String::from)),
+    }
+}
+
+/// The run's schedule in tests of the ship (0 is the first test).
+struct Schedule {
+    /// Commissioning's tests.
+    commissioning: usize,
+    /// Tests in all.
+    total: usize,
+    /// The change of operating point comes before this test.
+    change_at: Option<usize>,
+    /// The late faults arise before this test.
+    inject_at: usize,
+}
+
+fn schedule(
+    sc: &FdiScenario,
+    commissioning: usize,
+    after: usize,
+    onset: Option<usize>,
+) -> Schedule {
+    let window = sc.window_tests.unwrap_or(0);
+    match (sc.group, sc.onset) {
+        (ScenarioSet::Commissioning, _) => Schedule {
+            commissioning,
+            total: commissioning + AFTER_COMMISSIONING_TESTS,
+            change_at: None,
+            inject_at: onset.unwrap_or(1).saturating_sub(1).min(commissioning),
+        },
+        (_, Onset::AfterChange(n)) => Schedule {
+            commissioning,
+            total: commissioning + n + after.max(window),
+            change_at: sc.change.map(|_| commissioning),
+            inject_at: commissioning + n,
+        },
+        _ => Schedule {
+            commissioning,
+            total: commissioning + after.max(window),
+            change_at: sc.change.map(|_| commissioning),
+            inject_at: commissioning,
+        },
+    }
+}
+
+/// Runs one run of `methods` (in turn) on the drawn ship: `fdi.commissioning-tests` tests
+/// of each method (the heading drift, when the scenario has one, from the start), then
+/// `o.tests` tests of each. Classic scenarios: the fault arises when commissioning ends.
+/// Envelope scenarios: the operating point changes when commissioning ends, the fault arises
+/// with it or `n` tests of the ship later, and at least the detection window's tests follow
+/// it. Commissioning scenarios: the fault arises before commissioning test `k` of the ship,
+/// and [`AFTER_COMMISSIONING_TESTS`] tests of the ship follow commissioning.
+#[allow(clippy::too_many_arguments)]
+pub fn run_one(
+    cfg: &Config,
+    sc: &FdiScenario,
+    sea: SeaState,
+    methods: &[Method],
+    seed: u64,
+    estimator: &Arc<Estimator>,
+    o: &FdiEvalOptions,
+    corner: Option<usize>,
+) -> RunOutcome {
+    let drawn = match draw(cfg, sc, sea, seed, corner) {
+        Ok(x) => x,
+        Err(e) => return RunOutcome::broken(e),
+    };
+    let (scenario, cfg, late) = (&drawn.scenario, &drawn.cfg, &drawn.late);
+    let change = drawn.change;
+    let mut run = RunOutcome {
+        speed_mps: scenario.speed_mps,
+        displacement_t: scenario.displacement_t,
+        speed_after_mps: change.and_then(|c| c.speed_mps).unwrap_or(f64::NAN),
+        declared_after_t: change.and_then(|c| c.displacement_t).unwrap_or(f64::NAN),
+        commissioning: Vec::new(),
+        tests: Vec::new(),
+        error: None,
+    };
+    let Some(&first) = methods.first() else {
+        run.error = Some("no method to run".into());
+        return run;
+    };
+    // Commissioning and the tests after it, of each method in turn.
+    let plan = schedule(
+        sc,
+        cfg.fdi.commissioning_tests as usize * methods.len(),
+        o.tests * methods.len(),
+        drawn.onset_test,
+    );
+    let classic = sc.group == ScenarioSet::Classic;
+    // A classic fault is present from the start when commissioning is off.
+    let mut injected = sc.fault.is_some() && late.is_empty();
+    let mut changed = false;
+    let ms = Monitor::design_multisine(&cfg.core()).ok();
+    let mut ls = match Lockstep::with_parts(
+        &cfg.core(),
+        &cfg.sim(),
+        scenario,
+        ms,
+        Some(estimator.clone()),
+    ) {
+        Ok(ls) => ls,
+        Err(e) => {
+            run.error = Some(e.to_string());
+            return run;
+        }
+    };
+    let mut out = Vec::new();
+    let mut next = ls.time_s() + o.warmup_s;
+    let max_test_s = cfg.safety.max_test_duration_s + 120.0;
+    loop {
+        let done = run.commissioning.len() + run.tests.len();
+        if done >= plan.total {
+            break;
+        }
+        let method = methods.get(done % methods.len()).copied().unwrap_or(first);
+        if plan.change_at == Some(done) && !changed {
+            changed = true;
+            let c = change.unwrap_or(super::scenarios::DrawnChange {
+                speed_mps: None,
+                displacement_t: None,
+            });
+            let applied = c
+                .speed_mps
+                .map_or(Ok(()), |u| ls.ship.set_speed_mps(u))
+                .and_then(|()| {
+                    c.displacement_t
+                        .map_or(Ok(()), |d| ls.ship.set_loading_t(d))
+                });
+            if let Err(e) = applied {
+                run.error = Some(format!("the operating point cannot change: {e}"));
+                return run;
+            }
+        }
+        if done == plan.inject_at && !injected && !late.is_empty() {
+            injected = true;
+            for f in late {
+                ls.ship.inject(*f);
+            }
+        }
+        ls.run_until(next, &mut out);
+        out.clear();
+        // Trigger, retried each second for up to one warm-up (the course must be steady).
+        let give_up = ls.time_s() + o.warmup_s;
+        let t_trigger = loop {
+            if ls.trigger(method).accepted {
+                break Some(ls.time_s());
+            }
+            if ls.time_s() > give_up {
+                break None;
+            }
+            let t = ls.time_s();
+            ls.run_until(t + 1.0, &mut out);
+            out.clear();
+        };
+        let Some(t_trigger) = t_trigger else {
+            run.error = Some("the monitor refused the test".into());
+            return run;
+        };
+        let mut report = None;
+        while report.is_none() && ls.time_s() < t_trigger + max_test_s {
+            ls.tick(&mut out, false);
+            for x in out.drain(..) {
+                if let Output::Report(r) = x {
+                    report = Some(r);
+                }
+            }
+        }
+        let Some(r) = report else {
+            run.error = Some("no report in time".into());
+            return run;
+        };
+        let mut t = outcome_of(&r);
+        t.fault_present = injected;
+        t.phase = if done < plan.commissioning {
+            Phase::Commissioning
+        } else if classic {
+            Phase::Test
+        } else if injected {
+            Phase::AfterFault
+        } else if changed {
+            Phase::AfterChange
+        } else {
+            Phase::BeforeChange
+        };
+        if done < plan.commissioning {
+            run.commissioning.push(t);
+        } else {
+            run.tests.push(t);
+        }
+        next = ls.time_s() + o.gap_s;
+    }
+    run
+}

@@ -1,0 +1,496 @@
+//! The suite's scenarios and the draw of one run: the ship's operating point, its faults and,
+//! for the envelope and commissioning scenarios, the change of operating point and the
+//! fault's onset.
+
+use crate::config::Config;
+use crate::core::model::SeaState;
+use crate::core::wire::Cause;
+use crate::sim::{Fault, Scenario};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// Which part of the suite a scenario belongs to (`--scenarios`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ScenarioSet {
+    /// Faults present from commissioning's end, the ship at one operating point.
+    #[default]
+    Classic,
+    /// The operating point changes after commissioning (speed, declared loading).
+    Envelope,
+    /// Faults that arise during commissioning.
+    Commissioning,
+    /// All three.
+    All,
+}
+
+impl ScenarioSet {
+    /// Whether this selection includes `group`.
+    pub fn includes(self, group: ScenarioSet) -> bool {
+        self == ScenarioSet::All || self == group
+    }
+
+    /// The name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            ScenarioSet::Classic => "classic",
+            ScenarioSet::Envelope => "envelope",
+            ScenarioSet::Commissioning => "commissioning",
+            ScenarioSet::All => "all",
+        }
+    }
+}
+
+impl std::str::FromStr for ScenarioSet {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "classic" => Ok(ScenarioSet::Classic),
+            "envelope" => Ok(ScenarioSet::Envelope),
+            "commissioning" => Ok(ScenarioSet::Commissioning),
+            "all" => Ok(ScenarioSet::All),
+            other => Err(format!(
+                "unknown scenario set `{other}`: allowed classic, envelope, commissioning, all"
+            )),
+        }
+    }
+}
+
+/// A change of operating point at the end of commissioning (not a fault).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Change {
+    /// Magnitudes of the speed change to draw from [m/s] (empty: the speed stays); the sign
+    /// is drawn among those that keep the speed in the configured range.
+    pub speed_mps: &'static [f64],
+    /// Range of the loading change, a fraction of the displacement (`set_loading_t`, declared
+    /// as `design/displacement`); `None`: the loading stays.
+    pub loading: Option<[f64; 2]>,
+}
+
+/// When the scenario's fault arises.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Onset {
+    /// At the end of commissioning (with the change, when there is one); from `t = 0` when
+    /// commissioning is off (classic scenarios).
+    AfterCommissioning,
+    /// After this many completed tests of the ship after the change.
+    AfterChange(usize),
+    /// Before commissioning test `k` of the ship (1 is the first), `k` drawn in this range
+    /// (at most one past commissioning's last test).
+    InCommissioning([usize; 2]),
+}
+
+/// A scenario of the suite.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FdiScenario {
+    /// Name in the tables.
+    pub name: &'static str,
+    /// Fault specification (`KIND:VALUE@0`), `None` for nominal; `drift` draws its own.
+    pub fault: Option<&'static str>,
+    /// A random heading drift of 0.25..1 deg/min (either sign) on every run.
+    pub drift: bool,
+    /// The cause the isolation must name (`None`: nominal, nothing to detect).
+    pub expected: Option<Cause>,
+    /// Range of u [m/s] and D [t] to draw from (`None`: the configured range).
+    pub speed_mps: Option<[f64; 2]>,
+    /// As above for D.
+    pub displacement_t: Option<[f64; 2]>,
+    /// The part of the suite it belongs to (never `All`).
+    pub group: ScenarioSet,
+    /// The change of operating point after commissioning (`None`: none).
+    pub change: Option<Change>,
+    /// When the fault arises.
+    pub onset: Onset,
+    /// Envelope scenarios: detection counts within this many tests of the ship from the onset
+    /// (`None`: the classic windows).
+    pub window_tests: Option<usize>,
+}
+
+/// A classic scenario: no change, the fault after commissioning.
+fn classic(
+    name: &'static str,
+    fault: Option<&'static str>,
+    drift: bool,
+    expected: Option<Cause>,
+    speed_mps: Option<[f64; 2]>,
+    displacement_t: Option<[f64; 2]>,
+) -> FdiScenario {
+    FdiScenario {
+        name,
+        fault,
+        drift,
+        expected,
+        speed_mps,
+        displacement_t,
+        group: ScenarioSet::Classic,
+        change: None,
+        onset: Onset::AfterCommissioning,
+        window_tests: None,
+    }
+}
+
+/// The scenarios of the suite, in print order.
+pub fn scenarios() -> Vec<FdiScenario> {
+    let s = classic;
+    let d_pm20 = Some([5000.0, 8333.0]);
+    let disp = Some(Cause::DisplacementOrRudderEffectiveness);
+    vec![
+        s("nominal", None, false, None, None, None),
+        s("nominal, drift <= 1 deg/min", None, true, None, None, None),
+        s(
+            "displacement +10 %",
+            Some("displacement_pct:10@0"),
+            false,
+            disp,
+            None,
+            d_pm20,
+        ),
+        s(
+            "displacement -10 %",
+            Some("displacement_pct:-10@0"),
+            false,
+            disp,
+            None,
+            d_pm20,
+        ),
+        s(
+            "displacement +20 %",
+            Some("displacement_pct:20@0"),
+            false,
+            disp,
+            None,
+            d_pm20,
+        ),
+        s(
+            "displacement -20 %",
+            Some("displacement_pct:-20@0"),
+            false,
+            disp,
+            None,
+            d_pm20,
+        ),
+        s(
+            "speed log +0.5 m/s",
+            Some("speed_log_bias_mps:0.5@0"),
+            false,
+            Some(Cause::SpeedLog),
+            Some([4.0, 9.5]),
+            None,
+        ),
+        s(
+            "servo rate 2 deg/s",
+            Some("servo_rate_deg_s:2@0"),
+            false,
+            Some(Cause::SteeringActuator),
+            None,
+            None,
+        ),
+        s(
+            "rudder effectiveness -30 %",
+            Some("rudder_effectiveness:0.7@0"),
+            false,
+            disp,
+            None,
+            Some([4000.0, 7000.0]),
+        ),
+    ]
+}
+
+/// The scenarios of the family suite: healthy with drift, then the faults of the acceptance.
+pub fn family_scenarios() -> Vec<FdiScenario> {
+    let wanted = [
+        "nominal, drift <= 1 deg/min",
+        "displacement +10 %",
+        "displacement -10 %",
+        "speed log +0.5 m/s",
+        "servo rate 2 deg/s",
+    ];
+    scenarios()
+        .into_iter()
+        .filter(|s| wanted.contains(&s.name))
+        .collect()
+}
+
+/// Speed changes of the healthy envelope runs [m/s] (either sign).
+const ENVELOPE_SPEEDS_MPS: &[f64] = &[1.5, 2.0];
+/// Speed change of the envelope runs with a fault [m/s] (either sign).
+const FAULT_SPEED_MPS: &[f64] = &[1.5];
+/// Loading changes of the healthy envelope runs (fraction of the displacement).
+const LOADING: [f64; 2] = [-0.3, 0.2];
+
+/// The envelope scenarios: a healthy ship whose speed and/or declared loading changes after
+/// commissioning, then displacement faults after a speed change (4 tests later, or with it).
+pub fn envelope_scenarios() -> Vec<FdiScenario> {
+    let disp = Some(Cause::DisplacementOrRudderEffectiveness);
+    let e = |name, fault, expected, displacement_t, change, onset, window_tests| FdiScenario {
+        name,
+        fault,
+        drift: false,
+        expected,
+        speed_mps: None,
+        displacement_t,
+        group: ScenarioSet::Envelope,
+        change: Some(change),
+        onset,
+        window_tests,
+    };
+    let speed = |speed_mps| Change {
+        speed_mps,
+        loading: None,
+    };
+    let after = Onset::AfterCommissioning;
+    // D (1 + x) stays in the configured 4000..10000 t for every x drawn or faulted.
+    let loaded = Some([4000.0 / (1.0 + LOADING[0]), 10000.0 / (1.0 + LOADING[1])]);
+    let d_pm10 = Some([4000.0 / 0.9, 10000.0 / 1.1]);
+    let d_pm25 = Some([4000.0 / 0.75, 10000.0 / 1.25]);
+    vec![
+        e(
+            "envelope: speed +-1.5/2 m/s",
+            None,
+            None,
+            None,
+            speed(ENVELOPE_SPEEDS_MPS),
+            after,
+            None,
+        ),
+        e(
+            "envelope: loading -30..+20 %",
+            None,
+            None,
+            loaded,
+            Change {
+                speed_mps: &[],
+                loading: Some(LOADING),
+            },
+            after,
+            None,
+        ),
+        e(
+            "envelope: speed and loading",
+            None,
+            None,
+            loaded,
+            Change {
+                speed_mps: ENVELOPE_SPEEDS_MPS,
+                loading: Some(LOADING),
+            },
+            after,
+            None,
+        ),
+        e(
+            "envelope: speed 1.5 m/s, D +10 % 4 tests later",
+            Some("displacement_pct:10@0"),
+            disp,
+            d_pm10,
+            speed(FAULT_SPEED_MPS),
+            Onset::AfterChange(4),
+            Some(3),
+        ),
+        e(
+            "envelope: speed 1.5 m/s, D -10 % 4 tests later",
+            Some("displacement_pct:-10@0"),
+            disp,
+            d_pm10,
+            speed(FAULT_SPEED_MPS),
+            Onset::AfterChange(4),
+            Some(3),
+        ),
+        e(
+            "envelope: speed 1.5 m/s with D +25 %",
+            Some("displacement_pct:25@0"),
+            disp,
+            d_pm25,
+            speed(FAULT_SPEED_MPS),
+            after,
+            Some(2),
+        ),
+        e(
+            "envelope: speed 1.5 m/s with D -25 %",
+            Some("displacement_pct:-25@0"),
+            disp,
+            d_pm25,
+            speed(FAULT_SPEED_MPS),
+            after,
+            Some(2),
+        ),
+    ]
+}
+
+/// Commissioning's onsets: before commissioning test 2..6 of the ship.
+const COMMISSIONING_ONSET: [usize; 2] = [2, 6];
+
+/// The commissioning scenarios: a healthy commissioning, then faults that arise during it.
+pub fn commissioning_scenarios() -> Vec<FdiScenario> {
+    let c = |name, fault, expected, speed_mps, displacement_t| FdiScenario {
+        name,
+        fault,
+        drift: false,
+        expected,
+        speed_mps,
+        displacement_t,
+        group: ScenarioSet::Commissioning,
+        change: None,
+        onset: Onset::InCommissioning(COMMISSIONING_ONSET),
+        window_tests: None,
+    };
+    let disp = Some(Cause::DisplacementOrRudderEffectiveness);
+    let d_pm12 = Some([4000.0 / 0.88, 10000.0 / 1.12]);
+    vec![
+        c("commissioning: healthy", None, None, None, None),
+        c(
+            "commissioning: D +12 %",
+            Some("displacement_pct:12@0"),
+            disp,
+            None,
+            d_pm12,
+        ),
+        c(
+            "commissioning: D -12 %",
+            Some("displacement_pct:-12@0"),
+            disp,
+            None,
+            d_pm12,
+        ),
+        c(
+            "commissioning: speed log +0.5 m/s",
+            Some("speed_log_bias_mps:0.5@0"),
+            Some(Cause::SpeedLog),
+            Some([4.0, 9.5]),
+            None,
+        ),
+        c(
+            "commissioning: servo rate 2 deg/s",
+            Some("servo_rate_deg_s:2@0"),
+            Some(Cause::SteeringActuator),
+            None,
+            None,
+        ),
+    ]
+}
+
+/// The drawn change of operating point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DrawnChange {
+    /// The new speed [m/s] (`None`: unchanged).
+    pub speed_mps: Option<f64>,
+    /// The new, declared displacement [t] (`None`: unchanged, nothing declared).
+    pub displacement_t: Option<f64>,
+}
+
+/// One run as drawn.
+#[derive(Debug, Clone)]
+pub struct Drawn {
+    /// The simulated ship.
+    pub scenario: Scenario,
+    /// The configuration (its nominal displacement the drawn D, its scheduler off).
+    pub cfg: Config,
+    /// Faults that arise during the run (at the onset).
+    pub late: Vec<Fault>,
+    /// The change at commissioning's end.
+    pub change: Option<DrawnChange>,
+    /// Commissioning scenarios: the onset's test of the ship (1 is the first).
+    pub onset_test: Option<usize>,
+}
+
+/// Draws the run's ship and fault list. With `corner = Some(k)` the ship sits at corner
+/// `k % 4` of the scenario's (u, D) box (low/high speed, low/high displacement) instead of a
+/// random point. The classic draws (u, D, drift, the ship's seed) come first, so the classic
+/// runs are the same whatever else a scenario draws after them.
+pub fn draw(
+    cfg: &Config,
+    sc: &FdiScenario,
+    sea: SeaState,
+    seed: u64,
+    corner: Option<usize>,
+) -> Result<Drawn, String> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let [u_lo, u_hi] = sc.speed_mps.unwrap_or(cfg.ship.speed_range_mps);
+    let [d_lo, d_hi] = sc.displacement_t.unwrap_or(cfg.ship.displacement_range_t);
+    let mut u = rng.gen_range(u_lo..=u_hi);
+    let mut d = rng.gen_range(d_lo..=d_hi);
+    if let Some(k) = corner {
+        u = if k % 2 == 0 { u_lo } else { u_hi };
+        d = if (k / 2) % 2 == 0 { d_lo } else { d_hi };
+    }
+    let mut faults = Vec::new();
+    let mut late = Vec::new();
+    if let Some(f) = sc.fault {
+        let f = f.parse::<Fault>().map_err(|e| e.to_string())?;
+        // With commissioning, the fault appears once the vessel is commissioned; the other
+        // sets place it themselves.
+        if cfg.fdi.commissioning_tests > 0 || sc.group != ScenarioSet::Classic {
+            late.push(f);
+        } else {
+            faults.push(f);
+        }
+    }
+    if sc.drift {
+        let v = rng.gen_range(0.25..=1.0) * if rng.gen_bool(0.5) { 1.0 } else { -1.0 };
+        let spec = format!("heading_drift_deg_per_min:{v}@0");
+        faults.push(spec.parse::<Fault>().map_err(|e| e.to_string())?);
+    }
+    let mut cfg = cfg.clone();
+    cfg.ship.nominal_displacement_t = d;
+    cfg.scheduler.enabled = false;
+    let scenario = Scenario {
+        speed_mps: u,
+        displacement_t: d,
+        sea,
+        faults,
+        seed: rng.gen(),
+    };
+    let change = match sc.change {
+        Some(c) => Some(draw_change(&mut rng, &c, u, d, cfg.ship.speed_range_mps)?),
+        None => None,
+    };
+    let onset_test = match sc.onset {
+        Onset::InCommissioning([lo, hi]) => Some(rng.gen_range(lo..=hi)),
+        _ => None,
+    };
+    Ok(Drawn {
+        scenario,
+        cfg,
+        late,
+        change,
+        onset_test,
+    })
+}
+
+/// Draws a change from (u [m/s], D [t]): a magnitude of `c.speed_mps`, its sign among those
+/// that keep the speed in `range`, and a loading fraction in `c.loading`.
+fn draw_change(
+    rng: &mut ChaCha8Rng,
+    c: &Change,
+    u: f64,
+    d: f64,
+    [lo, hi]: [f64; 2],
+) -> Result<DrawnChange, String> {
+    let speed_mps = match c.speed_mps {
+        [] => None,
+        sizes => {
+            let m = sizes[rng.gen_range(0..sizes.len())];
+            let (up, down) = (u + m <= hi + 1e-9, u - m >= lo - 1e-9);
+            let sign = match (up, down) {
+                (true, true) => {
+                    if rng.gen_bool(0.5) {
+                        1.0
+                    } else {
+                        -1.0
+                    }
+                }
+                (true, false) => 1.0,
+                (false, true) => -1.0,
+                (false, false) => {
+                    return Err(format!(
+                        "a speed change of {m} m/s from {u:.2} m/s leaves {lo}..{hi} m/s"
+                    ))
+                }
+            };
+            Some(u + sign * m)
+        }
+    };
+    let displacement_t = c.loading.map(|[a, b]| d * (1.0 + rng.gen_range(a..=b)));
+    Ok(DrawnChange {
+        speed_mps,
+        displacement_t,
+    })
+}

@@ -1,0 +1,311 @@
+//! The suite's tables: per sea and schedule, the classic scenarios' table (false alarms,
+//! detection, delay, isolation, beside the baseline), the envelope's and the commissioning's.
+
+use super::outcomes::write_outcomes;
+use super::run::{run_one, RunOutcome, AFTER_COMMISSIONING_TESTS};
+use super::score::{operating_point, pct, quantiles, score, score_commissioning, score_envelope};
+use super::{FdiEvalOptions, Row};
+use crate::core::estimator::Estimator;
+use crate::core::model::SeaState;
+use crate::core::wire::{Decision, Method};
+use crate::tools::training::database::par_map;
+use std::sync::Arc;
+
+/// Where the outcomes go (`--outcomes`), if anywhere.
+pub(super) type OutcomesFile = Option<std::io::BufWriter<std::fs::File>>;
+
+/// Runs a row's runs in parallel: `nominal_runs` for a healthy scenario, else `runs`, each
+/// seeded from the suite's seed, the row's index and the sea (half at the corners of the
+/// (u, D) box on the family).
+fn runs_of(
+    row: &Row,
+    sea: SeaState,
+    methods: &[Method],
+    o: &FdiEvalOptions,
+    estimator: &Arc<Estimator>,
+) -> Vec<RunOutcome> {
+    let sc = row.scenario;
+    let n = if sc.expected.is_none() {
+        o.nominal_runs
+    } else {
+        o.runs
+    };
+    let base = o
+        .seed
+        .wrapping_mul(1_000_003)
+        .wrapping_add((row.index as u64) << 20)
+        .wrapping_add(u64::from(sea == SeaState::Moderate) << 16);
+    par_map(n, o.threads, |k| {
+        let corner = (o.family && k % 2 == 0).then_some(k / 2);
+        run_one(
+            &row.cfg,
+            sc,
+            sea,
+            methods,
+            base + k as u64,
+            estimator,
+            o,
+            corner,
+        )
+    })
+}
+
+/// The classic scenarios' table and its notes (`turns` methods in turn: windows of N tests
+/// of each method).
+pub(super) fn classic_table(
+    rows: &[Row],
+    sea: SeaState,
+    methods: &[Method],
+    turns: usize,
+    o: &FdiEvalOptions,
+    estimator: &Arc<Estimator>,
+    outcomes: &mut OutcomesFile,
+) {
+    println!("| scenario | who | runs | tests | false alarms (tests / runs) | detected <= 2 | detected <= 3 | mean delay | detected <= 4 | isolated (last test) | isolated <= 2 | isolated <= 3 | isolated <= 4 | aborted |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let mut notes = Vec::new();
+    for (si, row) in rows.iter().enumerate() {
+        let sc = row.scenario;
+        let runs = runs_of(row, sea, methods, o, estimator);
+        if let Some(w) = outcomes.as_mut() {
+            write_outcomes(w, &row.label, sea, &runs);
+        }
+        {
+            let all = || runs.iter().flat_map(|r| r.tests.iter());
+            let zs: Vec<[f64; 2]> = all().map(|t| t.z).filter(|z| z[0].is_finite()).collect();
+            if !zs.is_empty() {
+                let n = zs.len() as f64;
+                let m = |i: usize| zs.iter().map(|z| z[i]).sum::<f64>() / n;
+                let sd = |i: usize| {
+                    let mi = m(i);
+                    (zs.iter().map(|z| (z[i] - mi).powi(2)).sum::<f64>() / n).sqrt()
+                };
+                let (m0, m1) = (m(0), m(1));
+                let cov = zs.iter().map(|z| (z[0] - m0) * (z[1] - m1)).sum::<f64>() / n;
+                notes.push(format!(
+                    "{}: z_speed mean {:+.2} sd {:.2}, z_displacement mean {:+.2} sd {:.2}, correlation {:+.2}",
+                    row.label,
+                    m0,
+                    sd(0),
+                    m1,
+                    sd(1),
+                    cov / (sd(0) * sd(1))
+                ));
+            }
+        }
+        if sc.expected.is_none() {
+            let all = || runs.iter().flat_map(|r| r.tests.iter());
+            for (what, v) in [
+                ("chi2", all().map(|t| t.q_param).collect::<Vec<_>>()),
+                (
+                    "commissioning chi2",
+                    runs.iter()
+                        .flat_map(|r| r.commissioning.iter())
+                        .map(|t| t.q_param)
+                        .collect(),
+                ),
+                ("servo-check chi2", all().map(|t| t.q_actuator).collect()),
+                ("model-fit chi2", all().map(|t| t.fit_chi2).collect()),
+                ("sea index", all().map(|t| t.sea_index).collect()),
+            ] {
+                if let Some((m, p99, mx)) = quantiles(v) {
+                    notes.push(format!(
+                        "{}: {what} median {m:.4}, 99th percentile {p99:.4}, max {mx:.4}",
+                        row.label
+                    ));
+                }
+            }
+        }
+        // The baseline's rows only when its estimate exists (features.baseline).
+        let has_baseline = runs
+            .iter()
+            .flat_map(|r| r.tests.iter())
+            .any(|t| t.baseline_decision != Decision::Inconclusive);
+        if !has_baseline && si == 0 {
+            notes.push("baseline: no equation-error estimate in the features, no rows".into());
+        }
+        let whos: &[(&str, bool)] = if has_baseline {
+            &[("ours", false), ("baseline", true)]
+        } else {
+            &[("ours", false)]
+        };
+        for &(who, baseline) in whos {
+            let c2 = score(&runs, sc.expected, 2 * turns, baseline);
+            let c3 = score(&runs, sc.expected, 3 * turns, baseline);
+            let c4 = score(&runs, sc.expected, 4 * turns, baseline);
+            let nominal = sc.expected.is_none();
+            let fa = if nominal {
+                format!(
+                    "{} / {} ({})",
+                    c2.fault_tests,
+                    c2.fault_runs,
+                    pct(c2.fault_tests, c2.tests)
+                )
+            } else {
+                "-".into()
+            };
+            let dash = || -> [String; 8] { std::array::from_fn(|_| "-".to_string()) };
+            let [det2, det3, delay, det4, iso, iso2, iso3, iso4] = if nominal {
+                dash()
+            } else {
+                [
+                    pct(c2.detected, c2.runs),
+                    pct(c3.detected, c3.runs),
+                    if c4.detected > 0 {
+                        format!("{:.2}", c4.delay_sum as f64 / c4.detected as f64)
+                    } else {
+                        "-".into()
+                    },
+                    pct(c4.detected, c4.runs),
+                    pct(c4.isolated, c4.runs),
+                    pct(c2.isolated_within, c2.runs),
+                    pct(c3.isolated_within, c3.runs),
+                    pct(c4.isolated_within, c4.runs),
+                ]
+            };
+            println!(
+                "| {} | {who} | {} | {} | {fa} | {det2} | {det3} | {delay} | {det4} | {iso} | {iso2} | {iso3} | {iso4} | {}{} |",
+                row.label,
+                c2.runs,
+                c2.tests,
+                c2.aborted,
+                if c2.broken > 0 {
+                    format!(" ({} runs broken)", c2.broken)
+                } else {
+                    String::new()
+                }
+            );
+        }
+    }
+    println!();
+    for n in notes {
+        println!("- {n}");
+    }
+}
+
+/// The envelope scenarios' table: false alarms over the tests after commissioning without
+/// the fault, detection and isolation within each scenario's window of tests of the ship
+/// from the onset; notes on the operating point the reports saw.
+pub(super) fn envelope_table(
+    rows: &[Row],
+    sea: SeaState,
+    methods: &[Method],
+    o: &FdiEvalOptions,
+    estimator: &Arc<Estimator>,
+    outcomes: &mut OutcomesFile,
+) {
+    println!("### Envelope: the speed and/or the declared loading change when commissioning ends (not a fault)");
+    println!();
+    println!("False alarms: `fault` decisions over the tests after commissioning without the fault. Detection: the first `fault` within the window's tests of the ship from the onset (the first test with the fault is 1).");
+    println!();
+    println!("| scenario | runs | tests without the fault | false alarms (tests / runs) | window (tests of the ship) | detected | mean delay | isolated within | isolated (last test) | aborted |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    let mut notes = Vec::new();
+    for row in rows {
+        let sc = row.scenario;
+        let runs = runs_of(row, sea, methods, o, estimator);
+        if let Some(w) = outcomes.as_mut() {
+            write_outcomes(w, &row.label, sea, &runs);
+        }
+        let window = sc.window_tests.unwrap_or(0);
+        let c = score_envelope(&runs, sc.expected, window);
+        let fa = format!(
+            "{} / {} ({})",
+            c.fault_tests,
+            c.fault_runs,
+            pct(c.fault_tests, c.tests)
+        );
+        let [win, det, delay, iso_w, iso] = if sc.expected.is_none() {
+            std::array::from_fn(|_| "-".to_string())
+        } else {
+            [
+                window.to_string(),
+                pct(c.detected, c.runs),
+                if c.detected > 0 {
+                    format!("{:.2}", c.delay_sum as f64 / c.detected as f64)
+                } else {
+                    "-".into()
+                },
+                pct(c.isolated_within, c.runs),
+                pct(c.isolated, c.runs),
+            ]
+        };
+        println!(
+            "| {} | {} | {} | {fa} | {win} | {det} | {delay} | {iso_w} | {iso} | {}{} |",
+            row.label,
+            c.runs,
+            c.tests,
+            c.aborted,
+            broken(c.broken)
+        );
+        let p = operating_point(&runs);
+        let declared = if p.declared_tests > 0 {
+            format!(
+                "; the declared D in force in {} of {} tests",
+                p.declared_seen, p.declared_tests
+            )
+        } else {
+            String::new()
+        };
+        notes.push(format!(
+            "{}: speed log within {:.3} m/s of the scheduled speed ({} tests after commissioning){declared}",
+            row.label, p.speed_error_max_mps, p.tests
+        ));
+    }
+    println!();
+    for n in notes {
+        println!("- {n}");
+    }
+}
+
+/// The commissioning scenarios' table: runs flagged from the onset (a healthy run: from its
+/// first test) through [`AFTER_COMMISSIONING_TESTS`] tests of the ship after commissioning.
+pub(super) fn commissioning_table(
+    rows: &[Row],
+    sea: SeaState,
+    methods: &[Method],
+    o: &FdiEvalOptions,
+    estimator: &Arc<Estimator>,
+    outcomes: &mut OutcomesFile,
+) {
+    println!("### Commissioning: faults arising before commissioning test k of the ship");
+    println!();
+    println!("Flagged: a report from the onset through {AFTER_COMMISSIONING_TESTS} tests of the ship after commissioning with `residuals.decision.state` alert or alarm, or decision `fault` (the healthy row: from the first test, false flags). Inconsistent: a report says \"commissioning inconsistent\".");
+    println!();
+    println!("| scenario | runs | tests in the window | onset k (mean) | flagged | flagged during commissioning | decision fault | commissioning inconsistent | aborted |");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    for row in rows {
+        let sc = row.scenario;
+        let runs = runs_of(row, sea, methods, o, estimator);
+        if let Some(w) = outcomes.as_mut() {
+            write_outcomes(w, &row.label, sea, &runs);
+        }
+        let healthy = sc.expected.is_none();
+        let c = score_commissioning(&runs, healthy);
+        let onset = if healthy || c.runs == 0 {
+            "-".to_string()
+        } else {
+            format!("{:.2}", c.onset_sum as f64 / c.runs as f64)
+        };
+        println!(
+            "| {} | {} | {} | {onset} | {} | {} | {} | {} | {}{} |",
+            row.label,
+            c.runs,
+            c.tests,
+            pct(c.flagged, c.runs),
+            pct(c.flagged_in_commissioning, c.runs),
+            pct(c.fault_runs, c.runs),
+            pct(c.inconsistent, c.runs),
+            c.aborted,
+            broken(c.broken)
+        );
+    }
+}
+
+fn broken(n: usize) -> String {
+    if n > 0 {
+        format!(" ({n} runs broken)")
+    } else {
+        String::new()
+    }
+}

@@ -1,0 +1,270 @@
+//! Unit tests of the suite: scoring, the outcomes file, and one run of each new set.
+
+use super::outcomes::write_outcomes;
+use super::*;
+use crate::config::Config;
+use crate::core::estimator::Estimator;
+use crate::core::wire::{Cause, Decision};
+
+fn outcome(decision: Decision, raw0: f64) -> TestOutcome {
+    TestOutcome {
+        method: Method::Hbt,
+        completed: true,
+        decision,
+        isolation: if decision == Decision::Fault {
+            vec![Cause::SpeedLog]
+        } else {
+            Vec::new()
+        },
+        baseline_decision: Decision::Inconclusive,
+        baseline_isolation: Vec::new(),
+        q_param: 1.5,
+        sea_index: 0.1,
+        fit_chi2: f64::NAN,
+        q_actuator: f64::NAN,
+        z: [0.5, -1.0],
+        raw: [raw0, -0.02, 0.06, 0.002, 7.0, 1900.0],
+        phase: Phase::Test,
+        fault_present: false,
+        speed_log_mps: 7.0,
+        displacement_nominal_t: 6000.0,
+        state: None,
+        inconsistent: false,
+        reference_kind: None,
+    }
+}
+
+/// The run's naming at its end: with one method the last test's (nominal: none, even
+/// after an earlier test named a cause); with the methods in turn, the latest naming of
+/// the last test of each method (a healthy-looking last HBT test leaves CLFRT's in force).
+#[test]
+fn the_naming_at_the_end_is_the_last_of_each_method() {
+    let d = Cause::DisplacementOrRudderEffectiveness;
+    let clfrt = |decision, iso: Vec<Cause>| TestOutcome {
+        method: Method::Clfrt,
+        isolation: iso,
+        ..outcome(decision, 0.0)
+    };
+    let run = |tests| RunOutcome {
+        speed_mps: 7.0,
+        displacement_t: 6000.0,
+        speed_after_mps: f64::NAN,
+        declared_after_t: f64::NAN,
+        commissioning: Vec::new(),
+        tests,
+        error: None,
+    };
+    let one = vec![run(vec![
+        outcome(Decision::Fault, 0.0),
+        outcome(Decision::Nominal, 0.0),
+    ])];
+    assert_eq!(score(&one, Some(Cause::SpeedLog), 2, false).isolated, 0);
+    let turn = |last_hbt| {
+        vec![run(vec![
+            outcome(Decision::Fault, 0.0),
+            clfrt(Decision::Fault, vec![d]),
+            outcome(last_hbt, 0.0),
+        ])]
+    };
+    // The last HBT test nominal: CLFRT's naming stands.
+    assert_eq!(
+        score(&turn(Decision::Nominal), Some(d), 3, false).isolated,
+        1
+    );
+    // The last HBT test names the speed log: the latest naming is the vessel's.
+    assert_eq!(score(&turn(Decision::Fault), Some(d), 3, false).isolated, 0);
+    assert_eq!(
+        score(&turn(Decision::Fault), Some(Cause::SpeedLog), 3, false).isolated,
+        1
+    );
+    // An earlier CLFRT test does not count once a later CLFRT test names nothing.
+    let stale = vec![run(vec![
+        clfrt(Decision::Fault, vec![d]),
+        clfrt(Decision::Nominal, Vec::new()),
+        outcome(Decision::Nominal, 0.0),
+    ])];
+    assert_eq!(score(&stale, Some(d), 3, false).isolated, 0);
+}
+
+/// One JSON line per test, commissioning first, the run's index and phase on each, NaN
+/// written as null (JSON has no NaN), the raw residuals as they came.
+#[test]
+fn outcomes_are_one_json_line_per_test() {
+    let runs = vec![RunOutcome {
+        speed_mps: 7.0,
+        displacement_t: 6000.0,
+        speed_after_mps: f64::NAN,
+        declared_after_t: f64::NAN,
+        commissioning: vec![TestOutcome {
+            phase: Phase::Commissioning,
+            ..outcome(Decision::Nominal, f64::NAN)
+        }],
+        tests: vec![
+            outcome(Decision::Nominal, 0.1),
+            outcome(Decision::Fault, 0.9),
+        ],
+        error: None,
+    }];
+    let mut buf = Vec::new();
+    write_outcomes(&mut buf, "m: s", SeaState::Moderate, &runs);
+    let text = String::from_utf8(buf).unwrap();
+    let lines: Vec<serde_json::Value> = text
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), 3);
+    assert_eq!(lines[0]["phase"], "commissioning");
+    assert!(lines[0]["raw"][0].is_null());
+    assert!(lines[0]["chi2_actuator"].is_null());
+    assert_eq!(lines[1]["phase"], "test");
+    assert_eq!(lines[1]["speed_log_mps"], 7.0);
+    assert_eq!(lines[1]["displacement_nominal_t"], 6000.0);
+    assert_eq!(lines[1]["fault_present"], false);
+    assert!(lines[1]["speed_after_mps"].is_null());
+    assert!(lines[1]["reference"].is_null());
+    assert_eq!(lines[2]["test"], 1);
+    assert_eq!(lines[2]["decision"], "fault");
+    assert_eq!(lines[2]["isolation"][0], "speed_log");
+    assert_eq!(lines[2]["raw"][0], 0.9);
+    assert_eq!(lines[2]["raw"][5], 1900.0);
+    for l in &lines {
+        assert_eq!(
+            (l["row"].as_str(), l["method"].as_str(), l["sea"].as_str()),
+            (Some("m: s"), Some("hbt"), Some("moderate"))
+        );
+        assert_eq!(l["run"], 0);
+    }
+}
+
+fn by_name(scs: Vec<FdiScenario>, name: &str) -> FdiScenario {
+    scs.into_iter().find(|s| s.name == name).unwrap()
+}
+
+/// The draw of an envelope run: a speed change of 1.5 or 2 m/s whose sign keeps the speed in
+/// 4..10 m/s (at the box's corners too), a loading of -30..+20 % that keeps D in
+/// 4000..10000 t; the same seed draws the same run.
+#[test]
+fn envelope_draws_stay_in_the_envelope() {
+    let cfg = Config::default();
+    let sc = by_name(envelope_scenarios(), "envelope: speed and loading");
+    for seed in 0..200 {
+        let corner = (seed % 2 == 0).then_some(seed as usize / 2);
+        let d = scenarios::draw(&cfg, &sc, SeaState::Calm, seed, corner).unwrap();
+        let c = d.change.unwrap();
+        let (u0, d0) = (d.scenario.speed_mps, d.scenario.displacement_t);
+        let u1 = c.speed_mps.unwrap();
+        let step = (u1 - u0).abs();
+        assert!(
+            (step - 1.5).abs() < 1e-9 || (step - 2.0).abs() < 1e-9,
+            "{u0} -> {u1}"
+        );
+        assert!((4.0 - 1e-9..=10.0 + 1e-9).contains(&u1), "{u0} -> {u1}");
+        let d1 = c.displacement_t.unwrap();
+        assert!(
+            (-0.3 - 1e-12..=0.2 + 1e-12).contains(&(d1 / d0 - 1.0)),
+            "{d0} -> {d1}"
+        );
+        assert!(
+            (4000.0 - 1e-6..=10000.0 + 1e-6).contains(&d1),
+            "{d0} -> {d1}"
+        );
+        let again = scenarios::draw(&cfg, &sc, SeaState::Calm, seed, corner).unwrap();
+        assert_eq!(again.change, d.change);
+        assert_eq!(again.scenario, d.scenario);
+    }
+}
+
+/// A cheap configuration: five commissioning tests of HBT, one test after commissioning.
+fn cheap() -> (Config, FdiEvalOptions, Arc<Estimator>) {
+    let mut cfg = Config::default();
+    cfg.fdi.commissioning_tests = 5;
+    let o = FdiEvalOptions {
+        tests: 1,
+        warmup_s: 900.0,
+        gap_s: 300.0,
+        methods: vec![Method::Hbt],
+        seas: vec![SeaState::Calm],
+        ..FdiEvalOptions::default()
+    };
+    let est = Arc::new(Estimator::embedded(&cfg.core()).unwrap());
+    (cfg, o, est)
+}
+
+/// One healthy envelope run: commissioning at the drawn point (its D the nominal one), then the
+/// speed and the declared loading change: the test after it is tagged `after change`, its
+/// speed log within 0.3 m/s of the new speed, its nominal displacement the declared one.
+#[test]
+fn an_envelope_run_changes_the_operating_point_as_scheduled() {
+    let (cfg, o, est) = cheap();
+    let sc = by_name(envelope_scenarios(), "envelope: speed and loading");
+    let r = run_one(&cfg, &sc, SeaState::Calm, &o.methods, 11, &est, &o, None);
+    assert_eq!(r.error, None);
+    assert_eq!(r.commissioning.len(), 5);
+    for t in &r.commissioning {
+        assert_eq!((t.phase, t.fault_present), (Phase::Commissioning, false));
+        assert!((t.speed_log_mps - r.speed_mps).abs() < 0.3, "{t:?}");
+        let rel = (t.displacement_nominal_t / r.displacement_t - 1.0).abs();
+        assert!(rel < 1e-9, "{t:?}");
+    }
+    assert_eq!(r.tests.len(), 1);
+    let step = (r.speed_after_mps - r.speed_mps).abs();
+    assert!(
+        (step - 1.5).abs() < 1e-9 || (step - 2.0).abs() < 1e-9,
+        "{r:?}"
+    );
+    for t in &r.tests {
+        assert_eq!((t.phase, t.fault_present), (Phase::AfterChange, false));
+        assert!(t.completed, "{t:?}");
+        assert!(
+            (t.speed_log_mps - r.speed_after_mps).abs() < 0.3,
+            "speed log {} m/s, scheduled {} m/s",
+            t.speed_log_mps,
+            r.speed_after_mps
+        );
+        let rel = (t.displacement_nominal_t / r.declared_after_t - 1.0).abs();
+        assert!(
+            rel < 1e-9,
+            "{} t declared, {} t in force",
+            r.declared_after_t,
+            t.displacement_nominal_t
+        );
+    }
+}
+
+/// One commissioning run with D +12 %: the fault is present from commissioning test k of the
+/// ship on (k drawn in 2..6, at most one past the last commissioning test), and in both tests
+/// after commissioning, tagged `after fault`; nothing is declared (the nominal D stays).
+#[test]
+fn a_commissioning_fault_arises_at_test_k() {
+    let (cfg, o, est) = cheap();
+    let sc = by_name(commissioning_scenarios(), "commissioning: D +12 %");
+    let seed = 5;
+    let k = scenarios::draw(&cfg, &sc, SeaState::Calm, seed, None)
+        .unwrap()
+        .onset_test
+        .unwrap();
+    assert!((2..=6).contains(&k), "{k}");
+    let r = run_one(&cfg, &sc, SeaState::Calm, &o.methods, seed, &est, &o, None);
+    assert_eq!(r.error, None);
+    assert_eq!(r.commissioning.len(), 5);
+    assert_eq!(r.tests.len(), AFTER_COMMISSIONING_TESTS);
+    for (i, t) in r.commissioning.iter().enumerate() {
+        assert_eq!(t.phase, Phase::Commissioning);
+        assert_eq!(
+            t.fault_present,
+            i + 1 >= k,
+            "test {} of the ship, onset {k}",
+            i + 1
+        );
+    }
+    for t in &r.tests {
+        assert_eq!((t.phase, t.fault_present), (Phase::AfterFault, true));
+    }
+    for t in r.commissioning.iter().chain(&r.tests) {
+        assert!((t.speed_log_mps - r.speed_mps).abs() < 0.3, "{t:?}");
+        let rel = (t.displacement_nominal_t / r.displacement_t - 1.0).abs();
+        assert!(rel < 1e-9, "{t:?}");
+    }
+    let c = score_commissioning(std::slice::from_ref(&r), false);
+    assert_eq!(c.onset_sum, k.min(6));
+}
