@@ -58,6 +58,7 @@
 //! | `mod.rs` | the state machine: inputs, the test's lifecycle, reports, statuses |
 //! | `safety.rs` | preconditions, steady course, the safety checks, the excitation gate |
 //! | `hbt.rs`, `clfrt.rs` | each method's run and analysis, and its typed features |
+//! | `sizing.rs` | the excitation sized to the loop the test finds (CLFRT's tones) |
 //! | `input.rs`, `record.rs` | input validation and counters; bounded test records |
 //! | `abort.rs` | why a test stopped |
 //! | `state.rs` | what a vessel's monitor keeps across a restart |
@@ -70,6 +71,7 @@ mod hbt;
 pub mod input;
 pub mod record;
 mod safety;
+mod sizing;
 mod state;
 
 use crate::core::angle::wrap_pi;
