@@ -1,7 +1,7 @@
-//! Excitation sized to the loop the test finds: the test plays its designed excitation,
+//! Excitation sized to the loop the test finds: each method plays its designed excitation,
 //! measures what the loop makes of it early in the test's settling, and lowers it (never
 //! raises it) when the loop would carry the ship past a limit; the measurement then sees one
-//! size, and the report says which.
+//! size, the report says which, and the features the estimator reads do not depend on it.
 //!
 //! ## CLFRT: the tones ([`ToneSizing`])
 //!
@@ -21,8 +21,55 @@
 //! amplifies, so its rudder (the signal the ratio rests on) stays large. The report's
 //! `amplitude_scales` gives each tone's scale.
 //!
+//! ## HBT: the relay ([`RelaySizing`])
+//!
+//! The relay `h sign(e)` with hysteresis `eps` on the linear ship `G(s) = b / (s (s + a))`
+//! behind the servo `S` oscillates where `S G` meets `-1/N(A)`,
+//! `N(A) = 4h / (pi A) exp(-i asin(eps / A))`: `N` depends on `h / A` and `eps / A` only, so
+//! scaling `h` and `eps` by `s` scales the cycle's amplitude by `s` at the same frequency
+//! (homogeneity). The servo's rate limit breaks this only while it saturates, and then in the
+//! safe direction: a smaller step slews for less of the period, so the lag and the cycle
+//! shrink a little more than `s`. The cycle's heading amplitude grows with `b / w^2`, so it is
+//! largest where the ship is most responsive (fast and light), and there it can exceed the
+//! heading limit (`safety.max-heading-error-deg`).
+//!
+//! At the relay's `hbt.resize-at-switch`-th switch (in the settling, before the cycle has
+//! grown: from rest, a relay cycle grows over several half-periods), the ship is identified
+//! on the heading and rudder recorded since the relay started: `a = a0 u / l` from the speed
+//! log at the test's start (the speed is known on a ship; a record of a fraction of a period
+//! does not tell `a`: 37 s at the fast corner read it 36 % high), and `b` by the baseline's
+//! equation-error least squares with that `a` (the relay's steps tell `b` within a few %;
+//! the record starts on a steady course, at rest, so no start-up transient is left out).
+//! Without a speed log, `a` and `b` are both fitted ([`crate::core::baseline::fit`]). The
+//! describing function
+//! ([`crate::core::dsp::relay::limit_cycle_describing_function`], the servo included) gives
+//! the cycle's frequency `w` and first-harmonic amplitude `A`; the heading error's peak is
+//! `k A`, `k` the peak over the first harmonic of the ship's steady response to a square
+//! wave at `w` ([`square_wave_peak_factor`]: `pi^3 / 32` = 0.97 for `w >> a`, `pi^2 / 8` =
+//! 1.23 for `w << a`). When `k A` exceeds `hbt.resize-heading-fraction` of the heading limit,
+//! `h` and `eps` are scaled by `s = fraction limit / (k A)`, but never `eps` below
+//! `max(hbt.resize-min-hysteresis-deg, hbt.resize-wave-factor x wave yaw)` (the wave yaw:
+//! the heading's rms in `fdi.wave-band-rad-s` over the same record; the hysteresis must exceed
+//! it or the relay chatters). When even that smallest relay is predicted past the heading
+//! limit itself, the test aborts (`relay_too_large`) before the ship gets there; when it is
+//! predicted between the fraction and the limit, the smallest relay plays.
+//!
+//! After a resize the settling starts again (`hbt.settle-periods` from the next switch to
+//! `+h`). The report's `relay_height_rad` and `hysteresis_rad` are the relay as played,
+//! `relay_scale` its scale. The estimator reads the designed relay's cycle: `w_u / r_w` and
+//! `a_u / r_A`, `(r_w, r_A)` the describing function's ratios `(w(s) / w(1), A(s) / A(1))`
+//! on the fitted ship (`relay_omega_ratio`, `relay_amplitude_ratio`;
+//! [`RelayPrediction::ratios`]). By homogeneity they are `(1, s)`; the servo's rate limit
+//! moves them where the relay's slew takes a noticeable part of the period (default servo,
+//! 4 deg/s, h 8 -> 4 deg: `w` +4 % and `A / s` -7 % at 7 m/s, 7000 t; +7 % and -13 % at
+//! 10 m/s, 4000 t). The response `G(j w_u)` (a ratio) and the period spread need nothing.
 
+use super::AbortReason;
+use crate::core::baseline::{self, BaselineConfig};
 use crate::core::dsp::multisine::Multisine;
+use crate::core::dsp::relay::limit_cycle_describing_function;
+use crate::core::dsp::spectrum::{band_rms, Spectrum};
+use crate::core::model::{ServoConfig, ShipConfig};
 use crate::core::monitor::config::CoreConfig;
 use std::collections::VecDeque;
 use std::f64::consts::PI;
@@ -266,6 +313,257 @@ impl ToneSizing {
     }
 }
 
+/// What the relay sizing predicted from the start of the relay's record.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RelayPrediction {
+    /// The ship's yaw damping `a` [1/s] and rudder gain `b` [1/s^2] fitted on the record.
+    pub a_per_s: f64,
+    /// See `a_per_s`.
+    pub b_per_s2: f64,
+    /// Wave yaw on the record's heading [rad] (none when it could not be computed).
+    pub wave_yaw_rad: Option<f64>,
+    /// The describing function's cycle at the relay as designed: frequency [rad/s],
+    /// first-harmonic heading amplitude [rad] and the heading error's peak [rad].
+    pub omega_rad_s: f64,
+    /// See `omega_rad_s`.
+    pub amplitude_rad: f64,
+    /// See `omega_rad_s`.
+    pub peak_rad: f64,
+    /// The scale chosen (1: the relay as designed).
+    pub scale: f64,
+    /// The describing function's cycle at that scale: frequency [rad/s], first-harmonic
+    /// amplitude [rad] and peak heading error [rad] (the designed relay's at scale 1).
+    pub scaled_omega_rad_s: f64,
+    /// See `scaled_omega_rad_s`.
+    pub scaled_amplitude_rad: f64,
+    /// See `scaled_omega_rad_s`.
+    pub scaled_peak_rad: f64,
+}
+
+impl RelayPrediction {
+    /// The describing function's ratios of the played relay's cycle to the designed one's,
+    /// `(w(s) / w(1), A(s) / A(1))`: `(1, s)` where the servo's rate limit does not act
+    /// (homogeneity), a higher frequency and a smaller amplitude where it does (a smaller
+    /// step slews for less of the period: less lag).
+    pub fn ratios(&self) -> (f64, f64) {
+        (
+            self.scaled_omega_rad_s / self.omega_rad_s,
+            self.scaled_amplitude_rad / self.amplitude_rad,
+        )
+    }
+}
+
+/// The relay sizing's verdict at its look.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RelayDecision {
+    /// Play the relay scaled by `prediction.scale` (1: unchanged).
+    Play(RelayPrediction),
+    /// No relay the hysteresis floor allows stays inside the heading limit.
+    Abort(AbortReason),
+}
+
+/// The relay's size (see "HBT" in the module doc): one look, at a given switch.
+#[derive(Debug, Clone)]
+pub struct RelaySizing {
+    /// The relay switch (1-based) at which the sizing looks; 0: off.
+    at_switch: usize,
+    /// Heading error's peak allowed: `hbt.resize-heading-fraction` of the limit [rad].
+    target_rad: f64,
+    /// The safety limit on the heading error [rad].
+    limit_rad: f64,
+    /// Hysteresis floor, absolute [rad], and per rad of wave yaw.
+    min_eps_rad: f64,
+    wave_factor: f64,
+    /// The servo the describing function includes.
+    servo: ServoConfig,
+    /// The fit's filter, with no start-up transient left out.
+    fit: BaselineConfig,
+    /// The ship's particulars (`a = a0 u / l` from the speed log).
+    ship: ShipConfig,
+    /// Wave-yaw band [rad/s], its transform and scratch.
+    wave: ((f64, f64), Spectrum, Vec<f64>),
+}
+
+impl RelaySizing {
+    /// The sizing `cfg` asks for.
+    pub fn new(cfg: &CoreConfig) -> Self {
+        let h = &cfg.hbt;
+        let limit_rad = cfg.safety.max_heading_error_deg.to_radians();
+        Self {
+            at_switch: h.resize_at_switch as usize,
+            target_rad: h.resize_heading_fraction * limit_rad,
+            limit_rad,
+            min_eps_rad: h.resize_min_hysteresis_deg.to_radians(),
+            wave_factor: h.resize_wave_factor,
+            servo: cfg.servo.clone(),
+            fit: BaselineConfig {
+                transient_s: 0.0,
+                ..cfg.baseline.clone()
+            },
+            ship: cfg.ship.clone(),
+            wave: (
+                (cfg.fdi.wave_band_rad_s[0], cfg.fdi.wave_band_rad_s[1]),
+                Spectrum::new(),
+                Vec::new(),
+            ),
+        }
+    }
+
+    /// Whether the sizing looks at the `switches`-th relay switch.
+    pub fn looks_at(&self, switches: usize) -> bool {
+        self.at_switch > 0 && switches == self.at_switch
+    }
+
+    /// The verdict for a relay `(h, eps)` [rad] from the heading and rudder recorded since it
+    /// started (`dt` apart, same length, starting on a steady course) and the speed log at
+    /// the test's start (none: unknown). `Err`: no prediction (the fit or the describing
+    /// function failed, or the fitted ship is not a ship); the relay then plays as designed
+    /// and the safety limits still hold.
+    pub fn decide(
+        &mut self,
+        heading_rad: &[f64],
+        rudder_rad: &[f64],
+        dt_s: f64,
+        speed_mps: Option<f64>,
+        (h_rad, eps_rad): (f64, f64),
+    ) -> Result<RelayDecision, String> {
+        let (a, b) = match speed_mps.filter(|u| u.is_finite() && *u > 0.0) {
+            Some(u) => {
+                let a = self.ship.yaw_damping_a0 * u / self.ship.length_m;
+                (a, fit_b(heading_rad, rudder_rad, dt_s, a, &self.fit)?)
+            }
+            None => {
+                let fit = baseline::fit(heading_rad, rudder_rad, dt_s, &self.fit)
+                    .map_err(|e| format!("fit: {e}"))?;
+                (fit.a_per_s, fit.b_per_s2)
+            }
+        };
+        if !(a >= 0.0 && b > 0.0) {
+            return Err(format!("fitted a = {a:.3e} 1/s, b = {b:.3e} 1/s^2"));
+        }
+        let (band, spectrum, scratch) = &mut self.wave;
+        let wave_yaw_rad = band_rms(heading_rad, dt_s, *band, spectrum, scratch).ok();
+        let peak = |h: f64, eps: f64| -> Result<(f64, f64, f64), String> {
+            let (w, amp) = limit_cycle_describing_function(a, b, h, eps, &self.servo)
+                .map_err(|e| format!("describing function: {e}"))?;
+            Ok((w, amp, square_wave_peak_factor(w, a) * amp))
+        };
+        let (omega_rad_s, amplitude_rad, peak_rad) = peak(h_rad, eps_rad)?;
+        let mut prediction = RelayPrediction {
+            a_per_s: a,
+            b_per_s2: b,
+            wave_yaw_rad,
+            omega_rad_s,
+            amplitude_rad,
+            peak_rad,
+            scale: 1.0,
+            scaled_omega_rad_s: omega_rad_s,
+            scaled_amplitude_rad: amplitude_rad,
+            scaled_peak_rad: peak_rad,
+        };
+        if peak_rad <= self.target_rad {
+            return Ok(RelayDecision::Play(prediction));
+        }
+        let floor_rad = self
+            .min_eps_rad
+            .max(self.wave_factor * wave_yaw_rad.unwrap_or(0.0));
+        let scale = (self.target_rad / peak_rad).max(floor_rad / eps_rad).min(1.0);
+        let (scaled_omega_rad_s, scaled_amplitude_rad, scaled_peak_rad) = if scale < 1.0 {
+            peak(scale * h_rad, scale * eps_rad)?
+        } else {
+            (omega_rad_s, amplitude_rad, peak_rad)
+        };
+        if scaled_peak_rad > self.limit_rad {
+            return Ok(RelayDecision::Abort(AbortReason::RelayTooLarge {
+                predicted_deg: scaled_peak_rad.to_degrees(),
+                limit_deg: self.limit_rad.to_degrees(),
+                hysteresis_deg: (scale * eps_rad).to_degrees(),
+            }));
+        }
+        prediction.scale = scale;
+        prediction.scaled_omega_rad_s = scaled_omega_rad_s;
+        prediction.scaled_amplitude_rad = scaled_amplitude_rad;
+        prediction.scaled_peak_rad = scaled_peak_rad;
+        Ok(RelayDecision::Play(prediction))
+    }
+}
+
+/// The rudder gain `b` [1/s^2] of `psi'' = -a psi' + b delta + c` with `a` given: the
+/// baseline's state-variable filter on both records ([`crate::core::baseline`]), then least
+/// squares of `s^2 F psi + a s F psi = b F delta + c` (two unknowns, normal equations; the
+/// record starts at rest, so no transient is left out).
+fn fit_b(
+    heading_rad: &[f64],
+    rudder_rad: &[f64],
+    dt_s: f64,
+    a: f64,
+    cfg: &BaselineConfig,
+) -> Result<f64, String> {
+    if heading_rad.len() != rudder_rad.len() || heading_rad.len() < baseline::MIN_FIT_SAMPLES {
+        return Err(format!(
+            "fit: {} heading and {} rudder samples",
+            heading_rad.len(),
+            rudder_rad.len()
+        ));
+    }
+    let err = |e: baseline::BaselineError| format!("fit: {e}");
+    let mut fh = baseline::StateVariableFilter::new(cfg.filter_rad_s, dt_s).map_err(err)?;
+    let mut fd = baseline::StateVariableFilter::new(cfg.filter_rad_s, dt_s).map_err(err)?;
+    let psi0 = heading_rad[0];
+    // Sums of x x' and x y over x = (F delta, 1), y = s^2 F psi + a s F psi.
+    let (mut sdd, mut sd, mut n, mut sdy, mut sy) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for (k, (&psi, &delta)) in heading_rad.iter().zip(rudder_rad).enumerate() {
+        let (h, d) = if k == 0 {
+            (fh.reset(0.0), fd.reset(delta))
+        } else {
+            (fh.step(psi - psi0), fd.step(delta))
+        };
+        let y = h.ssf + a * h.sf;
+        sdd += d.f * d.f;
+        sd += d.f;
+        n += 1.0;
+        sdy += d.f * y;
+        sy += y;
+    }
+    let det = sdd * n - sd * sd;
+    let b = (n * sdy - sd * sy) / det;
+    if det > 0.0 && b.is_finite() {
+        Ok(b)
+    } else {
+        Err("fit: no rudder excitation".into())
+    }
+}
+
+/// Harmonics summed by [`square_wave_peak_factor`] (their terms fall as `1 / n^2` and faster).
+const PEAK_HARMONICS: usize = 63;
+
+/// Peak over first-harmonic amplitude of the steady response of `b / (s (s + a))` to a
+/// square wave of frequency `w` [rad/s]: the odd harmonics `n`, each `(1/n) |G(j n w)|` and
+/// phase `arg G(j n w)` against the fundamental's, summed and maximised over a period (`b`
+/// cancels). `pi^3 / 32` when `a = 0` (parabolic arcs), `pi^2 / 8` when `a >> w` (a
+/// triangle).
+pub fn square_wave_peak_factor(w: f64, a: f64) -> f64 {
+    let g = |n: f64| {
+        let x = n * w;
+        (1.0 / (x * x.hypot(a)), -PI / 2.0 - (x / a.max(f64::MIN_POSITIVE)).atan())
+    };
+    let (g1, _) = g(1.0);
+    let steps = 720;
+    (0..steps)
+        .map(|i| {
+            let th = 2.0 * PI * i as f64 / steps as f64;
+            (0..PEAK_HARMONICS)
+                .map(|k| {
+                    let n = (2 * k + 1) as f64;
+                    let (gn, pn) = g(n);
+                    gn / (n * g1) * (n * th + pn).sin()
+                })
+                .sum::<f64>()
+                .abs()
+        })
+        .fold(0.0, f64::max)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -356,5 +654,43 @@ mod tests {
             sizing.on_rudder(t, 0.4 * (ms.omegas()[2] * t).sin(), 1.0);
         }
         assert!(!sizing.resized());
+    }
+
+    /// The peak factor's two limits: parabolic arcs (`a = 0`, `pi^3 / 32`) and a triangle
+    /// (`a >> w`, `pi^2 / 8`); and in between, a brute-force steady state of the ship under a
+    /// square wave (Euler, many periods) agrees.
+    #[test]
+    fn square_wave_peak_factor_known_answers() {
+        let k0 = square_wave_peak_factor(0.05, 0.0);
+        assert!((k0 / (PI.powi(3) / 32.0) - 1.0).abs() < 1e-3, "{k0}");
+        let kt = square_wave_peak_factor(0.001, 1.0);
+        assert!((kt / (PI * PI / 8.0) - 1.0).abs() < 5e-3, "{kt}");
+        // psi'' = -a psi' + sign(sin w t): peak and first harmonic of psi minus its mean over
+        // the tenth period.
+        let (w, a) = (0.05, 0.03);
+        let period = 2.0 * PI / w;
+        let dt = 1e-3;
+        let n = (period / dt).round() as usize;
+        // From rest: the rate's transient decays as e^{-a t} (e^{-38} after ten periods) and
+        // leaves the heading a constant offset, removed with the mean.
+        let (mut psi, mut r) = (0.0f64, 0.0f64);
+        let mut last = Vec::with_capacity(n);
+        for k in 0..10 * n {
+            let t = k as f64 * dt;
+            let u = if (w * t).sin() >= 0.0 { 1.0 } else { -1.0 };
+            psi += r * dt;
+            r += (-a * r + u) * dt;
+            if k >= 9 * n {
+                last.push((t, psi));
+            }
+        }
+        let mean = last.iter().map(|x| x.1).sum::<f64>() / n as f64;
+        let peak = last.iter().map(|x| (x.1 - mean).abs()).fold(0.0, f64::max);
+        let (c, si) = last.iter().fold((0.0, 0.0), |(c, si), (t, x)| {
+            (c + (x - mean) * (w * t).cos(), si + (x - mean) * (w * t).sin())
+        });
+        let h1 = 2.0 / n as f64 * c.hypot(si);
+        let k = square_wave_peak_factor(w, a);
+        assert!((k / (peak / h1) - 1.0).abs() < 5e-3, "{k} vs {}", peak / h1);
     }
 }
