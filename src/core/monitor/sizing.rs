@@ -36,12 +36,11 @@
 //! At the relay's `hbt.resize-at-switch`-th switch (in the settling, before the cycle has
 //! grown: from rest, a relay cycle grows over several half-periods), the ship is identified
 //! on the heading and rudder recorded since the relay started: `a = a0 u / l` from the speed
-//! log at the test's start (the speed is known on a ship; a record of a fraction of a period
-//! does not tell `a`: 37 s at the fast corner read it 36 % high), and `b` by the baseline's
-//! equation-error least squares with that `a` (the relay's steps tell `b` within a few %;
-//! the record starts on a steady course, at rest, so no start-up transient is left out).
-//! Without a speed log, `a` and `b` are both fitted ([`crate::core::baseline::fit`]). The
-//! describing function
+//! log at the test's start (the speed is known on a ship, and a record of a fraction of a
+//! period tells `a` poorly), and `b` by the baseline's equation-error least squares with
+//! that `a` (the relay's steps tell `b` within a few %; the record starts on a steady course,
+//! at rest, so no start-up transient is left out). Without a speed log, `a` and `b` are both
+//! fitted ([`crate::core::baseline::fit`]). The describing function
 //! ([`crate::core::dsp::relay::limit_cycle_describing_function`], the servo included) gives
 //! the cycle's frequency `w` and first-harmonic amplitude `A`; the heading error's peak is
 //! `k A`, `k` the peak over the first harmonic of the ship's steady response to a square
