@@ -405,6 +405,24 @@ mod tests {
     }
 
     #[test]
+    fn relay_sizing_keys_are_checked() {
+        for (toml, key, range) in [
+            ("resize-at-switch = 3", "hbt.resize-at-switch", "[0, 2]"),
+            ("resize-heading-fraction = 0", "hbt.resize-heading-fraction", "(0, 1]"),
+            ("resize-heading-fraction = 1.2", "hbt.resize-heading-fraction", "(0, 1]"),
+            ("resize-min-hysteresis-deg = 0", "hbt.resize-min-hysteresis-deg", "(0, 10]"),
+            ("resize-wave-factor = -1", "hbt.resize-wave-factor", "[0, 20]"),
+        ] {
+            let e = Config::from_toml_str(&format!("[hbt]\n{toml}\n")).unwrap_err();
+            let m = e.to_string();
+            assert!(m.contains(key) && m.contains(range), "{toml}: {m}");
+        }
+        // Two settle periods leave room for a look at the fourth switch; 0 is off.
+        Config::from_toml_str("[hbt]\nsettle-periods = 2\nresize-at-switch = 4\n").unwrap();
+        Config::from_toml_str("[hbt]\nresize-at-switch = 0\n").unwrap();
+    }
+
+    #[test]
     fn sea_keys_are_checked() {
         let e = Config::from_toml_str("[fdi]\nsea-wave-yaw-deg = [0.2, 0.05]\n").unwrap_err();
         assert!(e.to_string().contains("fdi.sea-wave-yaw-deg"), "{e}");

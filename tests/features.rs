@@ -632,3 +632,72 @@ fn clfrt_sizes_the_tone_a_fixed_gain_autopilot_amplifies() {
         }
     }
 }
+
+/// A Mariner-class cargo ship (Fossen's Nomoto example: K = 0.185 1/s, T = 107.3 s at
+/// 7.7 m/s, L = 160.93 m; 17000 t assumed) at its fast and light corner: the designed relay's
+/// cycle crosses the 10 deg heading limit; the sized relay completes inside it, and the cycle
+/// it reports, read through the sizing's ratios, is the designed relay's by the describing
+/// function on the true ship.
+#[test]
+fn hbt_sizes_the_relay_where_the_ship_is_most_responsive() {
+    let mut cfg = Config::default();
+    cfg.ship.length_m = 160.93;
+    cfg.ship.yaw_damping_a0 = 0.1948;
+    cfg.ship.rudder_area_m2 = 155.2;
+    let (u, d) = (9.5, 11000.0);
+    let (a, b) = cfg.ship.nomoto(u, d);
+    let (w1, a1) = limit_cycle_describing_function(
+        a,
+        b,
+        cfg.hbt.relay_height_rad(),
+        cfg.hbt.hysteresis_rad(),
+        &cfg.servo,
+    )
+    .unwrap();
+    assert!(a1.to_degrees() > 10.0, "designed cycle {} deg", a1.to_degrees());
+    let runs = par_map(vec![1u64, 2], |seed| {
+        let sc = Scenario {
+            speed_mps: u,
+            displacement_t: d,
+            sea: SeaState::Calm,
+            faults: vec![],
+            seed,
+        };
+        let mut off = cfg.clone();
+        off.hbt.resize_at_switch = 0;
+        let run = |c: &Config| {
+            let opts = ProbeOptions::new(&c.core(), Method::Hbt);
+            run_probe(&c.core(), &c.sim(), &sc, &opts).unwrap().report
+        };
+        (run(&off), run(&cfg))
+    });
+    for (off, on) in runs {
+        assert_eq!(off.outcome, Outcome::Aborted, "{:?}", off.reason);
+        assert!(
+            off.reason.as_deref().unwrap_or("").contains("heading error"),
+            "{:?}",
+            off.reason
+        );
+        assert_eq!(on.outcome, Outcome::Completed, "{:?}", on.reason);
+        assert!(on.message.contains("relay sized to the loop"), "{}", on.message);
+        let f = hbt(&on);
+        let s = f.relay_scale.expect("relay_scale");
+        assert!(s > 0.4 && s < 0.75, "{s}");
+        assert!(f.amplitude_rad.to_degrees() < 8.0, "{}", f.amplitude_rad.to_degrees());
+        // The played relay's cycle against the describing function at that relay.
+        let (ws, as_) = limit_cycle_describing_function(
+            a,
+            b,
+            s * cfg.hbt.relay_height_rad(),
+            s * cfg.hbt.hysteresis_rad(),
+            &cfg.servo,
+        )
+        .unwrap();
+        assert!((f.omega_u_rad_s / ws - 1.0).abs() < 0.05, "w {} vs {ws}", f.omega_u_rad_s);
+        assert!((f.amplitude_rad / as_ - 1.0).abs() < 0.10, "A {} vs {as_}", f.amplitude_rad);
+        // Read through the ratios: the designed relay's cycle.
+        let (rw, ra) = (f.relay_omega_ratio.unwrap(), f.relay_amplitude_ratio.unwrap());
+        assert!((f.omega_u_rad_s / rw / w1 - 1.0).abs() < 0.05, "designed w");
+        assert!((f.amplitude_rad / ra / a1 - 1.0).abs() < 0.10, "designed A");
+    }
+}

@@ -29,6 +29,14 @@ pub(crate) fn print_features(f: &Features) {
                 h.trim_rad.to_degrees(),
                 h.min_switch_interval_s,
             );
+            if let Some(scale) = h.relay_scale {
+                println!(
+                    "  relay sized to the loop: {:.0} % of the design (h {:.2} deg, eps {:.2} deg)",
+                    100.0 * scale,
+                    h.relay_height_rad.to_degrees(),
+                    h.hysteresis_rad.to_degrees(),
+                );
+            }
         }
         Features::None => {}
     }

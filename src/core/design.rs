@@ -36,6 +36,18 @@ pub struct HbtConfig {
     /// Abort when two relay switches come closer than this [s]: the relay chatters (waves
     /// above the hysteresis), which only wears the steering gear.
     pub min_switch_interval_s: f64,
+    /// Relay sizing: at this relay switch (1-based, within the settling: at most
+    /// `2 settle-periods`) the record so far predicts the limit cycle (a Nomoto fit and the
+    /// describing function); 0 disables the sizing.
+    pub resize_at_switch: u32,
+    /// Relay sizing: when the predicted peak heading error exceeds this fraction of
+    /// `safety.max-heading-error-deg`, h and eps are scaled down to bring it there.
+    pub resize_heading_fraction: f64,
+    /// Relay sizing: the hysteresis is never scaled below this [deg].
+    pub resize_min_hysteresis_deg: f64,
+    /// Relay sizing: nor below this many times the wave yaw measured on the record (rms in
+    /// `fdi.wave-band-rad-s`): the hysteresis must exceed the wave yaw.
+    pub resize_wave_factor: f64,
 }
 
 impl Default for HbtConfig {
@@ -50,6 +62,10 @@ impl Default for HbtConfig {
             bias_adaptation: 0.5,
             handback_lead_s: 30.0,
             min_switch_interval_s: 10.0,
+            resize_at_switch: 2,
+            resize_heading_fraction: 0.7,
+            resize_min_hysteresis_deg: 0.5,
+            resize_wave_factor: 3.0,
         }
     }
 }
@@ -71,6 +87,29 @@ impl HbtConfig {
             0.0,
             600.0,
         )?;
+        if self.resize_at_switch > 2 * self.settle_periods {
+            return Err(fail(
+                "hbt.resize-at-switch",
+                self.resize_at_switch.to_string(),
+                &format!(
+                    "integer in [0, {}] (2 hbt.settle-periods: within the settling)",
+                    2 * self.settle_periods
+                ),
+            ));
+        }
+        check_range_open_low(
+            "hbt.resize-heading-fraction",
+            self.resize_heading_fraction,
+            0.0,
+            1.0,
+        )?;
+        check_range_open_low(
+            "hbt.resize-min-hysteresis-deg",
+            self.resize_min_hysteresis_deg,
+            0.0,
+            10.0,
+        )?;
+        check_range("hbt.resize-wave-factor", self.resize_wave_factor, 0.0, 20.0)?;
         Ok(())
     }
     /// Relay height [rad].

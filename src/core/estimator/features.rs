@@ -7,8 +7,8 @@
 //! |---|---|---|---|
 //! | `ln_gain_<k>` | `ln |G(j w_k)|`, tone k (1 = lowest) | ln(rad/rad) | CLFRT |
 //! | `phase_<k>_rad` | `arg G(j w_k)`, in (-2 pi, 0] (dsp convention: no wrap near -180 deg) | rad | CLFRT |
-//! | `ln_omega_u` | `ln w_u`, limit-cycle frequency | ln(rad/s) | HBT |
-//! | `ln_amplitude` | `ln a_u`, first-harmonic heading amplitude | ln(rad) | HBT |
+//! | `ln_omega_u` | `ln (w_u / r_w)`, limit-cycle frequency of the designed relay (`r_w` = `relay_omega_ratio`, 1 when absent) | ln(rad/s) | HBT |
+//! | `ln_amplitude` | `ln (a_u / r_A)`, first-harmonic heading amplitude of the designed relay (`r_A` = `relay_amplitude_ratio`, else `relay_scale`, else 1) | ln(rad) | HBT |
 //! | `period_cv` | `period_std_s / period_s`, relative spread of the measured periods | 1 | HBT |
 //! | `ln_response_gain` | `ln |G(j w_u)|`, heading over measured rudder, first harmonics | ln(rad/rad) | HBT |
 //! | `response_phase_rad` | `arg G(j w_u)`, in (-2 pi, 0] | rad | HBT |
@@ -27,6 +27,16 @@
 //! at the limit-cycle frequency, reads the ship itself, whatever the switching did: its
 //! phase `-pi/2 - atan(w_u/a)` carries `a` and its gain `b`. With it the HBT speed error in a
 //! moderate sea halves (docs/estimator.md).
+//!
+//! A relay sized down by `s` (h and eps both, [`crate::core::monitor`]'s sizing) gives the
+//! same cycle at the same frequency with its amplitude times `s` (the describing function
+//! depends on `h / A` and `eps / A` only), except where the servo's rate limit acts: a
+//! smaller step slews for less of the period, so the cycle is a little faster and smaller.
+//! The report carries the describing function's ratios of the two cycles on the fitted ship
+//! (`relay_omega_ratio`, `relay_amplitude_ratio`, `(1, s)` by homogeneity) and the inputs
+//! read the designed relay's cycle through them, so the networks trained on the designed
+//! relay read a sized test alike. `period_cv` and the response `G(j w_u)` (a ratio) are
+//! read as measured.
 //!
 //! The speed network sees the test's features only; the displacement network sees them and
 //! the measured speed (`speed_log_mps`): speed from the features alone is poorly conditioned,
@@ -158,8 +168,17 @@ impl Feature {
         let (raw, log) = match *self {
             Feature::LnGain(k) => (known(tone(k).map(|t| t.gain))?, true),
             Feature::Phase(k) => (known(tone(k).map(|t| t.phase_rad))?, false),
-            Feature::LnOmegaU => (known(hbt.map(|h| h.omega_u_rad_s))?, true),
-            Feature::LnAmplitude => (known(hbt.map(|h| h.amplitude_rad))?, true),
+            Feature::LnOmegaU => (
+                known(hbt.map(|h| h.omega_u_rad_s / h.relay_omega_ratio.unwrap_or(1.0)))?,
+                true,
+            ),
+            Feature::LnAmplitude => (
+                known(hbt.map(|h| {
+                    let r = h.relay_amplitude_ratio.or(h.relay_scale).unwrap_or(1.0);
+                    h.amplitude_rad / r
+                }))?,
+                true,
+            ),
             Feature::SpeedLog => (known(features.speed_log_mps())?, false),
             Feature::LnResponseGain => (known(hbt.and_then(|h| h.response_gain))?, true),
             Feature::ResponsePhase => (known(hbt.and_then(|h| h.response_phase_rad))?, false),
@@ -249,7 +268,7 @@ pub fn extract_into(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::core::wire::features::sample;
+    use crate::core::wire::features::{sample, HbtFeatures};
 
     fn clfrt() -> Features {
         let mut c = sample::clfrt(vec![
@@ -329,6 +348,41 @@ mod tests {
                 7.0
             ]
         );
+    }
+
+    /// A relay played at half size: the cycle is half as large at the same frequency, and
+    /// the inputs are those of the designed relay's test.
+    #[test]
+    fn a_sized_relay_reads_as_the_designed_one() {
+        let mut full = sample::hbt();
+        full.response_gain = Some(0.9);
+        full.response_phase_rad = Some(-2.8);
+        let half = HbtFeatures {
+            amplitude_rad: 0.5 * full.amplitude_rad,
+            relay_height_rad: 0.5 * full.relay_height_rad,
+            hysteresis_rad: 0.5 * full.hysteresis_rad,
+            relay_scale: Some(0.5),
+            ..full.clone()
+        };
+        // Where the rate limit acts: 4 % faster, 10 % smaller than homogeneity says.
+        let fast = HbtFeatures {
+            omega_u_rad_s: 1.04 * full.omega_u_rad_s,
+            amplitude_rad: 0.45 * full.amplitude_rad,
+            relay_omega_ratio: Some(1.04),
+            relay_amplitude_ratio: Some(0.45),
+            ..half.clone()
+        };
+        let inputs = speed_inputs(Method::Hbt, 0);
+        let read = |f: HbtFeatures| {
+            let mut v = Vec::new();
+            extract_into(&inputs, &Features::Hbt(f), &mut v).unwrap();
+            v
+        };
+        let a = read(full);
+        assert_eq!(a, read(half));
+        for (x, y) in a.iter().zip(read(fast)) {
+            assert!((x - y).abs() < 1e-12, "{x} vs {y}");
+        }
     }
 
     #[test]

@@ -71,6 +71,16 @@ pub enum AbortReason {
     },
     /// The analysis of the records failed (what failed, in words).
     Analysis(String),
+    /// HBT: the relay sizing predicts a limit cycle past the heading limit even with the
+    /// smallest relay the wave yaw allows (`hbt.resize-*`).
+    RelayTooLarge {
+        /// The heading error's predicted peak with that relay [deg].
+        predicted_deg: f64,
+        /// `safety.max-heading-error-deg`.
+        limit_deg: f64,
+        /// The smallest hysteresis allowed [deg].
+        hysteresis_deg: f64,
+    },
     /// A stream's clock stepped: it re-synchronised on a new timeline
     /// ([`crate::core::monitor::input::Clocks`]), so the test's records no longer line up.
     ClockStep {
@@ -87,7 +97,7 @@ pub enum AbortReason {
 
 impl AbortReason {
     /// Every code, in the order `fdi/stats` lists them.
-    pub const CODES: [&'static str; 15] = [
+    pub const CODES: [&'static str; 16] = [
         "autopilot_left_auto",
         "heading_error",
         "rudder_saturated",
@@ -103,6 +113,7 @@ impl AbortReason {
         "implausible_limit_cycle",
         "analysis",
         "clock_step",
+        "relay_too_large",
     ];
 
     /// A stable snake_case name per kind of reason (the key in `fdi/stats`); `shutdown` is
@@ -132,7 +143,8 @@ impl AbortReason {
             AbortReason::ImplausibleLimitCycle { .. } => 12,
             AbortReason::Analysis(_) => 13,
             AbortReason::ClockStep { .. } => 14,
-            AbortReason::Shutdown(_) => 15,
+            AbortReason::RelayTooLarge { .. } => 15,
+            AbortReason::Shutdown(_) => 16,
         }
     }
 }
@@ -193,6 +205,17 @@ impl fmt::Display for AbortReason {
                 f,
                 "clock step: the {} stream went from t = {from_t:.1} to {to_t:.1} s",
                 stream.name()
+            ),
+            AbortReason::RelayTooLarge {
+                predicted_deg,
+                limit_deg,
+                hysteresis_deg,
+            } => write!(
+                f,
+                "relay too large for this ship: the limit cycle is predicted to reach \
+                 {predicted_deg:.1} deg of heading error, over the limit {limit_deg:.1} deg, \
+                 even scaled down to the smallest hysteresis the wave yaw allows \
+                 ({hysteresis_deg:.2} deg)"
             ),
             AbortReason::Shutdown(why) => f.write_str(why),
         }

@@ -16,6 +16,14 @@
 //! Settling: `hbt.settle-periods` periods after the first switch to `+h`; measuring: the
 //! next `hbt.measure-periods` periods. No limit cycle within `hbt.timeout-s`: abort.
 //!
+//! Sizing (`hbt.resize-*`, [`super::sizing::RelaySizing`]): at the relay's
+//! `hbt.resize-at-switch`-th switch, a Nomoto fit of the record so far and the describing
+//! function predict the cycle's peak heading error; past `hbt.resize-heading-fraction` of
+//! `safety.max-heading-error-deg`, h and eps are scaled by the same `s < 1` from that switch
+//! on (same period, amplitude times `s`) and the settling starts again; past the limit
+//! itself even at the smallest hysteresis the wave yaw allows, the test aborts
+//! (`relay_too_large`). The report carries `relay_scale` and the relay as played.
+//!
 //! Relay-centre adaptation (`hbt.bias-adaptation`): at each switch to `+h` the centre moves
 //! towards the mean rudder of the period just ended, `delta0 += g h (t+ - t-) / P`. When the
 //! heading reading drifts, the relay can only keep its error bounded by making the ship turn
@@ -48,12 +56,13 @@
 //! swing after hand-back measured 7.7 deg at 7 m/s and 9-16 deg at 4 m/s (calm, moderate).
 
 use super::record::{Record, RecordError};
+use super::sizing::{RelayDecision, RelayPrediction, RelaySizing};
 use super::{AbortReason, Measured, Step};
 use crate::core::baseline::config::BaselineConfig;
 use crate::core::baseline::{self, BaselineError, BaselineEstimate};
 use crate::core::dsp::relay::{analyse_limit_cycle, first_harmonic, LimitCycle};
 use crate::core::dsp::spectrum::{band_rms, Spectrum};
-use crate::core::model::ShipConfig;
+use crate::core::model::{ServoConfig, ShipConfig};
 use crate::core::monitor::config::CoreConfig;
 use crate::core::wire::features::{HbtFeatures, ServoRateFeatures};
 use crate::core::wire::{ExcitationMode, MonitorState};
@@ -90,6 +99,12 @@ pub struct HbtReport {
     /// The servo's slew rate: the median over the measured periods of each period's largest
     /// rudder rate, and the healthy servo's rate limit [rad/s] (none when not measurable).
     pub servo_rate: Option<(f64, f64)>,
+    /// The scale of h and eps against the design when the sizing lowered the relay (none at
+    /// full size).
+    pub relay_scale: Option<f64>,
+    /// What the sizing predicted at its look (none when it did not look or could not
+    /// predict).
+    pub prediction: Option<RelayPrediction>,
 }
 
 impl HbtReport {
@@ -126,6 +141,15 @@ impl HbtReport {
                 rudder_rate_peak_rad_s: peak,
                 rudder_rate_nominal_rad_s: nominal,
             }),
+            relay_scale: self.relay_scale,
+            relay_omega_ratio: self
+                .relay_scale
+                .and(self.prediction)
+                .map(|p| p.ratios().0),
+            relay_amplitude_ratio: self
+                .relay_scale
+                .and(self.prediction)
+                .map(|p| p.ratios().1),
             speed_log_mps: None,
             baseline,
             baseline_error,
@@ -196,11 +220,20 @@ pub(crate) struct HbtRun {
     /// The healthy servo's slew rate [rad/s], when the relay's step saturates it for longer
     /// than the rate fit's window; and the slopes' scratch.
     servo_rate: (Option<f64>, Vec<f64>),
+    /// The relay's sizing, the scale it chose (1: as designed) and its prediction.
+    sizing: RelaySizing,
+    scale: f64,
+    prediction: Option<RelayPrediction>,
+    /// The servo, for the healthy slew rate after a resize.
+    servo_cfg: (ServoConfig, f64),
+    /// The speed log at the test's start [m/s] (none without one), for the sizing.
+    speed_mps: Option<f64>,
 }
 
 impl HbtRun {
-    /// A relay test starting at `t_start_s`.
-    pub(crate) fn new(cfg: &CoreConfig, t_start_s: f64) -> Self {
+    /// A relay test starting at `t_start_s`, the speed log reading `speed_mps` (none: no
+    /// speed log).
+    pub(crate) fn new(cfg: &CoreConfig, t_start_s: f64, speed_mps: Option<f64>) -> Self {
         let h = &cfg.hbt;
         let rate = cfg.sensors.rate_hz;
         let capacity = ((h.timeout_s + 60.0) * rate * 2.0).ceil() as usize;
@@ -240,7 +273,15 @@ impl HbtRun {
                 Vec::new(),
             ),
             baseline: (cfg.baseline.clone(), cfg.ship.clone()),
-            servo_rate: (nominal_slew_rad_s(cfg), Vec::new()),
+            servo_rate: (
+                nominal_slew_rad_s(&cfg.servo, cfg.sensors.rate_hz, h.relay_height_rad()),
+                Vec::new(),
+            ),
+            sizing: RelaySizing::new(cfg),
+            scale: 1.0,
+            prediction: None,
+            servo_cfg: (cfg.servo.clone(), cfg.sensors.rate_hz),
+            speed_mps,
         }
     }
 
@@ -343,6 +384,15 @@ impl HbtRun {
             if new_sign < 0.0 {
                 self.last_down_s = Some(t_switch);
             }
+            if self.sizing.looks_at(self.switches) && self.up_switches.len() <= self.settle_periods
+            {
+                if let Err(reason) = self.size(t) {
+                    return Step {
+                        done: Some(Err(reason)),
+                        ..idle(None)
+                    };
+                }
+            }
             if new_sign > 0.0 {
                 // A full period ended: centre the relay on its mean rudder.
                 if let (Some(&up), Some(down)) = (self.up_switches.last(), self.last_down_s) {
@@ -411,6 +461,47 @@ impl HbtRun {
             value: self.trim_rad() + self.sign * self.h_rad,
             phase,
             done: None,
+        }
+    }
+
+    /// The sizing's look at ship time `t` (a switch): on the heading and rudder since the
+    /// relay started, it may scale h and eps (from this switch on; the settling starts
+    /// again) or abort. A record or a prediction that fails leaves the relay as designed.
+    fn size(&mut self, t: f64) -> Result<(), AbortReason> {
+        let Some(t0) = self.relay_start_s else {
+            return Ok(());
+        };
+        let n_rudder = match self.rudder.last_t() {
+            Some(tl) if tl >= t0 => ((tl - t0) / self.dt_s).floor() as usize + 1,
+            _ => 0,
+        };
+        let n = (((t - t0) / self.dt_s).floor() as usize + 1).min(n_rudder);
+        let [h, d] = &mut self.scratch;
+        let resampled = self
+            .heading
+            .resample(t0, self.dt_s, n, self.max_gap_s, h)
+            .and_then(|()| self.rudder.resample(t0, self.dt_s, n, self.max_gap_s, d));
+        if resampled.is_err() {
+            return Ok(());
+        }
+        let relay = (self.h_rad, self.eps_rad);
+        match self.sizing.decide(h, d, self.dt_s, self.speed_mps, relay) {
+            Ok(RelayDecision::Abort(reason)) => Err(reason),
+            Ok(RelayDecision::Play(p)) => {
+                self.prediction = Some(p);
+                if p.scale < 1.0 {
+                    self.scale = p.scale;
+                    self.h_rad *= p.scale;
+                    self.eps_rad *= p.scale;
+                    let (servo, rate) = &self.servo_cfg;
+                    self.servo_rate.0 = nominal_slew_rad_s(servo, *rate, self.h_rad);
+                    // The settling starts again: periods count from the next switch to +h.
+                    self.up_switches.clear();
+                    self.last_down_s = None;
+                }
+                Ok(())
+            }
+            Err(_) => Ok(()),
         }
     }
 
@@ -485,18 +576,20 @@ impl HbtRun {
             wave_yaw_rad,
             response,
             servo_rate,
+            relay_scale: (self.scale < 1.0).then_some(self.scale),
+            prediction: self.prediction,
         }))
     }
 }
 
-/// The healthy servo's slew rate as the rate fit reads it: the relay's step `2 h` drives the
-/// servo at its rate limit `R` while `|cmd - delta| > R T_r`, a ramp of `(2 h - R T_r) / R`
+/// The healthy servo's slew rate as the rate fit reads it: the relay's step `2 h` (as played)
+/// drives the servo at its rate limit `R` while `|cmd - delta| > R T_r`, a ramp of `(2 h - R T_r) / R`
 /// seconds; when that ramp outlasts the fit's window the fit reads `R` exactly. `None`
 /// otherwise (a relay too small to saturate the servo: no slew to measure).
-fn nominal_slew_rad_s(cfg: &CoreConfig) -> Option<f64> {
-    let r = cfg.servo.max_rate_rad_s();
-    let ramp_s = (2.0 * cfg.hbt.relay_height_rad() - r * cfg.servo.time_constant_s) / r;
-    let window_s = 2.0 * crate::core::dsp::RATE_HALF_WIDTH as f64 / cfg.sensors.rate_hz;
+fn nominal_slew_rad_s(servo: &ServoConfig, rate_hz: f64, h_rad: f64) -> Option<f64> {
+    let r = servo.max_rate_rad_s();
+    let ramp_s = (2.0 * h_rad - r * servo.time_constant_s) / r;
+    let window_s = 2.0 * crate::core::dsp::RATE_HALF_WIDTH as f64 / rate_hz;
     (ramp_s >= 1.5 * window_s).then_some(r)
 }
 
@@ -544,8 +637,10 @@ fn handback_instant(t_up_s: f64, period_s: f64, amp_rad: f64, eps_rad: f64, tau_
 
 #[cfg(test)]
 mod tests {
-    use super::{handback_instant, nominal_slew_rad_s, slew_peak};
+    use super::{handback_instant, nominal_slew_rad_s, slew_peak, HbtReport, HbtRun};
     use crate::core::monitor::config::CoreConfig;
+    use crate::core::monitor::{AbortReason, Measured};
+    use crate::core::wire::ExcitationMode;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
     use rand_distr::{Distribution, StandardNormal};
@@ -585,10 +680,153 @@ mod tests {
 
     #[test]
     fn nominal_slew_needs_a_saturating_relay() {
+        let cfg = CoreConfig::default();
+        let slew = |h_deg: f64| nominal_slew_rad_s(&cfg.servo, 10.0, h_deg.to_radians());
+        assert_eq!(slew(cfg.hbt.relay_height_deg), Some(cfg.servo.max_rate_rad_s()));
+        assert_eq!(slew(3.0), None);
+    }
+
+    /// One relay test on a linear ship integrated here, independently of the simulator:
+    /// `psi'' = -a psi' + b delta`, the servo of `cfg` (command clamped, first-order lag,
+    /// rate limit, angle limit), no noise, on course at rest; sampled at `sensors.rate-hz`,
+    /// 20 Euler steps per sample. Returns the test's outcome and the largest |heading error|
+    /// over the measured periods.
+    fn relay_on_linear_ship(
+        cfg: &CoreConfig,
+        u: f64,
+        d: f64,
+    ) -> (Result<HbtReport, AbortReason>, f64) {
+        let (a, b) = cfg.ship.nomoto(u, d);
+        let dt = 1.0 / cfg.sensors.rate_hz;
+        let sub = 20;
+        let h = dt / sub as f64;
+        let (max_angle, max_rate, tr) = (
+            cfg.servo.max_angle_rad(),
+            cfg.servo.max_rate_rad_s(),
+            cfg.servo.time_constant_s,
+        );
+        let t0 = 100.0;
+        let mut run = HbtRun::new(cfg, t0, Some(u));
+        let (mut psi, mut r, mut delta, mut cmd) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+        let mut peak = 0.0f64;
+        for k in 0..40_000 {
+            let t = t0 + k as f64 * dt;
+            run.push_rudder(t, delta).unwrap();
+            let step = run.on_heading(t, psi, -psi);
+            if let Some(done) = step.done {
+                let report = done.map(|m| match m {
+                    Measured::Hbt(r) => r,
+                    Measured::Clfrt(_) => unreachable!(),
+                });
+                return (report, peak);
+            }
+            if run.up_switches.len() > run.settle_periods && run.result.is_none() {
+                peak = peak.max(psi.abs());
+            }
+            cmd = match step.mode {
+                ExcitationMode::Replace => step.value.clamp(-max_angle, max_angle),
+                _ => cmd,
+            };
+            for _ in 0..sub {
+                let rate = ((cmd - delta) / tr).clamp(-max_rate, max_rate);
+                delta = (delta + rate * h).clamp(-max_angle, max_angle);
+                let acc = -a * r + b * delta;
+                psi += r * h;
+                r += acc * h;
+            }
+        }
+        panic!("no report");
+    }
+
+    /// Homogeneity: the relay forced to half size (the floor on the hysteresis, 0.5 deg of
+    /// the designed 1 deg, decides) gives the designed relay's cycle at about half the
+    /// amplitude and the same period; the servo's rate limit (4 deg/s: the 16 deg step slews
+    /// 4 s, the 8 deg one 2 s) makes the small cycle a little faster and smaller, as the
+    /// describing function says, and the estimator's inputs, read through its ratios, stay.
+    /// The independent answer: the describing function on the true ship.
+    #[test]
+    fn a_relay_sized_to_half_gives_the_same_cycle_at_half_the_amplitude() {
+        use crate::core::dsp::relay::limit_cycle_describing_function;
+        use crate::core::estimator::features::Feature;
+        use crate::core::wire::Features;
+        let mut full = CoreConfig::default();
+        full.hbt.resize_at_switch = 0;
+        // The slow ship's period (~330 s) needs room for the settling after the resize.
+        full.hbt.timeout_s = 3000.0;
+        full.safety.max_test_duration_s = 3600.0;
+        let mut half = full.clone();
+        half.hbt.resize_at_switch = 2;
+        half.hbt.resize_heading_fraction = 0.01;
+        half.hbt.resize_min_hysteresis_deg = 0.5;
+        half.hbt.resize_wave_factor = 0.0;
+        let (h, eps) = (full.hbt.relay_height_rad(), full.hbt.hysteresis_rad());
+        let rel = |x: f64, y: f64| x / y - 1.0;
+        for (u, d) in [(7.0, 7000.0), (10.0, 4000.0), (4.0, 10000.0)] {
+            let (r1, peak1) = relay_on_linear_ship(&full, u, d);
+            let (r2, _) = relay_on_linear_ship(&half, u, d);
+            let (r1, r2) = (r1.unwrap(), r2.unwrap());
+            assert_eq!(r1.relay_scale, None);
+            assert_eq!(r2.relay_scale, Some(0.5));
+            assert!((r2.relay_height_rad - 0.5 * h).abs() < 1e-15);
+            assert!((r2.hysteresis_rad - 0.5 * eps).abs() < 1e-15);
+            let (p1, p2) = (r1.cycle.period_s, r2.cycle.period_s);
+            let (a1, a2) = (r1.cycle.amplitude_rad, r2.cycle.amplitude_rad);
+            // Same period and half the amplitude within the rate limit's share.
+            assert!(rel(p2, p1).abs() < 0.06, "{u} {d}: period {p2} vs {p1}");
+            assert!(rel(a2 / 0.5, a1).abs() < 0.11, "{u} {d}: a_u / s {a2} vs {a1}");
+            // The describing function on the true ship at the relay as played, both sizes,
+            // and its ratios against the measured ones.
+            let (a, b) = full.ship.nomoto(u, d);
+            let df = |s: f64| {
+                let (w, amp) =
+                    limit_cycle_describing_function(a, b, s * h, s * eps, &full.servo).unwrap();
+                (2.0 * std::f64::consts::PI / w, amp)
+            };
+            let ((dp1, da1), (dp2, da2)) = (df(1.0), df(0.5));
+            for (p, amp, dp, da) in [(p1, a1, dp1, da1), (p2, a2, dp2, da2)] {
+                assert!(rel(p, dp).abs() < 0.05, "{u} {d}: P {p} vs DF {dp}");
+                assert!(rel(amp, da).abs() < 0.10, "{u} {d}: A {amp} vs DF {da}");
+            }
+            assert!(rel(p2 / p1, dp2 / dp1).abs() < 0.02, "{u} {d}: period ratio");
+            assert!(rel(a2 / a1, da2 / da1).abs() < 0.04, "{u} {d}: amplitude ratio");
+            // The sizing's own prediction of the designed relay's cycle, from the record up
+            // to the second switch, against the designed relay's measured cycle and peak.
+            let pr = r2.prediction.unwrap();
+            assert!(rel(pr.a_per_s, a).abs() < 0.05, "{u} {d}: a {}", pr.a_per_s);
+            assert!(rel(pr.b_per_s2, b).abs() < 0.05, "{u} {d}: b {}", pr.b_per_s2);
+            assert!(rel(pr.amplitude_rad, a1).abs() < 0.06, "{u} {d}: predicted A");
+            assert!(rel(pr.peak_rad, peak1).abs() < 0.08, "{u} {d}: predicted peak");
+            // The estimator reads the designed relay's cycle from both.
+            let f1 = Features::Hbt(r1.to_features());
+            let f2 = Features::Hbt(r2.to_features());
+            for (feature, tol) in [(Feature::LnOmegaU, 0.02), (Feature::LnAmplitude, 0.04)] {
+                let (x1, x2) = (feature.value(&f1).unwrap(), feature.value(&f2).unwrap());
+                assert!((x1 - x2).abs() < tol, "{u} {d}: {feature} {x1} vs {x2}");
+            }
+        }
+    }
+
+    /// A heading limit that even the smallest relay would cross: abort at the look, with the
+    /// prediction in the reason, before the cycle gets there.
+    #[test]
+    fn a_relay_that_cannot_shrink_enough_aborts_at_the_look() {
         let mut cfg = CoreConfig::default();
-        assert_eq!(nominal_slew_rad_s(&cfg), Some(cfg.servo.max_rate_rad_s()));
-        cfg.hbt.relay_height_deg = 3.0;
-        assert_eq!(nominal_slew_rad_s(&cfg), None);
+        cfg.safety.max_heading_error_deg = 3.0;
+        cfg.hbt.resize_min_hysteresis_deg = cfg.hbt.hysteresis_deg;
+        let (r, peak) = relay_on_linear_ship(&cfg, 10.0, 4000.0);
+        match r {
+            Err(AbortReason::RelayTooLarge {
+                predicted_deg,
+                limit_deg,
+                hysteresis_deg,
+            }) => {
+                assert!(predicted_deg > 3.0 && predicted_deg < 15.0, "{predicted_deg}");
+                assert!((limit_deg - 3.0).abs() < 1e-12, "{limit_deg}");
+                assert!((hysteresis_deg - 1.0).abs() < 1e-12, "{hysteresis_deg}");
+            }
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(peak, 0.0);
     }
 
     #[test]

@@ -19,7 +19,8 @@
 //!
 //! `idle -> settling -> exciting -> analysing -> idle`; any state -> `idle` on abort.
 //! - HBT: settling = trim measurement (autopilot steering, mean rudder = delta0) and the first
-//!   `hbt.settle-periods` relay periods; exciting = `hbt.measure-periods` periods measured
+//!   `hbt.settle-periods` relay periods (counted again after the relay sizing lowers h and
+//!   eps, `hbt.resize-*`); exciting = `hbt.measure-periods` periods measured
 //!   between switches to `+h`; analysing = features, then the relay runs on until the
 //!   hand-back instant (`hbt.handback-lead-s`), then the report.
 //! - CLFRT: settling = `clfrt.settle-windows` windows: the servo check (a 0.6 rad/s sinusoid,
@@ -58,6 +59,7 @@
 //! | `mod.rs` | the state machine: inputs, the test's lifecycle, reports, statuses |
 //! | `safety.rs` | preconditions, steady course, the safety checks, the excitation gate |
 //! | `hbt.rs`, `clfrt.rs` | each method's run and analysis, and its typed features |
+//! | `sizing.rs` | the excitation sized to the loop: CLFRT's tones, HBT's relay |
 //! | `input.rs`, `record.rs` | input validation and counters; bounded test records |
 //! | `abort.rs` | why a test stopped |
 //! | `state.rs` | what a vessel's monitor keeps across a restart |
@@ -70,6 +72,7 @@ mod hbt;
 pub mod input;
 pub mod record;
 mod safety;
+mod sizing;
 mod state;
 
 use crate::core::angle::wrap_pi;
@@ -184,6 +187,7 @@ impl Measured {
 
 pub use clfrt::ClfrtReport;
 pub use hbt::HbtReport;
+pub use sizing::{square_wave_peak_factor, RelayPrediction};
 
 /// Counters beyond the per-stream input counts.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
@@ -646,7 +650,10 @@ impl Monitor {
     /// Starts a test at `t` (preconditions already checked). Returns its id.
     fn start(&mut self, t: f64, method: Method, why: &str) -> Result<String, String> {
         let kind = match method {
-            Method::Hbt => RunKind::Hbt(Box::new(hbt::HbtRun::new(&self.cfg, t))),
+            Method::Hbt => {
+                let speed = self.speed_smooth.map(|x| x.0);
+                RunKind::Hbt(Box::new(hbt::HbtRun::new(&self.cfg, t, speed)))
+            }
             Method::Clfrt => {
                 let ms = self.multisine.clone()?;
                 RunKind::Clfrt(Box::new(clfrt::ClfrtRun::new(&self.cfg, t, ms)))
@@ -771,6 +778,12 @@ impl Monitor {
                     msg.push_str(&format!(
                         "; tones sized to the loop: {} of the design amplitude",
                         pct.join(", ")
+                    ));
+                }
+                if let Some(scale) = features.hbt().and_then(|h| h.relay_scale) {
+                    msg.push_str(&format!(
+                        "; relay sized to the loop: {:.0} % of the design",
+                        100.0 * scale
                     ));
                 }
                 assessment = Some(a);

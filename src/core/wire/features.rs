@@ -316,6 +316,25 @@ pub struct HbtFeatures {
     /// The servo slew check (absent when not measurable).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub servo_rate: Option<ServoRateFeatures>,
+    /// The scale of the relay's height and hysteresis against the design when the test
+    /// lowered them to keep the limit cycle inside the heading limit (absent when the relay
+    /// played as designed): `relay_height_rad`, `hysteresis_rad` and `amplitude_rad` are as
+    /// played; by homogeneity the cycle is the designed relay's at `relay_scale` times its
+    /// amplitude, up to the servo's rate limit (`relay_omega_ratio`,
+    /// `relay_amplitude_ratio`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub relay_scale: Option<f64>,
+    /// With `relay_scale`: the describing function's ratio, on the ship fitted at the
+    /// sizing's look, of the played relay's cycle frequency to the designed relay's (1 where
+    /// the servo's rate limit does not act): `omega_u_rad_s / relay_omega_ratio` is the
+    /// designed relay's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub relay_omega_ratio: Option<f64>,
+    /// With `relay_scale`: the same ratio of the cycle amplitudes (`relay_scale` where the
+    /// rate limit does not act): `amplitude_rad / relay_amplitude_ratio` is the designed
+    /// relay's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub relay_amplitude_ratio: Option<f64>,
     /// Mean speed-log reading over the test [m/s] (absent without speed samples).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub speed_log_mps: Option<f64>,
@@ -381,6 +400,9 @@ pub(crate) mod sample {
             response_gain: None,
             response_phase_rad: None,
             servo_rate: None,
+            relay_scale: None,
+            relay_omega_ratio: None,
+            relay_amplitude_ratio: None,
             speed_log_mps: None,
             baseline: None,
             baseline_error: None,

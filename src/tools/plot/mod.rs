@@ -275,9 +275,10 @@ pub fn plot_report(
                     r.test, r.outcome
                 ))
             })?;
+            // The relay as played (the report's: a sized test played a smaller one).
             let relay = charts::Relay {
-                height_rad: cfg.hbt.relay_height_rad().min(cfg.servo.max_angle_rad()),
-                hysteresis_rad: cfg.hbt.hysteresis_rad(),
+                height_rad: f.relay_height_rad.min(cfg.servo.max_angle_rad()),
+                hysteresis_rad: f.hysteresis_rad,
             };
             let predict = |ab: (f64, f64)| {
                 crate::core::dsp::relay::limit_cycle_describing_function(

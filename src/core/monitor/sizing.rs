@@ -1,0 +1,695 @@
+//! Excitation sized to the loop the test finds: each method plays its designed excitation,
+//! measures what the loop makes of it early in the test's settling, and lowers it (never
+//! raises it) when the loop would carry the ship past a limit; the measurement then sees one
+//! size, the report says which, and the features the estimator reads do not depend on it.
+//!
+//! ## CLFRT: the tones ([`ToneSizing`])
+//!
+//! The autopilot is a black box, and where its sensitivity peaks (gains tuned for another
+//! ship: at the fast and light corner a fixed-gain autopilot amplifies the fastest tone
+//! ~13-fold, `|1 / (1 + L(jw))|` at 0.18 rad/s) the tones drive the rudder to its limit. From
+//! the multisine's start to `clfrt.resize-settle-s` before the measurement, every
+//! `clfrt.resize-wait-s` the rudder over each tone's latest period is fitted (least squares)
+//! on that tone and the faster ones as played, with a quadratic trend: the gain
+//! `g_i = |Delta_i| / |E_i|` and its standard error `se_i` (the residual's variance counted
+//! once per `clfrt.resize-correlation-s`). A tone with `(g_i - c se_i) s_i >
+//! clfrt.resize-gain` (`c` = `clfrt.resize-confidence`, `s_i` its scale) is lowered by
+//! `clfrt.resize-factor` over a raised-cosine ramp of `clfrt.resize-ramp-s`, at most
+//! `clfrt.resize-max` times; the record starts again after the ramp. The measured windows see
+//! one amplitude per tone. Each tone's gain and phase are ratios of heading to rudder,
+//! independent of its amplitude for a linear ship, and the lowered tone is the one the loop
+//! amplifies, so its rudder (the signal the ratio rests on) stays large. The report's
+//! `amplitude_scales` gives each tone's scale.
+//!
+//! ## HBT: the relay ([`RelaySizing`])
+//!
+//! The relay `h sign(e)` with hysteresis `eps` on the linear ship `G(s) = b / (s (s + a))`
+//! behind the servo `S` oscillates where `S G` meets `-1/N(A)`,
+//! `N(A) = 4h / (pi A) exp(-i asin(eps / A))`: `N` depends on `h / A` and `eps / A` only, so
+//! scaling `h` and `eps` by `s` scales the cycle's amplitude by `s` at the same frequency
+//! (homogeneity). The servo's rate limit breaks this only while it saturates, and then in the
+//! safe direction: a smaller step slews for less of the period, so the lag and the cycle
+//! shrink a little more than `s`. The cycle's heading amplitude grows with `b / w^2`, so it is
+//! largest where the ship is most responsive (fast and light), and there it can exceed the
+//! heading limit (`safety.max-heading-error-deg`).
+//!
+//! At the relay's `hbt.resize-at-switch`-th switch (in the settling, before the cycle has
+//! grown: from rest, a relay cycle grows over several half-periods), the ship is identified
+//! on the heading and rudder recorded since the relay started: `a = a0 u / l` from the speed
+//! log at the test's start (the speed is known on a ship, and a record of a fraction of a
+//! period tells `a` poorly), and `b` by the baseline's equation-error least squares with
+//! that `a` (the relay's steps tell `b` within a few %; the record starts on a steady course,
+//! at rest, so no start-up transient is left out). Without a speed log, `a` and `b` are both
+//! fitted ([`crate::core::baseline::fit`]). The describing function
+//! ([`crate::core::dsp::relay::limit_cycle_describing_function`], the servo included) gives
+//! the cycle's frequency `w` and first-harmonic amplitude `A`; the heading error's peak is
+//! `k A`, `k` the peak over the first harmonic of the ship's steady response to a square
+//! wave at `w` ([`square_wave_peak_factor`]: `pi^3 / 32` = 0.97 for `w >> a`, `pi^2 / 8` =
+//! 1.23 for `w << a`). When `k A` exceeds `hbt.resize-heading-fraction` of the heading limit,
+//! `h` and `eps` are scaled by `s = fraction limit / (k A)`, but never `eps` below
+//! `max(hbt.resize-min-hysteresis-deg, hbt.resize-wave-factor x wave yaw)` (the wave yaw:
+//! the heading's rms in `fdi.wave-band-rad-s` over the same record; the hysteresis must exceed
+//! it or the relay chatters). When even that smallest relay is predicted past the heading
+//! limit itself, the test aborts (`relay_too_large`) before the ship gets there; when it is
+//! predicted between the fraction and the limit, the smallest relay plays.
+//!
+//! After a resize the settling starts again (`hbt.settle-periods` from the next switch to
+//! `+h`). The report's `relay_height_rad` and `hysteresis_rad` are the relay as played,
+//! `relay_scale` its scale. The estimator reads the designed relay's cycle: `w_u / r_w` and
+//! `a_u / r_A`, `(r_w, r_A)` the describing function's ratios `(w(s) / w(1), A(s) / A(1))`
+//! on the fitted ship (`relay_omega_ratio`, `relay_amplitude_ratio`;
+//! [`RelayPrediction::ratios`]). By homogeneity they are `(1, s)`; the servo's rate limit
+//! moves them where the relay's slew takes a noticeable part of the period (default servo,
+//! 4 deg/s, h 8 -> 4 deg: `w` +4 % and `A / s` -7 % at 7 m/s, 7000 t; +7 % and -13 % at
+//! 10 m/s, 4000 t). The response `G(j w_u)` (a ratio) and the period spread need nothing.
+
+use super::AbortReason;
+use crate::core::baseline::{self, BaselineConfig};
+use crate::core::dsp::multisine::Multisine;
+use crate::core::dsp::relay::limit_cycle_describing_function;
+use crate::core::dsp::spectrum::{band_rms, Spectrum};
+use crate::core::model::{ServoConfig, ShipConfig};
+use crate::core::monitor::config::CoreConfig;
+use std::collections::VecDeque;
+use std::f64::consts::PI;
+
+/// Tones a multisine may have (`clfrt.harmonics`: 1 to 8).
+pub(super) const MAX_TONES: usize = 8;
+
+/// The tones' sizes while the test settles (see "CLFRT" in the module doc).
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct ToneSizing {
+    /// Whether the sizing is on.
+    on: bool,
+    /// A tone whose rudder amplitude over its excitation exceeds this is lowered.
+    gain_limit: f64,
+    /// Factor of one resize of a tone.
+    factor: f64,
+    /// Resizes allowed.
+    max: u32,
+    /// Ramp of one resize [s].
+    ramp_s: f64,
+    /// Time between looks at the tones [s].
+    wait_s: f64,
+    /// Standard errors below its estimate at which a tone's gain is judged, the rudder
+    /// residual's correlation time [s] and the sample period [s].
+    confidence: f64,
+    correlation_s: f64,
+    dt_s: f64,
+    /// The latest look [s].
+    look_s: f64,
+    /// Ship times between which a resize may start [s].
+    window: (f64, f64),
+    /// Tone frequencies [rad/s] (the multisine's) and its amplitude [rad].
+    omegas: Vec<f64>,
+    amplitude_rad: f64,
+    /// Per tone: the scale before the latest resize, and after it; the resize's start [s].
+    from: Vec<f64>,
+    to: Vec<f64>,
+    at_s: f64,
+    /// Resizes so far.
+    resizes: u32,
+    /// Since the latest resize's ramp, over at most the lowest tone's period: `(t, rudder,
+    /// fade envelope)` [s, rad, -].
+    rudder: VecDeque<(f64, f64, f64)>,
+    /// Tone phases [rad] and the multisine's phase origin [s].
+    phases: Vec<f64>,
+    t0_s: f64,
+    /// Span of `rudder` [s] and its capacity [samples].
+    span_s: f64,
+    capacity: usize,
+}
+
+impl ToneSizing {
+    pub(super) fn new(cfg: &CoreConfig, multisine: &Multisine, t0_s: f64, window: (f64, f64)) -> Self {
+        let c = &cfg.clfrt;
+        let omegas = multisine.omegas().to_vec();
+        let n = omegas.len();
+        // The slowest tone's period, and a second to spare.
+        let span_s = omegas
+            .iter()
+            .fold(0.0f64, |m, w| m.max(2.0 * PI / w.max(1e-9)))
+            + 1.0;
+        let capacity = (span_s * cfg.sensors.rate_hz * 2.0).ceil() as usize + 8;
+        Self {
+            on: c.resize_max > 0,
+            gain_limit: c.resize_gain,
+            factor: c.resize_factor,
+            max: c.resize_max,
+            ramp_s: c.resize_ramp_s,
+            wait_s: c.resize_wait_s,
+            confidence: c.resize_confidence,
+            correlation_s: c.resize_correlation_s,
+            dt_s: 1.0 / cfg.sensors.rate_hz,
+            window,
+            omegas,
+            phases: multisine.phases().to_vec(),
+            t0_s,
+            amplitude_rad: multisine.amplitude_rad(),
+            from: vec![1.0; n],
+            to: vec![1.0; n],
+            at_s: f64::NEG_INFINITY,
+            look_s: window.0,
+            resizes: 0,
+            rudder: VecDeque::new(),
+            span_s,
+            capacity,
+        }
+    }
+
+    /// The tones' scales at ship time `t` (tones beyond the multisine's count 1).
+    pub(super) fn scales(&self, t: f64) -> [f64; MAX_TONES] {
+        let x = if self.ramp_s > 0.0 {
+            ((t - self.at_s) / self.ramp_s).clamp(0.0, 1.0)
+        } else {
+            1.0
+        };
+        let w = 0.5 * (1.0 - (PI * x).cos());
+        let mut out = [1.0; MAX_TONES];
+        for (o, (f, to)) in out.iter_mut().zip(self.from.iter().zip(&self.to)) {
+            *o = f + (to - f) * w;
+        }
+        out
+    }
+
+    /// Whether any tone was lowered.
+    pub(super) fn resized(&self) -> bool {
+        self.to.iter().any(|&s| s < 1.0)
+    }
+
+    /// The loop's gain from excitation to rudder at each tone, `|Delta(w_i)| / |E(w_i)|`, and
+    /// its standard error, over
+    /// the latest whole period of the tone (the loop may still be building up: the latest
+    /// period is the nearest to what the measurement will see): a least-squares fit of the
+    /// kept rudder on the sine and cosine as played (fade envelope and scale included) of this
+    /// tone and every faster one, jointly (over a period they are not orthogonal), with a
+    /// quadratic trend for the slower ones. None until the record holds a period of the tone,
+    /// or when the fit is singular.
+    fn tone_gains(&self) -> [Option<(f64, f64)>; MAX_TONES] {
+        let mut out = [None; MAX_TONES];
+        let Some(&(t_last, _, _)) = self.rudder.back() else {
+            return out;
+        };
+        let n = self.omegas.len().min(MAX_TONES);
+        for (i, slot) in out.iter_mut().enumerate().take(n) {
+            let period = 2.0 * PI / self.omegas[i];
+            let from = t_last - period;
+            if self.rudder.front().is_none_or(|&(t0, _, _)| t0 > from) {
+                continue;
+            }
+            let fitted: Vec<usize> = (0..n)
+                .filter(|&j| 2.0 * PI / self.omegas[j] <= period)
+                .collect();
+            *slot = self.fit_gain(from, t_last, &fitted, i);
+        }
+        out
+    }
+
+    /// `|Delta(w_i)| / |E(w_i)|` from the fit over `[from, to]` on the tones `fitted` (which
+    /// hold `i`), and its standard error (in a moderate sea at 4 m/s the autopilot's own
+    /// rudder scatters a one-period gain by +-1).
+    fn fit_gain(&self, from: f64, to: f64, fitted: &[usize], i: usize) -> Option<(f64, f64)> {
+        let m = 3 + 2 * fitted.len();
+        let mid = 0.5 * (from + to);
+        let half = (0.5 * (to - from)).max(1e-9);
+        let mut ata = nalgebra::DMatrix::<f64>::zeros(m, m);
+        let mut atb = nalgebra::DVector::<f64>::zeros(m);
+        let mut row = vec![0.0; m];
+        let (mut count, mut sum_dd) = (0usize, 0.0);
+        for &(t, d, env) in self.rudder.iter().filter(|(t, _, _)| *t >= from) {
+            count += 1;
+            sum_dd += d * d;
+            let x = (t - mid) / half;
+            row[0] = 1.0;
+            row[1] = x;
+            row[2] = x * x;
+            for (j, &k) in fitted.iter().enumerate() {
+                let a = self.amplitude_rad * self.to[k] * env;
+                let arg = self.omegas[k] * (t - self.t0_s) + self.phases[k];
+                row[3 + 2 * j] = a * arg.sin();
+                row[4 + 2 * j] = a * arg.cos();
+            }
+            for r in 0..m {
+                atb[r] += row[r] * d;
+                for c in 0..m {
+                    ata[(r, c)] += row[r] * row[c];
+                }
+            }
+        }
+        let ch = ata.cholesky()?;
+        let sol = ch.solve(&atb);
+        let j = fitted.iter().position(|&k| k == i)?;
+        let gain = sol[3 + 2 * j].hypot(sol[4 + 2 * j]);
+        // The fit's noise: residual variance over the effective samples (the rudder's
+        // residual is correlated over `correlation_s`), its covariance sigma^2 (A'A)^-1.
+        let samples = count as f64;
+        let dof = samples - m as f64;
+        if dof <= 0.0 {
+            return None;
+        }
+        let rss = (sum_dd - sol.dot(&atb)).max(0.0);
+        let inv = ch.inverse();
+        let per_sample = (self.correlation_s / self.dt_s).max(1.0);
+        let var = rss / dof * per_sample;
+        let se = (0.5 * var * (inv[(3 + 2 * j, 3 + 2 * j)] + inv[(4 + 2 * j, 4 + 2 * j)])).sqrt();
+        Some((gain, se))
+    }
+
+    /// A rudder sample. Every `wait_s` inside the window, each tone whose rudder amplitude
+    /// exceeds `gain_limit` times its designed amplitude (the loop amplifies it: its gain,
+    /// `confidence` standard errors below the estimate, times its scale is over the limit) is
+    /// lowered by `factor`; the others are not the rudder's trouble, and lowering them would
+    /// only cost signal-to-noise.
+    pub(super) fn on_rudder(&mut self, t: f64, rudder_rad: f64, envelope: f64) {
+        let (start, end) = self.window;
+        if !self.on
+            || !rudder_rad.is_finite()
+            || t < start
+            || t >= end
+            || t < self.at_s + self.ramp_s
+        {
+            return;
+        }
+        self.rudder.push_back((t, rudder_rad, envelope));
+        while self.rudder.len() > self.capacity
+            || self
+                .rudder
+                .front()
+                .is_some_and(|(t0, _, _)| t - t0 > self.span_s)
+        {
+            self.rudder.pop_front();
+        }
+        if self.resizes >= self.max || t < self.look_s + self.wait_s {
+            return;
+        }
+        self.look_s = t;
+        let now = self.scales(t);
+        let gains = self.tone_gains();
+        // Lowered while its rudder amplitude, on clear evidence, exceeds `gain_limit` times
+        // its designed amplitude.
+        let cut: Vec<bool> = gains
+            .iter()
+            .zip(now)
+            .map(|(g, scale)| {
+                g.is_some_and(|(g, se)| (g - self.confidence * se) * scale > self.gain_limit)
+            })
+            .collect();
+        if !cut.iter().any(|&c| c) {
+            return;
+        }
+        // A fresh record after the ramp: the fit assumes one size per tone.
+        self.rudder.clear();
+        for (f, n) in self.from.iter_mut().zip(now) {
+            *f = n;
+        }
+        for (to, c) in self.to.iter_mut().zip(&cut) {
+            if *c {
+                *to *= self.factor;
+            }
+        }
+        self.at_s = t;
+        self.resizes += 1;
+    }
+}
+
+/// What the relay sizing predicted from the start of the relay's record.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RelayPrediction {
+    /// The ship's yaw damping `a` [1/s] and rudder gain `b` [1/s^2] fitted on the record.
+    pub a_per_s: f64,
+    /// See `a_per_s`.
+    pub b_per_s2: f64,
+    /// Wave yaw on the record's heading [rad] (none when it could not be computed).
+    pub wave_yaw_rad: Option<f64>,
+    /// The describing function's cycle at the relay as designed: frequency [rad/s],
+    /// first-harmonic heading amplitude [rad] and the heading error's peak [rad].
+    pub omega_rad_s: f64,
+    /// See `omega_rad_s`.
+    pub amplitude_rad: f64,
+    /// See `omega_rad_s`.
+    pub peak_rad: f64,
+    /// The scale chosen (1: the relay as designed).
+    pub scale: f64,
+    /// The describing function's cycle at that scale: frequency [rad/s], first-harmonic
+    /// amplitude [rad] and peak heading error [rad] (the designed relay's at scale 1).
+    pub scaled_omega_rad_s: f64,
+    /// See `scaled_omega_rad_s`.
+    pub scaled_amplitude_rad: f64,
+    /// See `scaled_omega_rad_s`.
+    pub scaled_peak_rad: f64,
+}
+
+impl RelayPrediction {
+    /// The describing function's ratios of the played relay's cycle to the designed one's,
+    /// `(w(s) / w(1), A(s) / A(1))`: `(1, s)` where the servo's rate limit does not act
+    /// (homogeneity), a higher frequency and a smaller amplitude where it does (a smaller
+    /// step slews for less of the period: less lag).
+    pub fn ratios(&self) -> (f64, f64) {
+        (
+            self.scaled_omega_rad_s / self.omega_rad_s,
+            self.scaled_amplitude_rad / self.amplitude_rad,
+        )
+    }
+}
+
+/// The relay sizing's verdict at its look.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RelayDecision {
+    /// Play the relay scaled by `prediction.scale` (1: unchanged).
+    Play(RelayPrediction),
+    /// No relay the hysteresis floor allows stays inside the heading limit.
+    Abort(AbortReason),
+}
+
+/// The relay's size (see "HBT" in the module doc): one look, at a given switch.
+#[derive(Debug, Clone)]
+pub struct RelaySizing {
+    /// The relay switch (1-based) at which the sizing looks; 0: off.
+    at_switch: usize,
+    /// Heading error's peak allowed: `hbt.resize-heading-fraction` of the limit [rad].
+    target_rad: f64,
+    /// The safety limit on the heading error [rad].
+    limit_rad: f64,
+    /// Hysteresis floor, absolute [rad], and per rad of wave yaw.
+    min_eps_rad: f64,
+    wave_factor: f64,
+    /// The servo the describing function includes.
+    servo: ServoConfig,
+    /// The fit's filter, with no start-up transient left out.
+    fit: BaselineConfig,
+    /// The ship's particulars (`a = a0 u / l` from the speed log).
+    ship: ShipConfig,
+    /// Wave-yaw band [rad/s], its transform and scratch.
+    wave: ((f64, f64), Spectrum, Vec<f64>),
+}
+
+impl RelaySizing {
+    /// The sizing `cfg` asks for.
+    pub fn new(cfg: &CoreConfig) -> Self {
+        let h = &cfg.hbt;
+        let limit_rad = cfg.safety.max_heading_error_deg.to_radians();
+        Self {
+            at_switch: h.resize_at_switch as usize,
+            target_rad: h.resize_heading_fraction * limit_rad,
+            limit_rad,
+            min_eps_rad: h.resize_min_hysteresis_deg.to_radians(),
+            wave_factor: h.resize_wave_factor,
+            servo: cfg.servo.clone(),
+            fit: BaselineConfig {
+                transient_s: 0.0,
+                ..cfg.baseline.clone()
+            },
+            ship: cfg.ship.clone(),
+            wave: (
+                (cfg.fdi.wave_band_rad_s[0], cfg.fdi.wave_band_rad_s[1]),
+                Spectrum::new(),
+                Vec::new(),
+            ),
+        }
+    }
+
+    /// Whether the sizing looks at the `switches`-th relay switch.
+    pub fn looks_at(&self, switches: usize) -> bool {
+        self.at_switch > 0 && switches == self.at_switch
+    }
+
+    /// The verdict for a relay `(h, eps)` [rad] from the heading and rudder recorded since it
+    /// started (`dt` apart, same length, starting on a steady course) and the speed log at
+    /// the test's start (none: unknown). `Err`: no prediction (the fit or the describing
+    /// function failed, or the fitted ship is not a ship); the relay then plays as designed
+    /// and the safety limits still hold.
+    pub fn decide(
+        &mut self,
+        heading_rad: &[f64],
+        rudder_rad: &[f64],
+        dt_s: f64,
+        speed_mps: Option<f64>,
+        (h_rad, eps_rad): (f64, f64),
+    ) -> Result<RelayDecision, String> {
+        let (a, b) = match speed_mps.filter(|u| u.is_finite() && *u > 0.0) {
+            Some(u) => {
+                let a = self.ship.yaw_damping_a0 * u / self.ship.length_m;
+                (a, fit_b(heading_rad, rudder_rad, dt_s, a, &self.fit)?)
+            }
+            None => {
+                let fit = baseline::fit(heading_rad, rudder_rad, dt_s, &self.fit)
+                    .map_err(|e| format!("fit: {e}"))?;
+                (fit.a_per_s, fit.b_per_s2)
+            }
+        };
+        if !(a >= 0.0 && b > 0.0) {
+            return Err(format!("fitted a = {a:.3e} 1/s, b = {b:.3e} 1/s^2"));
+        }
+        let (band, spectrum, scratch) = &mut self.wave;
+        let wave_yaw_rad = band_rms(heading_rad, dt_s, *band, spectrum, scratch).ok();
+        let peak = |h: f64, eps: f64| -> Result<(f64, f64, f64), String> {
+            let (w, amp) = limit_cycle_describing_function(a, b, h, eps, &self.servo)
+                .map_err(|e| format!("describing function: {e}"))?;
+            Ok((w, amp, square_wave_peak_factor(w, a) * amp))
+        };
+        let (omega_rad_s, amplitude_rad, peak_rad) = peak(h_rad, eps_rad)?;
+        let mut prediction = RelayPrediction {
+            a_per_s: a,
+            b_per_s2: b,
+            wave_yaw_rad,
+            omega_rad_s,
+            amplitude_rad,
+            peak_rad,
+            scale: 1.0,
+            scaled_omega_rad_s: omega_rad_s,
+            scaled_amplitude_rad: amplitude_rad,
+            scaled_peak_rad: peak_rad,
+        };
+        if peak_rad <= self.target_rad {
+            return Ok(RelayDecision::Play(prediction));
+        }
+        let floor_rad = self
+            .min_eps_rad
+            .max(self.wave_factor * wave_yaw_rad.unwrap_or(0.0));
+        let scale = (self.target_rad / peak_rad).max(floor_rad / eps_rad).min(1.0);
+        let (scaled_omega_rad_s, scaled_amplitude_rad, scaled_peak_rad) = if scale < 1.0 {
+            peak(scale * h_rad, scale * eps_rad)?
+        } else {
+            (omega_rad_s, amplitude_rad, peak_rad)
+        };
+        if scaled_peak_rad > self.limit_rad {
+            return Ok(RelayDecision::Abort(AbortReason::RelayTooLarge {
+                predicted_deg: scaled_peak_rad.to_degrees(),
+                limit_deg: self.limit_rad.to_degrees(),
+                hysteresis_deg: (scale * eps_rad).to_degrees(),
+            }));
+        }
+        prediction.scale = scale;
+        prediction.scaled_omega_rad_s = scaled_omega_rad_s;
+        prediction.scaled_amplitude_rad = scaled_amplitude_rad;
+        prediction.scaled_peak_rad = scaled_peak_rad;
+        Ok(RelayDecision::Play(prediction))
+    }
+}
+
+/// The rudder gain `b` [1/s^2] of `psi'' = -a psi' + b delta + c` with `a` given: the
+/// baseline's state-variable filter on both records ([`crate::core::baseline`]), then least
+/// squares of `s^2 F psi + a s F psi = b F delta + c` (two unknowns, normal equations; the
+/// record starts at rest, so no transient is left out).
+fn fit_b(
+    heading_rad: &[f64],
+    rudder_rad: &[f64],
+    dt_s: f64,
+    a: f64,
+    cfg: &BaselineConfig,
+) -> Result<f64, String> {
+    if heading_rad.len() != rudder_rad.len() || heading_rad.len() < baseline::MIN_FIT_SAMPLES {
+        return Err(format!(
+            "fit: {} heading and {} rudder samples",
+            heading_rad.len(),
+            rudder_rad.len()
+        ));
+    }
+    let err = |e: baseline::BaselineError| format!("fit: {e}");
+    let mut fh = baseline::StateVariableFilter::new(cfg.filter_rad_s, dt_s).map_err(err)?;
+    let mut fd = baseline::StateVariableFilter::new(cfg.filter_rad_s, dt_s).map_err(err)?;
+    let psi0 = heading_rad[0];
+    // Sums of x x' and x y over x = (F delta, 1), y = s^2 F psi + a s F psi.
+    let (mut sdd, mut sd, mut n, mut sdy, mut sy) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for (k, (&psi, &delta)) in heading_rad.iter().zip(rudder_rad).enumerate() {
+        let (h, d) = if k == 0 {
+            (fh.reset(0.0), fd.reset(delta))
+        } else {
+            (fh.step(psi - psi0), fd.step(delta))
+        };
+        let y = h.ssf + a * h.sf;
+        sdd += d.f * d.f;
+        sd += d.f;
+        n += 1.0;
+        sdy += d.f * y;
+        sy += y;
+    }
+    let det = sdd * n - sd * sd;
+    let b = (n * sdy - sd * sy) / det;
+    if det > 0.0 && b.is_finite() {
+        Ok(b)
+    } else {
+        Err("fit: no rudder excitation".into())
+    }
+}
+
+/// Harmonics summed by [`square_wave_peak_factor`] (their terms fall as `1 / n^2` and faster).
+const PEAK_HARMONICS: usize = 63;
+
+/// Peak over first-harmonic amplitude of the steady response of `b / (s (s + a))` to a
+/// square wave of frequency `w` [rad/s]: the odd harmonics `n`, each `(1/n) |G(j n w)|` and
+/// phase `arg G(j n w)` against the fundamental's, summed and maximised over a period (`b`
+/// cancels). `pi^3 / 32` when `a = 0` (parabolic arcs), `pi^2 / 8` when `a >> w` (a
+/// triangle).
+pub fn square_wave_peak_factor(w: f64, a: f64) -> f64 {
+    let g = |n: f64| {
+        let x = n * w;
+        (1.0 / (x * x.hypot(a)), -PI / 2.0 - (x / a.max(f64::MIN_POSITIVE)).atan())
+    };
+    let (g1, _) = g(1.0);
+    let steps = 720;
+    (0..steps)
+        .map(|i| {
+            let th = 2.0 * PI * i as f64 / steps as f64;
+            (0..PEAK_HARMONICS)
+                .map(|k| {
+                    let n = (2 * k + 1) as f64;
+                    let (gn, pn) = g(n);
+                    gn / (n * g1) * (n * th + pn).sin()
+                })
+                .sum::<f64>()
+                .abs()
+        })
+        .fold(0.0, f64::max)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::core::monitor::Monitor;
+
+    /// A rudder that answers each tone `i` with gain `gains[i]` (a lag of 0.3 rad) plus a
+    /// trim and a slow wander, sampled at 10 Hz from the multisine's start: what the sizing
+    /// sees in a loop whose sensitivity at the tones is `gains`.
+    fn run(gains: [f64; 3], noise_rad: f64) -> (ToneSizing, Multisine) {
+        let cfg = CoreConfig::default();
+        let ms = Monitor::design_multisine(&cfg).unwrap();
+        let t0 = 1000.0;
+        let mut sizing = ToneSizing::new(&cfg, &ms, t0, (t0, t0 + 400.0));
+        let mut rng_state = 7u64;
+        let mut noise = || {
+            // xorshift, uniform in [-1, 1].
+            rng_state ^= rng_state << 13;
+            rng_state ^= rng_state >> 7;
+            rng_state ^= rng_state << 17;
+            (rng_state >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+        };
+        for n in 0..4000 {
+            let t = t0 + n as f64 * 0.1;
+            let scales = sizing.scales(t);
+            let rudder: f64 = (0..3)
+                .map(|i| {
+                    let arg = ms.omegas()[i] * (t - t0) + ms.phases()[i] - 0.3;
+                    gains[i] * scales[i] * ms.amplitude_rad() * arg.sin()
+                })
+                .sum::<f64>()
+                + 0.02
+                + 0.01 * (0.01 * t).sin()
+                + noise_rad * noise();
+            sizing.on_rudder(t, rudder, 1.0);
+        }
+        (sizing, ms)
+    }
+
+    #[test]
+    fn the_fit_reads_each_tones_gain() {
+        // No tone over the limit: no resize, and the record's fit gives the gains back.
+        let (sizing, _) = run([0.4, 1.5, 2.2], 0.0);
+        assert!(!sizing.resized());
+        let g = sizing.tone_gains();
+        for (i, want) in [0.4, 1.5, 2.2].iter().enumerate() {
+            let (got, se) = g[i].unwrap();
+            // The slower tones leak a little into a faster one's one-period fit (the
+            // quadratic trend takes most of it): within 5 %. The error bar is the noise's
+            // alone, small without noise.
+            assert!(
+                (got - want).abs() < 0.05 * want,
+                "tone {i}: {got} vs {want}"
+            );
+            assert!(se < 0.05 * want, "tone {i}: se {se}");
+        }
+    }
+
+    #[test]
+    fn only_the_amplified_tone_is_lowered() {
+        let (sizing, _) = run([0.1, 0.4, 12.0], 0.001);
+        let (once, _) = run([0.1, 0.4, 6.0], 0.001);
+        // Gain 6: 6 x 0.25 = 1.5, under the limit after one resize.
+        assert_eq!(once.scales(f64::INFINITY)[2], 0.25);
+        assert!(sizing.resized());
+        let s = sizing.scales(f64::INFINITY);
+        assert_eq!(&s[..2], &[1.0, 1.0]);
+        // Gain 12: 12 x 0.25 = 3 is still over 2.5, 12 x 0.0625 = 0.75 is not.
+        assert_eq!(s[2], 0.0625, "{s:?}");
+        assert_eq!(sizing.resizes, 2);
+    }
+
+    #[test]
+    fn rudder_noise_does_not_lower_a_tone() {
+        // Gains of 2 under a rudder noise of +-3 deg: one-period fits scatter, the lower
+        // confidence bound stays under the limit.
+        let (sizing, _) = run([1.6, 2.0, 2.0], 3f64.to_radians());
+        assert!(!sizing.resized(), "{:?}", sizing.scales(f64::INFINITY));
+    }
+
+    #[test]
+    fn sizing_off_leaves_the_tones() {
+        let mut cfg = CoreConfig::default();
+        cfg.clfrt.resize_max = 0;
+        let ms = Monitor::design_multisine(&cfg).unwrap();
+        let mut sizing = ToneSizing::new(&cfg, &ms, 0.0, (0.0, 400.0));
+        for n in 0..4000 {
+            let t = n as f64 * 0.1;
+            sizing.on_rudder(t, 0.4 * (ms.omegas()[2] * t).sin(), 1.0);
+        }
+        assert!(!sizing.resized());
+    }
+
+    /// The peak factor's two limits: parabolic arcs (`a = 0`, `pi^3 / 32`) and a triangle
+    /// (`a >> w`, `pi^2 / 8`); and in between, a brute-force steady state of the ship under a
+    /// square wave (Euler, many periods) agrees.
+    #[test]
+    fn square_wave_peak_factor_known_answers() {
+        let k0 = square_wave_peak_factor(0.05, 0.0);
+        assert!((k0 / (PI.powi(3) / 32.0) - 1.0).abs() < 1e-3, "{k0}");
+        let kt = square_wave_peak_factor(0.001, 1.0);
+        assert!((kt / (PI * PI / 8.0) - 1.0).abs() < 5e-3, "{kt}");
+        // psi'' = -a psi' + sign(sin w t): peak and first harmonic of psi minus its mean over
+        // the tenth period.
+        let (w, a) = (0.05, 0.03);
+        let period = 2.0 * PI / w;
+        let dt = 1e-3;
+        let n = (period / dt).round() as usize;
+        // From rest: the rate's transient decays as e^{-a t} (e^{-38} after ten periods) and
+        // leaves the heading a constant offset, removed with the mean.
+        let (mut psi, mut r) = (0.0f64, 0.0f64);
+        let mut last = Vec::with_capacity(n);
+        for k in 0..10 * n {
+            let t = k as f64 * dt;
+            let u = if (w * t).sin() >= 0.0 { 1.0 } else { -1.0 };
+            psi += r * dt;
+            r += (-a * r + u) * dt;
+            if k >= 9 * n {
+                last.push((t, psi));
+            }
+        }
+        let mean = last.iter().map(|x| x.1).sum::<f64>() / n as f64;
+        let peak = last.iter().map(|x| (x.1 - mean).abs()).fold(0.0, f64::max);
+        let (c, si) = last.iter().fold((0.0, 0.0), |(c, si), (t, x)| {
+            (c + (x - mean) * (w * t).cos(), si + (x - mean) * (w * t).sin())
+        });
+        let h1 = 2.0 / n as f64 * c.hypot(si);
+        let k = square_wave_peak_factor(w, a);
+        assert!((k / (peak / h1) - 1.0).abs() < 5e-3, "{k} vs {}", peak / h1);
+    }
+}
