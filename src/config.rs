@@ -408,10 +408,26 @@ mod tests {
     fn relay_sizing_keys_are_checked() {
         for (toml, key, range) in [
             ("resize-at-switch = 3", "hbt.resize-at-switch", "[0, 2]"),
-            ("resize-heading-fraction = 0", "hbt.resize-heading-fraction", "(0, 1]"),
-            ("resize-heading-fraction = 1.2", "hbt.resize-heading-fraction", "(0, 1]"),
-            ("resize-min-hysteresis-deg = 0", "hbt.resize-min-hysteresis-deg", "(0, 10]"),
-            ("resize-wave-factor = -1", "hbt.resize-wave-factor", "[0, 20]"),
+            (
+                "resize-heading-fraction = 0",
+                "hbt.resize-heading-fraction",
+                "(0, 1]",
+            ),
+            (
+                "resize-heading-fraction = 1.2",
+                "hbt.resize-heading-fraction",
+                "(0, 1]",
+            ),
+            (
+                "resize-min-hysteresis-deg = 0",
+                "hbt.resize-min-hysteresis-deg",
+                "(0, 10]",
+            ),
+            (
+                "resize-wave-factor = -1",
+                "hbt.resize-wave-factor",
+                "[0, 20]",
+            ),
         ] {
             let e = Config::from_toml_str(&format!("[hbt]\n{toml}\n")).unwrap_err();
             let m = e.to_string();

@@ -654,7 +654,11 @@ fn hbt_sizes_the_relay_where_the_ship_is_most_responsive() {
         &cfg.servo,
     )
     .unwrap();
-    assert!(a1.to_degrees() > 10.0, "designed cycle {} deg", a1.to_degrees());
+    assert!(
+        a1.to_degrees() > 10.0,
+        "designed cycle {} deg",
+        a1.to_degrees()
+    );
     let runs = par_map(vec![1u64, 2], |seed| {
         let sc = Scenario {
             speed_mps: u,
@@ -674,16 +678,27 @@ fn hbt_sizes_the_relay_where_the_ship_is_most_responsive() {
     for (off, on) in runs {
         assert_eq!(off.outcome, Outcome::Aborted, "{:?}", off.reason);
         assert!(
-            off.reason.as_deref().unwrap_or("").contains("heading error"),
+            off.reason
+                .as_deref()
+                .unwrap_or("")
+                .contains("heading error"),
             "{:?}",
             off.reason
         );
         assert_eq!(on.outcome, Outcome::Completed, "{:?}", on.reason);
-        assert!(on.message.contains("relay sized to the loop"), "{}", on.message);
+        assert!(
+            on.message.contains("relay sized to the loop"),
+            "{}",
+            on.message
+        );
         let f = hbt(&on);
         let s = f.relay_scale.expect("relay_scale");
         assert!(s > 0.4 && s < 0.75, "{s}");
-        assert!(f.amplitude_rad.to_degrees() < 8.0, "{}", f.amplitude_rad.to_degrees());
+        assert!(
+            f.amplitude_rad.to_degrees() < 8.0,
+            "{}",
+            f.amplitude_rad.to_degrees()
+        );
         // The played relay's cycle against the describing function at that relay.
         let (ws, as_) = limit_cycle_describing_function(
             a,
@@ -693,10 +708,21 @@ fn hbt_sizes_the_relay_where_the_ship_is_most_responsive() {
             &cfg.servo,
         )
         .unwrap();
-        assert!((f.omega_u_rad_s / ws - 1.0).abs() < 0.05, "w {} vs {ws}", f.omega_u_rad_s);
-        assert!((f.amplitude_rad / as_ - 1.0).abs() < 0.10, "A {} vs {as_}", f.amplitude_rad);
+        assert!(
+            (f.omega_u_rad_s / ws - 1.0).abs() < 0.05,
+            "w {} vs {ws}",
+            f.omega_u_rad_s
+        );
+        assert!(
+            (f.amplitude_rad / as_ - 1.0).abs() < 0.10,
+            "A {} vs {as_}",
+            f.amplitude_rad
+        );
         // Read through the ratios: the designed relay's cycle.
-        let (rw, ra) = (f.relay_omega_ratio.unwrap(), f.relay_amplitude_ratio.unwrap());
+        let (rw, ra) = (
+            f.relay_omega_ratio.unwrap(),
+            f.relay_amplitude_ratio.unwrap(),
+        );
         assert!((f.omega_u_rad_s / rw / w1 - 1.0).abs() < 0.05, "designed w");
         assert!((f.amplitude_rad / ra / a1 - 1.0).abs() < 0.10, "designed A");
     }

@@ -434,3 +434,61 @@ fn an_mcap_recording_plots_as_its_json_lines() {
     assert_eq!(std::fs::read_to_string(&out).unwrap(), from_lines);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_state_file_plots_the_learned_reference_with_one_point_per_learned_test() {
+    use helmwatch::core::fdi::reference::Raw;
+    use helmwatch::core::fdi::Fdi;
+    use helmwatch::core::monitor::VesselState;
+    let cfg = Config::default();
+    let fdi = Fdi::new(&cfg.core());
+    let s = fdi.settings();
+    let mut st = fdi.state();
+    // CLFRT commissioned at 7 m/s, then learned at 8.5 m/s; HBT still commissioning.
+    let raw = |u: f64, w: f64| Raw {
+        speed_mps: 0.5 - 0.4 * (u - 7.0) + w,
+        displacement: -0.1 + w / 10.0,
+        speed_sigma_mps: 0.05,
+        displacement_sigma: 0.002,
+        speed_log_mps: u,
+        displacement_declared_t: 7000.0,
+    };
+    let wobble = [0.0, 0.03, -0.03, 0.02, -0.02, 0.01, -0.01, 0.015];
+    for w in wobble {
+        st.commissioning[0].add(&s, &raw(7.0, w));
+    }
+    for w in &wobble[..4] {
+        st.commissioning[0].add(&s, &raw(8.5, *w));
+    }
+    for w in &wobble[..3] {
+        st.commissioning[1].add(&s, &raw(7.0, *w));
+    }
+    let learned = st.commissioning[0].samples.len() + st.commissioning[1].samples.len();
+    assert_eq!(learned, 8 + 4 + 3);
+    let state = VesselState {
+        format: VesselState::FORMAT.into(),
+        vessel: "self".into(),
+        fdi: st,
+        last_test_end: Some(1.0),
+        next_method: 0,
+        test_seq: 15,
+    };
+    let text = serde_json::to_string_pretty(&state).unwrap();
+    assert_eq!(detect(&text).unwrap(), InputKind::Reference);
+    let svg = parse(&plot(&cfg, &text, InputKind::Reference, &PlotOptions::default()).unwrap());
+    // Each learned test in both of its method's panels (e_u and e_D).
+    assert_eq!(svg.circles.len(), 2 * learned, "{:?}", svg.circles.len());
+    // Nothing learned: a clear refusal.
+    let empty = VesselState {
+        fdi: fdi.state(),
+        ..state
+    };
+    let e = plot(
+        &cfg,
+        &serde_json::to_string(&empty).unwrap(),
+        InputKind::Reference,
+        &PlotOptions::default(),
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("no learned test"), "{e}");
+}

@@ -128,7 +128,14 @@ pub(crate) fn commission(cfg: &Config, a: CommissionArgs) -> Result<(), Failure>
         }
         println!(
             "{:<6}  {:<14}  {:>5}  {:>4}  {:>7}  {:>14}  {:>16}  {:>15}",
-            "method", "state", "tests", "of", "learned", "speed offset", "displacement off", "speeds learned"
+            "method",
+            "state",
+            "tests",
+            "of",
+            "learned",
+            "speed offset",
+            "displacement off",
+            "speeds learned"
         );
         for m in ["clfrt", "hbt"] {
             let x = &r[m];

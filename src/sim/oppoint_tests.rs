@@ -6,7 +6,6 @@
 #![allow(clippy::unwrap_used)]
 
 use super::*;
-use crate::config::Config;
 use approx::assert_relative_eq;
 
 fn scenario(u: f64, d: f64, faults: &[&str]) -> Scenario {
@@ -24,13 +23,13 @@ fn clean(cfg: &SimConfig, u: f64, d: f64, faults: &[&str]) -> Ship {
 }
 
 fn mmg_config() -> SimConfig {
-    let mut cfg = Config::default();
+    let mut cfg = SimConfig::default();
     let member = config::family()
         .into_iter()
         .find(|m| m.structure.hull == config::HullModel::Kvlcc2Mmg)
         .unwrap();
     member.apply(&mut cfg.structure, &mut cfg.autopilot);
-    cfg.sim()
+    cfg
 }
 
 fn speed_log(ship: &mut Ship) -> f64 {
@@ -50,7 +49,7 @@ fn speed_log(ship: &mut Ship) -> f64 {
 /// fresh ship's and settles at (b/a) delta.
 #[test]
 fn a_speed_change_gives_the_ship_of_the_new_speed() {
-    let cfg = Config::default().sim();
+    let cfg = SimConfig::default();
     let (u1, d) = (8.5, 6500.0);
     let mut ship = clean(&cfg, 7.0, d, &[]);
     for _ in 0..100 {
@@ -96,7 +95,7 @@ fn a_speed_change_gives_the_ship_of_the_new_speed() {
 /// speed (Kp x0.68).
 #[test]
 fn new_gains_keep_the_trim() {
-    let cfg = Config::default().sim();
+    let cfg = SimConfig::default();
     let g0 = cfg.autopilot.gains_at(&cfg.ship, 7.0);
     let g1 = cfg.autopilot.gains_at(&cfg.ship, 8.5);
     assert!((g1.kp / g0.kp - (7.0f64 / 8.5).powi(2)).abs() < 1e-12);
@@ -140,7 +139,7 @@ fn a_speed_change_on_the_mmg_hull_holds_the_new_speed() {
 /// tick, not at the ticks before the next status period, and again at it.
 #[test]
 fn a_loading_is_in_force_and_declared_with_the_status() {
-    let cfg = Config::default().sim();
+    let cfg = SimConfig::default();
     let (u, d0, d1) = (7.0, 6000.0, 8200.0);
     let mut ship = clean(&cfg, u, d0, &["displacement_pct:10@0"]);
     let declared = |ship: &mut Ship| {

@@ -73,8 +73,7 @@ pub fn change_point(
     }
     let total = pre[n];
     let mut best: Option<(usize, f64)> = None;
-    for k in 1..n {
-        let a = pre[k];
+    for (k, &a) in pre.iter().enumerate().take(n).skip(1) {
         let b = total.minus(&a);
         let (ma, xa) = a.means();
         let (mb, xb) = b.means();
@@ -146,7 +145,11 @@ impl Sums {
         Self {
             n: self.n - o.n,
             e: [self.e[0] - o.e[0], self.e[1] - o.e[1]],
-            ee: [self.ee[0] - o.ee[0], self.ee[1] - o.ee[1], self.ee[2] - o.ee[2]],
+            ee: [
+                self.ee[0] - o.ee[0],
+                self.ee[1] - o.ee[1],
+                self.ee[2] - o.ee[2],
+            ],
             x: [self.x[0] - o.x[0], self.x[1] - o.x[1]],
         }
     }
@@ -154,7 +157,10 @@ impl Sums {
     /// Mean residual and mean operating point.
     fn means(&self) -> ([f64; 2], [f64; 2]) {
         let n = self.n.max(1.0);
-        ([self.e[0] / n, self.e[1] / n], [self.x[0] / n, self.x[1] / n])
+        (
+            [self.e[0] / n, self.e[1] / n],
+            [self.x[0] / n, self.x[1] / n],
+        )
     }
 
     /// The scatter about the mean, `sum (e - m)(e - m)'`.
@@ -186,7 +192,10 @@ mod tests {
     fn sample(rng: &mut ChaCha8Rng, shift: [f64; 2], u: f64) -> Sample {
         let n = |r: &mut ChaCha8Rng| -> f64 { StandardNormal.sample(r) };
         Sample {
-            e: [0.8 + 0.08 * n(rng) + shift[0], -0.1 + 0.004 * n(rng) + shift[1]],
+            e: [
+                0.8 + 0.08 * n(rng) + shift[0],
+                -0.1 + 0.004 * n(rng) + shift[1],
+            ],
             s: [0.05, 0.002],
             speed_mps: u,
             displacement_t: 7000.0,

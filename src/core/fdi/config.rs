@@ -5,38 +5,7 @@
 //! sea anchors, the servo check's noise) or the commissioning.
 
 use crate::core::config::{check_count, check_range, check_range_open_low, fail, ConfigError};
-pub use super::envelope::Settings as Envelope;
 use serde::{Deserialize, Serialize};
-
-/// What the reference needs, from `[fdi]`, `[reference]` and the decision's limits (see
-/// `crate::core::fdi::reference`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Commissioning {
-    /// K: at most this many tests per method (0: the design reference for good).
-    pub tests: u32,
-    /// Speed spread floor while commissioning [m/s].
-    pub wide_speed_mps: f64,
-    /// Displacement spread floor while commissioning [fraction of D_nom].
-    pub wide_displacement: f64,
-    /// Physical floor of the speed residual's standard deviation [m/s].
-    pub floor_speed_mps: f64,
-    /// Physical floor of the displacement residual's standard deviation [fraction].
-    pub floor_displacement: f64,
-    /// The regression over the operating envelope.
-    pub envelope: Envelope,
-    /// Learn healthy tests after commissioning.
-    pub learn: bool,
-    /// At most this many learned tests per method.
-    pub memory: usize,
-    /// The speed-log fault commissioning must resolve [m/s].
-    pub resolve_speed_mps: f64,
-    /// The displacement fault commissioning must resolve [fraction].
-    pub resolve_displacement: f64,
-    /// `h_1`: the decision's single-test limit.
-    pub single_limit: f64,
-    /// The change-point test's tail probability per (look, split).
-    pub change_alpha: f64,
-}
 
 /// The `[reference]` section: the vessel's own reference over its operating envelope (see
 /// `crate::core::fdi::reference` and `crate::core::fdi::envelope`).
@@ -82,15 +51,6 @@ impl Default for ReferenceConfig {
 }
 
 impl ReferenceConfig {
-    /// The regression's settings.
-    pub fn envelope(&self) -> Envelope {
-        Envelope {
-            bandwidth: [self.bandwidth_speed_mps, self.bandwidth_loading],
-            slope_speed: self.slope_speed,
-            slope_loading: self.slope_loading,
-        }
-    }
-
     /// Checks the section's limits; the error names the key and its allowed range.
     pub fn check(&self) -> Result<(), ConfigError> {
         check_range_open_low(
@@ -99,14 +59,22 @@ impl ReferenceConfig {
             0.0,
             20.0,
         )?;
-        check_range_open_low("reference.bandwidth-loading", self.bandwidth_loading, 0.0, 2.0)?;
+        check_range_open_low(
+            "reference.bandwidth-loading",
+            self.bandwidth_loading,
+            0.0,
+            2.0,
+        )?;
         let pair = |key: &str, p: [f64; 2], hi: [f64; 2]| -> Result<(), ConfigError> {
             for (v, h) in p.iter().zip(hi) {
                 if !(v.is_finite() && *v > 0.0 && *v <= h) {
                     return Err(fail(
                         key,
                         format!("[{}, {}]", p[0], p[1]),
-                        &format!("[e_u, e_D], each in (0, {h}] for e_u and (0, {}] for e_D", hi[1]),
+                        &format!(
+                            "[e_u, e_D], each in (0, {h}] for e_u and (0, {}] for e_D",
+                            hi[1]
+                        ),
                     ));
                 }
             }
@@ -304,29 +272,6 @@ pub fn check_removed<'a>(
 }
 
 impl FdiConfig {
-    /// What the reference needs, with `[reference]` and the decision's `limits`.
-    pub fn commissioning(
-        &self,
-        r: &ReferenceConfig,
-        limits: &super::decision::Limits,
-    ) -> Commissioning {
-        let looks = super::changepoint::looks(self.commissioning_tests) as f64;
-        Commissioning {
-            tests: self.commissioning_tests,
-            wide_speed_mps: self.commissioning_spread_speed_mps,
-            wide_displacement: self.commissioning_spread_displacement,
-            floor_speed_mps: self.floor_speed_mps,
-            floor_displacement: self.floor_displacement,
-            envelope: r.envelope(),
-            learn: r.learn,
-            memory: r.memory_tests as usize,
-            resolve_speed_mps: r.resolve_speed_mps,
-            resolve_displacement: r.resolve_displacement,
-            single_limit: limits.param[0],
-            change_alpha: self.false_alarms_per_year / 365.25 / looks,
-        }
-    }
-
     /// Checks the section's limits; the error names the key and its allowed range.
     pub fn check(&self) -> Result<(), ConfigError> {
         check_range_open_low(

@@ -73,6 +73,17 @@ pub struct Settings {
     pub slope_loading: [f64; 2],
 }
 
+impl Settings {
+    /// The settings of `[reference]`.
+    pub fn of(r: &super::config::ReferenceConfig) -> Self {
+        Self {
+            bandwidth: [r.bandwidth_speed_mps, r.bandwidth_loading],
+            slope_speed: r.slope_speed,
+            slope_loading: r.slope_loading,
+        }
+    }
+}
+
 /// The shape of the healthy scatter, in units of the design spreads.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct Shape {
@@ -122,7 +133,7 @@ fn fit_component(
         let x = smp.x();
         let (w, _) = kernel(st, x, at);
         let var = smp.s[j] * smp.s[j] * noise.max(MIN_SHAPE_VAR);
-        if !(var > 0.0) {
+        if var.is_nan() || var <= 0.0 {
             continue;
         }
         let phi = Vector3::new(1.0, x[0] - at[0], x[1] - at[1]);
@@ -136,7 +147,12 @@ fn fit_component(
 }
 
 /// Both components' local fits at `at`, with the noise variances `noise` (`S~_jj`).
-fn fit(samples: &[Sample], st: &Settings, at: [f64; 2], noise: [f64; 2]) -> Option<[(f64, f64); 2]> {
+fn fit(
+    samples: &[Sample],
+    st: &Settings,
+    at: [f64; 2],
+    noise: [f64; 2],
+) -> Option<[(f64, f64); 2]> {
     Some([
         fit_component(samples, st, at, 0, noise[0])?,
         fit_component(samples, st, at, 1, noise[1])?,
@@ -157,7 +173,8 @@ pub fn shape(samples: &[Sample], st: &Settings) -> Option<Shape> {
         .collect();
     let mean = |i: usize| norm.iter().map(|v| v[i]).sum::<f64>() / n as f64;
     let (m0, m1) = (mean(0), mean(1));
-    let var = |i: usize, m: f64| norm.iter().map(|v| (v[i] - m).powi(2)).sum::<f64>() / (n - 1) as f64;
+    let var =
+        |i: usize, m: f64| norm.iter().map(|v| (v[i] - m).powi(2)).sum::<f64>() / (n - 1) as f64;
     let mut noise = [var(0, m0), var(1, m1)];
     // The fit at each distinct operating point, once (a commissioning sample is often at
     // one point: one fit for all).
@@ -255,14 +272,30 @@ mod tests {
 
     #[test]
     fn at_one_point_the_fit_is_the_sample_mean_and_the_shape_its_covariance() {
-        let data = [(1.0, -0.20), (1.2, -0.22), (0.8, -0.18), (1.1, -0.20), (0.9, -0.21)];
-        let samples: Vec<Sample> = data.iter().map(|&(a, b)| smp([a, b], 7.0, 7000.0)).collect();
+        let data = [
+            (1.0, -0.20),
+            (1.2, -0.22),
+            (0.8, -0.18),
+            (1.1, -0.20),
+            (0.9, -0.21),
+        ];
+        let samples: Vec<Sample> = data
+            .iter()
+            .map(|&(a, b)| smp([a, b], 7.0, 7000.0))
+            .collect();
         let sh = shape(&samples, &st()).unwrap();
         // Independent two-pass moments (n - 1), in design-spread units.
         let n = 5.0;
-        let mu = data.iter().fold((0.0, 0.0), |a, x| (a.0 + x.0 / n, a.1 + x.1 / n));
+        let mu = data
+            .iter()
+            .fold((0.0, 0.0), |a, x| (a.0 + x.0 / n, a.1 + x.1 / n));
         let sxx = data.iter().map(|x| (x.0 - mu.0).powi(2)).sum::<f64>() / 4.0 / 0.01;
-        let sxy = data.iter().map(|x| (x.0 - mu.0) * (x.1 - mu.1)).sum::<f64>() / 4.0 / 0.001;
+        let sxy = data
+            .iter()
+            .map(|x| (x.0 - mu.0) * (x.1 - mu.1))
+            .sum::<f64>()
+            / 4.0
+            / 0.001;
         let syy = data.iter().map(|x| (x.1 - mu.1).powi(2)).sum::<f64>() / 4.0 / 1e-4;
         assert!((sh.dof - 4.0).abs() < 1e-9, "{}", sh.dof);
         assert!((sh.cov.xx - sxx).abs() < 1e-9 * sxx);
@@ -279,17 +312,26 @@ mod tests {
 
     #[test]
     fn away_from_the_learned_point_the_interval_grows_by_the_kernel_and_the_slope_prior() {
-        let samples: Vec<Sample> = [(1.0, -0.20), (1.2, -0.22), (0.8, -0.18), (1.1, -0.20), (0.9, -0.21)]
-            .iter()
-            .map(|&(a, b)| smp([a, b], 7.0, 7000.0))
-            .collect();
+        let samples: Vec<Sample> = [
+            (1.0, -0.20),
+            (1.2, -0.22),
+            (0.8, -0.18),
+            (1.1, -0.20),
+            (0.9, -0.21),
+        ]
+        .iter()
+        .map(|&(a, b)| smp([a, b], 7.0, 7000.0))
+        .collect();
         let sh = shape(&samples, &st()).unwrap();
         let du = 1.5;
         let p = predict(&samples, &st(), &sh, 7.0 + du, 7000.0).unwrap();
         // By hand: all data at one distance d = 1.5 bandwidths, weight w = 1 / (1 + d^2);
         // intercept variance = 1 / W + du^2 tau^2 with W = n w / sigma^2.
         let w = 1.0 / (1.0 + du * du);
-        for (j, (var, tau)) in [(sh.cov.xx * 0.01, 0.5), (sh.cov.yy * 1e-4, 0.03)].iter().enumerate() {
+        for (j, (var, tau)) in [(sh.cov.xx * 0.01, 0.5), (sh.cov.yy * 1e-4, 0.03)]
+            .iter()
+            .enumerate()
+        {
             let want = var / (5.0 * w) + du * du * tau * tau;
             let got = [p.cov.xx, p.cov.yy][j];
             assert!((got - want).abs() < 1e-9 * want, "{j}: {got} vs {want}");

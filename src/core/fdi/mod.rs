@@ -228,7 +228,7 @@ impl Fdi {
 
     /// What the reference needs (`[fdi]`, `[reference]` and the limits).
     pub fn settings(&self) -> reference::Settings {
-        self.cfg.commissioning(&self.reference_cfg, &self.limits)
+        reference::Settings::new(&self.cfg, &self.reference_cfg, &self.limits)
     }
 
     /// Per method (CLFRT, HBT), what the vessel has learned.
@@ -242,8 +242,19 @@ impl Fdi {
         let s = self.settings();
         let texts: Vec<String> = [Method::Clfrt, Method::Hbt]
             .iter()
-            .filter(|&&m| matches!(self.commissioning[method_index(m)].phase, Phase::Inconsistent { .. }))
-            .map(|&m| format!("{} {}", m.name().to_uppercase(), self.commissioning[method_index(m)].describe(&s)))
+            .filter(|&&m| {
+                matches!(
+                    self.commissioning[method_index(m)].phase,
+                    Phase::Inconsistent { .. }
+                )
+            })
+            .map(|&m| {
+                format!(
+                    "{} {}",
+                    m.name().to_uppercase(),
+                    self.commissioning[method_index(m)].describe(&s)
+                )
+            })
             .collect();
         (!texts.is_empty()).then(|| texts.join("; "))
     }
@@ -540,7 +551,8 @@ impl Fdi {
             model_mismatch: fit.and_then(|f| report::mismatch(&f, self.cfg.model_mismatch_chi2)),
             reference: basis.map(|b| self.reference_report(i, &b, d_nom_t)),
             decision: step.as_ref().map(|s| DecisionReport {
-                state: s.state,
+                // The vessel's: an inconsistent commissioning holds it at alert.
+                state,
                 parameters: s.param.map(|p| p.look),
                 servo: s.servo.map(|p| p.look),
                 false_alarm_per_test: self.limits.alpha_test,

@@ -57,14 +57,18 @@
 //! ```
 //!
 //! - With `S~` estimated from `nu` dof, `T` is Hotelling's `T^2(2, nu)` for a healthy test
-//!   (tests at one point, no floors: exactly), whose tail `P(T^2 > t) = (1 + t / nu)^(-(nu -
-//!   1) / 2)` is far heavier than the chi-square's at small `nu` (a covariance from 8 tests is
-//!   sometimes much too small). `T'` is the chi-square (2 dof) statistic of the same tail
+//!   (tests at one point, no floors: exactly), whose tail
+//!   `P(T^2 > t) = (1 + t / nu)^(-(nu - 1) / 2)` is far heavier than the chi-square's at
+//!   small `nu` (a covariance from 8 tests is sometimes much too small). `T'` is the chi-square (2 dof) statistic of the same tail
 //!   probability: the whitened residual is scaled by `sqrt(T' / T)` (`Measured::whitened`),
 //!   so the decision's chi-square limits hold test by test; `T' -> T` as the vessel's tests
-//!   are learned. The floors, being known, add degrees of freedom along the residual: `nu_eff
-//!   = nu / (the learned part's share of the residual's variance in its own direction)` (the
-//!   conservative root of Satterthwaite's approximation, as in `changepoint`).
+//!   are learned. The floors, being known, add degrees of freedom along the residual:
+//!   `nu_eff = nu / (the learned part's share of the residual's variance in its own
+//!   direction)` (the conservative root of Satterthwaite's approximation, as in
+//!   `changepoint`), with `nu` the shape's dof; at a point farther than one bandwidth from every learned test, the learned
+//!   tests' kernel weight there less one if smaller: the shape was learned where the ship has
+//!   been, and a hull's scatter can differ elsewhere, so at a new point the tail is
+//!   Hotelling's with few dof until the point's own tests are learned.
 //! - `kappa = nu / (nu - p - 1)` (the mean of Hotelling's over the chi-square's) sizes what
 //!   commissioning must resolve: 4 at K = 5, 1.75 at K = 8, 1.05 after 60 tests.
 //! - `f_u = fdi.floor-speed-mps` (the speed log's noise) and `f_D = fdi.floor-displacement`
@@ -86,8 +90,9 @@
 //! (the `fdi/commission` queryable, `helmwatch commission`) and when the saved reference was
 //! made under another ship configuration or other models (the daemon says which).
 
-pub use super::config::Commissioning as Settings;
 use super::changepoint;
+use super::config::{FdiConfig, ReferenceConfig};
+use super::decision::Limits;
 use super::envelope::{self, Prediction, Sample, Shape};
 use super::stats::Cov2;
 use serde::{Deserialize, Serialize};
@@ -114,6 +119,57 @@ pub enum Phase {
     },
     /// Commissioned; learning its healthy tests.
     Learning,
+}
+
+/// What the reference needs, from `[fdi]`, `[reference]` and the decision's limits (see
+/// `crate::core::fdi::reference`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settings {
+    /// K: at most this many tests per method (0: the design reference for good).
+    pub tests: u32,
+    /// Speed spread floor while commissioning [m/s].
+    pub wide_speed_mps: f64,
+    /// Displacement spread floor while commissioning [fraction of D_nom].
+    pub wide_displacement: f64,
+    /// Physical floor of the speed residual's standard deviation [m/s].
+    pub floor_speed_mps: f64,
+    /// Physical floor of the displacement residual's standard deviation [fraction].
+    pub floor_displacement: f64,
+    /// The regression over the operating envelope.
+    pub envelope: envelope::Settings,
+    /// Learn healthy tests after commissioning.
+    pub learn: bool,
+    /// At most this many learned tests per method.
+    pub memory: usize,
+    /// The speed-log fault commissioning must resolve [m/s].
+    pub resolve_speed_mps: f64,
+    /// The displacement fault commissioning must resolve [fraction].
+    pub resolve_displacement: f64,
+    /// `h_1`: the decision's single-test limit.
+    pub single_limit: f64,
+    /// The change-point test's tail probability per (look, split).
+    pub change_alpha: f64,
+}
+
+impl Settings {
+    /// What the reference needs, from `[fdi]`, `[reference]` and the decision's `limits`.
+    pub fn new(fdi: &FdiConfig, r: &ReferenceConfig, limits: &Limits) -> Self {
+        let looks = changepoint::looks(fdi.commissioning_tests) as f64;
+        Self {
+            tests: fdi.commissioning_tests,
+            wide_speed_mps: fdi.commissioning_spread_speed_mps,
+            wide_displacement: fdi.commissioning_spread_displacement,
+            floor_speed_mps: fdi.floor_speed_mps,
+            floor_displacement: fdi.floor_displacement,
+            envelope: envelope::Settings::of(r),
+            learn: r.learn,
+            memory: r.memory_tests as usize,
+            resolve_speed_mps: r.resolve_speed_mps,
+            resolve_displacement: r.resolve_displacement,
+            single_limit: limits.param[0],
+            change_alpha: fdi.false_alarms_per_year / 365.25 / looks,
+        }
+    }
 }
 
 /// What one method has learned of the vessel.
@@ -226,7 +282,8 @@ pub struct Measured {
     /// The degrees of freedom the learned part of `cov` was estimated with (infinite:
     /// nothing learned).
     pub dof: f64,
-    /// The learned part of `cov` (the rest, the floors, is known).
+    /// The part of `cov` that rests on the learned tests (the scatter and the offset's
+    /// error; the rest, the floors, is known).
     pub learned: Cov2,
 }
 
@@ -251,7 +308,7 @@ impl Measured {
         }
         let Cov2 { xx, xy, yy } = self.cov;
         let det = xx * yy - xy * xy;
-        if !(det > 0.0) {
+        if det.is_nan() || det <= 0.0 {
             return self.dof;
         }
         let y = [
@@ -273,7 +330,7 @@ impl Measured {
 /// chi-square (2 dof) of the same tail probability: `P(T^2 > t) = (1 + t / nu)^(-(nu - 1) /
 /// 2)`, so `T' = (nu - 1) ln(1 + t / nu)`.
 pub fn calibration(t: f64, nu: f64) -> f64 {
-    if !nu.is_finite() || !(t > 0.0) {
+    if !nu.is_finite() || t.is_nan() || t <= 0.0 {
         return 1.0;
     }
     let nu = nu.max(P + 1.5);
@@ -347,6 +404,9 @@ impl Commissioning {
                 ) else {
                     return (commissioning, wide);
                 };
+                // The scatter and the offset's error rest on the learned tests (away from them,
+                // on the slope prior, which is no better known than the tests that span it);
+                // the floors are known.
                 let learned = shape
                     .cov
                     .scaled(raw.speed_sigma_mps, raw.displacement_sigma)
@@ -357,7 +417,14 @@ impl Commissioning {
                     r: [e[0] - p.offset[0], e[1] - p.offset[1]],
                     cov,
                     offset_var: Some(p.cov.max_ratio(cov)),
-                    dof: shape.dof,
+                    // At a point not yet visited the scatter is known only as well as the
+                    // tests near it vouch for it: the shape was learned elsewhere, and a
+                    // hull's scatter can differ there.
+                    dof: if p.nearest <= 1.0 {
+                        shape.dof
+                    } else {
+                        shape.dof.min(p.support - 1.0)
+                    },
                     learned,
                 };
                 (Basis::Vessel(p), m)
@@ -471,16 +538,16 @@ impl Commissioning {
             self.samples
                 .iter()
                 .map(f)
-                .fold([f64::INFINITY, f64::NEG_INFINITY], |r, v| [r[0].min(v), r[1].max(v)])
+                .fold([f64::INFINITY, f64::NEG_INFINITY], |r, v| {
+                    [r[0].min(v), r[1].max(v)]
+                })
         };
         let s_u = mean(&|x| x.s[0]);
         let s_d = mean(&|x| x.s[1]);
         let u = mean(&|x| x.speed_mps);
         let d = mean(&|x| x.displacement_t.ln()).exp();
-        let off = envelope::predict(&self.samples, &s.envelope, &sh, u, d).map_or(
-            [mean(&|x| x.e[0]), mean(&|x| x.e[1])],
-            |p| p.offset,
-        );
+        let off = envelope::predict(&self.samples, &s.envelope, &sh, u, d)
+            .map_or([mean(&|x| x.e[0]), mean(&|x| x.e[1])], |p| p.offset);
         self.reference = Some(Reference {
             tests: self.tests,
             learned: self.samples.len() as u32,

@@ -12,7 +12,7 @@ fn settings(k: u32) -> Settings {
         ..FdiConfig::default()
     };
     let limits = Limits::new(fdi.false_alarms_per_year, 3720.0, fdi.window_tests);
-    fdi.commissioning(&ReferenceConfig::default(), &limits)
+    Settings::new(&fdi, &ReferenceConfig::default(), &limits)
 }
 
 fn raw_at(e_u: f64, e_d: f64, u: f64, d: f64) -> Raw {
@@ -54,7 +54,11 @@ fn the_reference_is_the_sample_mean_and_covariance() {
     for (i, (u, d)) in SAMPLE.iter().enumerate() {
         let (b, _) = c.measure(&s, &raw(*u, *d));
         assert!(matches!(b, Basis::Commissioning { done, of: 5 } if done == i as u32));
-        let want = if i == 4 { Added::Completed } else { Added::Sample };
+        let want = if i == 4 {
+            Added::Completed
+        } else {
+            Added::Sample
+        };
         assert_eq!(c.add(&s, &raw(*u, *d)), want);
     }
     let r = c.reference.unwrap();
@@ -73,8 +77,14 @@ fn the_reference_is_the_sample_mean_and_covariance() {
     assert!((r.covariance.xy - sxy).abs() < 1e-9 * sxy.abs());
     assert!((r.covariance.yy - syy).abs() < 1e-9 * syy);
     assert!((r.dof - 4.0).abs() < 1e-9);
-    assert!(r.covariance.correlation() < -0.5, "the sample is anti-correlated");
-    assert_eq!(c.describe(&s), "commissioned (5 tests, 5 learned, 7.0-7.0 m/s)");
+    assert!(
+        r.covariance.correlation() < -0.5,
+        "the sample is anti-correlated"
+    );
+    assert_eq!(
+        c.describe(&s),
+        "commissioned (5 tests, 5 learned, 7.0-7.0 m/s)"
+    );
 }
 
 #[test]
@@ -100,13 +110,20 @@ fn the_test_covariance_carries_the_sea_the_offset_error_the_k_factor_and_the_flo
     // The floors add degrees of freedom along the residual: nu / (the learned share).
     let learned = r.covariance.times(1.2);
     assert_eq!(m.dof, 4.0);
-    for (a, b) in [(m.learned.xx, learned.xx), (m.learned.xy, learned.xy), (m.learned.yy, learned.yy)] {
+    for (a, b) in [
+        (m.learned.xx, learned.xx),
+        (m.learned.xy, learned.xy),
+        (m.learned.yy, learned.yy),
+    ] {
         assert!((a - b).abs() < 1e-12 * b.abs(), "{a} vs {b}");
     }
     let y = {
         let c = m.cov;
         let det = c.xx * c.yy - c.xy * c.xy;
-        [(c.yy * m.r[0] - c.xy * m.r[1]) / det, (c.xx * m.r[1] - c.xy * m.r[0]) / det]
+        [
+            (c.yy * m.r[0] - c.xy * m.r[1]) / det,
+            (c.xx * m.r[1] - c.xy * m.r[0]) / det,
+        ]
     };
     let t = m.r[0] * y[0] + m.r[1] * y[1];
     let ya = y[0] * y[0] * learned.xx + 2.0 * y[0] * y[1] * learned.xy + y[1] * y[1] * learned.yy;
@@ -116,7 +133,11 @@ fn the_test_covariance_carries_the_sea_the_offset_error_the_k_factor_and_the_flo
     // least; without floors it is 1 / (K + 1) in every direction.
     let c0 = commissioned(&settings(5));
     let (_, m0) = c0.measure(&settings(5), &raw(1.3, -0.2));
-    assert!((m0.offset_var.unwrap() - 1.0 / 6.0).abs() < 1e-7, "{:?}", m0.offset_var);
+    assert!(
+        (m0.offset_var.unwrap() - 1.0 / 6.0).abs() < 1e-7,
+        "{:?}",
+        m0.offset_var
+    );
     assert!(m.offset_var.unwrap() < 1.0 / 6.0 && m.offset_var.unwrap() > 0.0);
     // A sea with three times the design spread of the speed: its variance x9, the
     // covariance x3, the displacement's untouched.
@@ -174,7 +195,9 @@ fn a_change_inside_the_commissioning_sample_sets_no_reference() {
     assert_eq!(last, Added::Inconsistent { at: 4 });
     assert!(c.reference.is_none());
     assert_eq!(c.state(&s), "inconsistent");
-    assert!(c.describe(&s).starts_with("commissioning inconsistent: a change at test 4"));
+    assert!(c
+        .describe(&s)
+        .starts_with("commissioning inconsistent: a change at test 4"));
     let (b, m) = c.measure(&s, &raw(1.0, -0.2));
     assert_eq!(b.name(), "commissioning_inconsistent");
     assert_eq!(m.offset_var, None);
@@ -194,18 +217,31 @@ fn a_new_operating_point_is_predicted_wider_then_learned() {
     // follows half the speed change): predicted, within its wider interval.
     let (b, m) = c.measure(&s, &raw_at(0.25, -0.2, 8.5, 7000.0));
     assert_eq!(b.name(), "predicted");
-    assert!(m.cov.xx > 10.0 * at_home.cov.xx, "{} vs {}", m.cov.xx, at_home.cov.xx);
+    assert!(
+        m.cov.xx > 10.0 * at_home.cov.xx,
+        "{} vs {}",
+        m.cov.xx,
+        at_home.cov.xx
+    );
     let z = m.cov.whiten(m.r).unwrap();
     assert!(z[0] * z[0] + z[1] * z[1] < 9.0, "{z:?}");
     assert!(m.offset_var.unwrap() > 0.9);
     // Learned: four tests there and the point is the vessel's own.
     for w in [0.0, 0.02, -0.02, 0.01] {
-        assert_eq!(c.add(&s, &raw_at(0.25 + w, -0.2, 8.5, 7000.0)), Added::Learned);
+        assert_eq!(
+            c.add(&s, &raw_at(0.25 + w, -0.2, 8.5, 7000.0)),
+            Added::Learned
+        );
     }
     let (b, m) = c.measure(&s, &raw_at(0.25, -0.2, 8.5, 7000.0));
     assert_eq!(b.name(), "commissioned");
     assert!(m.r[0].abs() < 0.1, "{:?}", m.r);
-    assert!(m.cov.xx < 4.0 * at_home.cov.xx, "{} vs {}", m.cov.xx, at_home.cov.xx);
+    assert!(
+        m.cov.xx < 4.0 * at_home.cov.xx,
+        "{} vs {}",
+        m.cov.xx,
+        at_home.cov.xx
+    );
     // A +12 % displacement there now crosses the single-test limit (26.9) on its own.
     let (_, f) = c.measure(&s, &raw_at(0.25, -0.08, 8.5, 7000.0));
     let z = f.cov.whiten(f.r).unwrap();

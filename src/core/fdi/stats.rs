@@ -173,7 +173,7 @@ impl Cov2 {
     pub fn max_ratio(self, other: Self) -> f64 {
         let det_b = other.xx * other.yy - other.xy * other.xy;
         let det_a = self.xx * self.yy - self.xy * self.xy;
-        if !(det_b > 0.0) {
+        if det_b.is_nan() || det_b <= 0.0 {
             return 0.0;
         }
         let q = self.xx * other.yy + self.yy * other.xx - 2.0 * self.xy * other.xy;
@@ -239,11 +239,19 @@ mod tests {
     #[test]
     fn max_ratio_is_the_largest_generalised_eigenvalue() {
         // B = I: the eigenvalues of A itself, (5 +- sqrt(1 + 4)) / 2 for [[3, 1], [1, 2]].
-        let a = Cov2 { xx: 3.0, xy: 1.0, yy: 2.0 };
+        let a = Cov2 {
+            xx: 3.0,
+            xy: 1.0,
+            yy: 2.0,
+        };
         let id = Cov2::diag(1.0, 1.0);
         assert!((a.max_ratio(id) - (5.0 + 5f64.sqrt()) / 2.0).abs() < 1e-12);
         // A = c B: c in every direction.
-        let b = Cov2 { xx: 4.0, xy: -1.0, yy: 0.5 };
+        let b = Cov2 {
+            xx: 4.0,
+            xy: -1.0,
+            yy: 0.5,
+        };
         assert!((b.times(0.3).max_ratio(b) - 0.3).abs() < 1e-12);
         // A share of one direction only: diag(1, 0) against diag(4, 1) is 1/4.
         assert!((Cov2::diag(1.0, 0.0).max_ratio(Cov2::diag(2.0, 1.0)) - 0.25).abs() < 1e-12);

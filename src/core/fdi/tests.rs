@@ -64,7 +64,10 @@ fn a_persistent_shift_adds_up_over_the_window_as_the_glr_says() {
     // T_2 = |5.6|^2 / (2 (1 + 1/9)) = 14.11: over the alert limit (13.0), not the alarm's.
     let p = second.param.unwrap();
     assert_eq!(p.n, 2);
-    assert!((p.look.statistic - 31.36 / (2.0 * 10.0 / 9.0)).abs() < 1e-12, "{p:?}");
+    assert!(
+        (p.look.statistic - 31.36 / (2.0 * 10.0 / 9.0)).abs() < 1e-12,
+        "{p:?}"
+    );
     assert_eq!(second.state, TrackState::Alert);
     let third = s.update(&l, entry(Method::Clfrt, z, c));
     // T_3 = 70.56 / (3 (1 + 2/9)) = 19.2; T_4 at the fourth: 125.44 / (4 (1 + 3/9)) = 23.5;
@@ -209,7 +212,7 @@ fn monte_carlo(
         resolve_displacement: 1e-9,
         ..ReferenceConfig::default()
     };
-    let settings = fdi.commissioning(&reference, &l);
+    let settings = reference::Settings::new(&fdi, &reference, &l);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let (mut alarms, mut decided) = (0, 0);
     // True scatter: correlated -0.9, as on a second-order hull.
@@ -240,7 +243,11 @@ fn monte_carlo(
             let method = [Method::Clfrt, Method::Hbt][m];
             let raw = draw(&mut rng);
             let (basis, meas) = c[m].measure(&settings, &raw);
-            assert!(matches!(basis, Basis::Vessel(_)), "{basis:?} {:?}", c[m].phase);
+            assert!(
+                matches!(basis, Basis::Vessel(_)),
+                "{basis:?} {:?}",
+                c[m].phase
+            );
             let z = meas.whitened();
             let before = s.state;
             let st = s.update(

@@ -142,14 +142,8 @@ impl HbtReport {
                 rudder_rate_nominal_rad_s: nominal,
             }),
             relay_scale: self.relay_scale,
-            relay_omega_ratio: self
-                .relay_scale
-                .and(self.prediction)
-                .map(|p| p.ratios().0),
-            relay_amplitude_ratio: self
-                .relay_scale
-                .and(self.prediction)
-                .map(|p| p.ratios().1),
+            relay_omega_ratio: self.relay_scale.and(self.prediction).map(|p| p.ratios().0),
+            relay_amplitude_ratio: self.relay_scale.and(self.prediction).map(|p| p.ratios().1),
             speed_log_mps: None,
             baseline,
             baseline_error,
@@ -682,7 +676,10 @@ mod tests {
     fn nominal_slew_needs_a_saturating_relay() {
         let cfg = CoreConfig::default();
         let slew = |h_deg: f64| nominal_slew_rad_s(&cfg.servo, 10.0, h_deg.to_radians());
-        assert_eq!(slew(cfg.hbt.relay_height_deg), Some(cfg.servo.max_rate_rad_s()));
+        assert_eq!(
+            slew(cfg.hbt.relay_height_deg),
+            Some(cfg.servo.max_rate_rad_s())
+        );
         assert_eq!(slew(3.0), None);
     }
 
@@ -773,7 +770,10 @@ mod tests {
             let (a1, a2) = (r1.cycle.amplitude_rad, r2.cycle.amplitude_rad);
             // Same period and half the amplitude within the rate limit's share.
             assert!(rel(p2, p1).abs() < 0.06, "{u} {d}: period {p2} vs {p1}");
-            assert!(rel(a2 / 0.5, a1).abs() < 0.11, "{u} {d}: a_u / s {a2} vs {a1}");
+            assert!(
+                rel(a2 / 0.5, a1).abs() < 0.11,
+                "{u} {d}: a_u / s {a2} vs {a1}"
+            );
             // The describing function on the true ship at the relay as played, both sizes,
             // and its ratios against the measured ones.
             let (a, b) = full.ship.nomoto(u, d);
@@ -787,15 +787,31 @@ mod tests {
                 assert!(rel(p, dp).abs() < 0.05, "{u} {d}: P {p} vs DF {dp}");
                 assert!(rel(amp, da).abs() < 0.10, "{u} {d}: A {amp} vs DF {da}");
             }
-            assert!(rel(p2 / p1, dp2 / dp1).abs() < 0.02, "{u} {d}: period ratio");
-            assert!(rel(a2 / a1, da2 / da1).abs() < 0.04, "{u} {d}: amplitude ratio");
+            assert!(
+                rel(p2 / p1, dp2 / dp1).abs() < 0.02,
+                "{u} {d}: period ratio"
+            );
+            assert!(
+                rel(a2 / a1, da2 / da1).abs() < 0.04,
+                "{u} {d}: amplitude ratio"
+            );
             // The sizing's own prediction of the designed relay's cycle, from the record up
             // to the second switch, against the designed relay's measured cycle and peak.
             let pr = r2.prediction.unwrap();
             assert!(rel(pr.a_per_s, a).abs() < 0.05, "{u} {d}: a {}", pr.a_per_s);
-            assert!(rel(pr.b_per_s2, b).abs() < 0.05, "{u} {d}: b {}", pr.b_per_s2);
-            assert!(rel(pr.amplitude_rad, a1).abs() < 0.06, "{u} {d}: predicted A");
-            assert!(rel(pr.peak_rad, peak1).abs() < 0.08, "{u} {d}: predicted peak");
+            assert!(
+                rel(pr.b_per_s2, b).abs() < 0.05,
+                "{u} {d}: b {}",
+                pr.b_per_s2
+            );
+            assert!(
+                rel(pr.amplitude_rad, a1).abs() < 0.06,
+                "{u} {d}: predicted A"
+            );
+            assert!(
+                rel(pr.peak_rad, peak1).abs() < 0.08,
+                "{u} {d}: predicted peak"
+            );
             // The estimator reads the designed relay's cycle from both.
             let f1 = Features::Hbt(r1.to_features());
             let f2 = Features::Hbt(r2.to_features());
@@ -820,7 +836,10 @@ mod tests {
                 limit_deg,
                 hysteresis_deg,
             }) => {
-                assert!(predicted_deg > 3.0 && predicted_deg < 15.0, "{predicted_deg}");
+                assert!(
+                    predicted_deg > 3.0 && predicted_deg < 15.0,
+                    "{predicted_deg}"
+                );
                 assert!((limit_deg - 3.0).abs() < 1e-12, "{limit_deg}");
                 assert!((hysteresis_deg - 1.0).abs() < 1e-12, "{hysteresis_deg}");
             }

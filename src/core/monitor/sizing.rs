@@ -121,7 +121,12 @@ pub(super) struct ToneSizing {
 }
 
 impl ToneSizing {
-    pub(super) fn new(cfg: &CoreConfig, multisine: &Multisine, t0_s: f64, window: (f64, f64)) -> Self {
+    pub(super) fn new(
+        cfg: &CoreConfig,
+        multisine: &Multisine,
+        t0_s: f64,
+        window: (f64, f64),
+    ) -> Self {
         let c = &cfg.clfrt;
         let omegas = multisine.omegas().to_vec();
         let n = omegas.len();
@@ -466,7 +471,9 @@ impl RelaySizing {
         let floor_rad = self
             .min_eps_rad
             .max(self.wave_factor * wave_yaw_rad.unwrap_or(0.0));
-        let scale = (self.target_rad / peak_rad).max(floor_rad / eps_rad).min(1.0);
+        let scale = (self.target_rad / peak_rad)
+            .max(floor_rad / eps_rad)
+            .min(1.0);
         let (scaled_omega_rad_s, scaled_amplitude_rad, scaled_peak_rad) = if scale < 1.0 {
             peak(scale * h_rad, scale * eps_rad)?
         } else {
@@ -544,7 +551,10 @@ const PEAK_HARMONICS: usize = 63;
 pub fn square_wave_peak_factor(w: f64, a: f64) -> f64 {
     let g = |n: f64| {
         let x = n * w;
-        (1.0 / (x * x.hypot(a)), -PI / 2.0 - (x / a.max(f64::MIN_POSITIVE)).atan())
+        (
+            1.0 / (x * x.hypot(a)),
+            -PI / 2.0 - (x / a.max(f64::MIN_POSITIVE)).atan(),
+        )
     };
     let (g1, _) = g(1.0);
     let steps = 720;
@@ -686,7 +696,10 @@ mod tests {
         let mean = last.iter().map(|x| x.1).sum::<f64>() / n as f64;
         let peak = last.iter().map(|x| (x.1 - mean).abs()).fold(0.0, f64::max);
         let (c, si) = last.iter().fold((0.0, 0.0), |(c, si), (t, x)| {
-            (c + (x - mean) * (w * t).cos(), si + (x - mean) * (w * t).sin())
+            (
+                c + (x - mean) * (w * t).cos(),
+                si + (x - mean) * (w * t).sin(),
+            )
         });
         let h1 = 2.0 / n as f64 * c.hypot(si);
         let k = square_wave_peak_factor(w, a);

@@ -6,6 +6,7 @@
 //! | an HBT report | Nyquist plane: the loop the relay sees, servo describing function times ship `S(w) G(j w)` (solid), and the ship alone `G(j w)` (dashed), nominal and estimated, the relay's `-1/N(A)` locus, the measured limit cycle on it (a circle), the measured response `G(j w_u)` (a cross), the describing-function predictions (triangles) |
 //! | a report history | the residuals against `t_end`: chi2 (circles, one per report) with the sequential test's single-test limit (from `fdi.false-alarms-per-year`), and `z_speed`, `z_disp`, `z_rate` |
 //! | a recording | heading, rudder and excitation against time (an HBT limit cycle's time trace) |
+//! | a vessel's state file (`<state-dir>/vessels/<v>.json`) | the learned reference over speed: per method, the learned tests' `e_u` and `e_D` (circles), the predicted offset and its two-sigma band ([`reference`]) |
 //!
 //! The nominal ship is the configuration's `[ship]` at its nominal speed and displacement; the
 //! estimated one is the same model at the report's `estimate`; `(a, b)` from `(u, D)` through
@@ -18,7 +19,8 @@
 //!
 //! The kind of input is detected ([`detect`]) unless forced: the whole input as one JSON
 //! object with `records` is a history (`helmwatch history --json`), with `key` and `payload`
-//! a recording, with `method` and `features` a report (`helmwatch probe --json`); otherwise
+//! a recording, with `method` and `features` a report (`helmwatch probe --json`), with
+//! `vessel` and `fdi` a vessel's state file; otherwise
 //! its first non-empty line decides: `key` and `payload` a recording (JSON lines), `records`
 //! or `method` and `residuals` a history (one report or one history reply per line).
 //! Recordings are read through [`recording::Trace::collect`], which takes any iterator of
@@ -27,6 +29,7 @@
 
 mod charts;
 pub mod recording;
+mod reference;
 
 use crate::config::Config;
 use crate::core::wire::{Method, Report};
@@ -41,6 +44,8 @@ pub enum InputKind {
     History,
     /// A recording: JSON lines `{"key", "payload"}`.
     Recording,
+    /// A vessel's state file (`<state-dir>/vessels/<v>.json`): its learned reference.
+    Reference,
 }
 
 impl InputKind {
@@ -50,6 +55,7 @@ impl InputKind {
             InputKind::Report => "report",
             InputKind::History => "history",
             InputKind::Recording => "recording",
+            InputKind::Reference => "reference",
         }
     }
 }
@@ -61,8 +67,9 @@ impl std::str::FromStr for InputKind {
             "report" => Ok(InputKind::Report),
             "history" => Ok(InputKind::History),
             "recording" => Ok(InputKind::Recording),
+            "reference" => Ok(InputKind::Reference),
             other => Err(format!(
-                "unknown kind {other:?}: report, history or recording"
+                "unknown kind {other:?}: report, history, recording or reference"
             )),
         }
     }
@@ -120,6 +127,9 @@ pub fn detect(text: &str) -> Result<InputKind, PlotError> {
         }
         if is_obj_with(&v, &["method", "features"]) {
             return Ok(InputKind::Report);
+        }
+        if is_obj_with(&v, &["vessel", "fdi"]) {
+            return Ok(InputKind::Reference);
         }
     }
     let first = text
@@ -224,6 +234,19 @@ pub fn plot(
             let trace =
                 recording::Trace::collect(recording::json_lines(text), opts.vessel.as_deref())?;
             charts::trace(&mut svg, size, &trace)?;
+        }
+        InputKind::Reference => {
+            let state: crate::core::monitor::VesselState = serde_json::from_str(text)
+                .map_err(|e| data(format!("not a vessel state file: {e}")))?;
+            // The vessel's own configuration, when the file has a table for it.
+            let core = cfg
+                .fleet()
+                .ok()
+                .and_then(|v| v.into_iter().find(|(name, _)| *name == state.vessel))
+                .map_or_else(|| cfg.core(), |(_, c)| c);
+            let settings = crate::core::fdi::Fdi::new(&core).settings();
+            let title = format!("{}: the learned reference over speed", state.vessel);
+            reference::reference(&mut svg, size, &title, &state.fdi.commissioning, &settings)?;
         }
     }
     Ok(svg)
