@@ -332,11 +332,11 @@ impl Bridge {
     pub async fn run(self, shutdown: impl Future<Output = ()>) -> Result<DecodeStats, BridgeError> {
         let Bridge {
             cfg,
-            mut source,
+            source,
             session,
             metrics,
         } = self;
-        let r = drive(&cfg, &mut source, &session, metrics, shutdown).await;
+        let r = drive(&cfg, source, &session, metrics, shutdown).await;
         if let Err(e) = session.close().await {
             tracing::warn!("closing the Zenoh session: {e}");
         }
@@ -344,10 +344,12 @@ impl Bridge {
     }
 }
 
-/// What the input gave.
+/// What the input gave: one datagram, one chunk of a stream, or the news that a stream was
+/// (re)opened (its partial line is then stale).
 enum Got {
-    Datagram(usize),
-    Bytes(usize),
+    Datagram(Vec<u8>),
+    Bytes(Vec<u8>),
+    Opened,
 }
 
 /// An open byte stream (TCP or serial).
@@ -367,19 +369,18 @@ async fn open_stream(source: &Source) -> std::io::Result<ByteStream> {
     }
 }
 
-/// The next datagram or chunk; (re)opens a stream, waiting `retry` after a failure. Cancel
-/// safe (a dropped call loses no bytes: reads are cancel safe, an open is retried).
-async fn next(
-    source: &Source,
-    stream: &mut Option<ByteStream>,
-    buf: &mut [u8],
-    retry: Duration,
-    lines: &mut LineBuffer,
-) -> Got {
+/// Reads the input for as long as `tx` has a receiver: datagrams as they come; a stream
+/// opened, read, and reopened `retry` after a failure or a hang-up. It runs as its own task
+/// so that nothing cancels it half way: an open dropped by a `select!` would leave a
+/// half-made TCP connection in the server's queue and skip the wait before the next one.
+/// The channel is bounded: a slow publisher slows the reads, the kernel buffers the rest.
+async fn read_input(source: Source, retry: Duration, tx: tokio::sync::mpsc::Sender<Got>) {
+    let mut buf = vec![0u8; 65536];
+    let mut stream: Option<ByteStream> = None;
     loop {
-        if let Source::Udp(s) = source {
-            match s.recv(buf).await {
-                Ok(n) => return Got::Datagram(n),
+        let got = if let Source::Udp(s) = &source {
+            match s.recv(&mut buf).await {
+                Ok(n) => Got::Datagram(buf[..n].to_vec()),
                 Err(e) => {
                     // ICMP errors and the like: nothing to reopen; no busy loop either.
                     tracing::debug!("udp receive: {e}");
@@ -387,40 +388,45 @@ async fn next(
                     continue;
                 }
             }
-        }
-        let Some(st) = stream.as_mut() else {
-            match open_stream(source).await {
+        } else if let Some(st) = stream.as_mut() {
+            match st.read(&mut buf).await {
+                Ok(0) => {
+                    tracing::warn!("NMEA input closed; reopening in {:?}", retry);
+                    stream = None;
+                    tokio::time::sleep(retry).await;
+                    continue;
+                }
+                Ok(n) => Got::Bytes(buf[..n].to_vec()),
+                Err(e) => {
+                    tracing::warn!("NMEA input: {e}; reopening in {:?}", retry);
+                    stream = None;
+                    tokio::time::sleep(retry).await;
+                    continue;
+                }
+            }
+        } else {
+            match open_stream(&source).await {
                 Ok(s) => {
                     tracing::info!("NMEA input open");
-                    lines.clear();
-                    *stream = Some(s);
+                    stream = Some(s);
+                    Got::Opened
                 }
                 Err(e) => {
                     tracing::warn!("NMEA input: {e}; retrying in {:?}", retry);
                     tokio::time::sleep(retry).await;
+                    continue;
                 }
             }
-            continue;
         };
-        match st.read(buf).await {
-            Ok(0) => {
-                tracing::warn!("NMEA input closed; reopening in {:?}", retry);
-                *stream = None;
-                tokio::time::sleep(retry).await;
-            }
-            Ok(n) => return Got::Bytes(n),
-            Err(e) => {
-                tracing::warn!("NMEA input: {e}; reopening in {:?}", retry);
-                *stream = None;
-                tokio::time::sleep(retry).await;
-            }
+        if tx.send(got).await.is_err() {
+            return;
         }
     }
 }
 
 async fn drive(
     cfg: &BridgeConfig,
-    source: &mut Source,
+    source: Source,
     session: &zenoh::Session,
     metrics: Option<tokio::net::TcpListener>,
     shutdown: impl Future<Output = ()>,
@@ -461,10 +467,13 @@ async fn drive(
 
     let mut decoder = Decoder::new(cfg.decode_options());
     let mut lines = LineBuffer::new();
-    let mut stream: Option<ByteStream> = None;
-    let mut buf = vec![0u8; 65536];
     let mut out: Vec<Input> = Vec::with_capacity(16);
-    let retry = Duration::from_secs_f64(cfg.reconnect_s);
+    let (tx, mut rx) = tokio::sync::mpsc::channel(64);
+    let _reader = AbortOnDrop(tokio::spawn(read_input(
+        source,
+        Duration::from_secs_f64(cfg.reconnect_s),
+        tx,
+    )));
     let mut tick = tokio::time::interval(Duration::from_secs_f64(cfg.stats_period_s));
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut logged = [0u64; Reject::ALL.len()];
@@ -478,13 +487,20 @@ async fn drive(
                 publish_stats(&stats_pub, decoder.stats()).await;
                 continue;
             }
-            g = next(source, &mut stream, &mut buf, retry, &mut lines) => g,
+            g = rx.recv() => match g {
+                Some(g) => g,
+                None => break, // the reader ended: it only does when the runtime stops
+            },
         };
         let recv_s = now_s();
         out.clear();
         match got {
-            Got::Datagram(n) => decoder.datagram(&buf[..n], recv_s, &mut out),
-            Got::Bytes(n) => decoder.stream(&mut lines, &buf[..n], recv_s, &mut out),
+            Got::Datagram(b) => decoder.datagram(&b, recv_s, &mut out),
+            Got::Bytes(b) => decoder.stream(&mut lines, &b, recv_s, &mut out),
+            Got::Opened => {
+                lines.clear();
+                continue;
+            }
         }
         for input in &out {
             let bytes = serde_json::to_vec(&input.payload()).unwrap_or_default();
