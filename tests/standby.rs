@@ -485,6 +485,21 @@ async fn daemon_in_process(
         .unwrap()
 }
 
+/// The value of one series on a daemon's metrics endpoint (0 when absent).
+async fn counter(addr: std::net::SocketAddr, series: &str) -> u64 {
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let mut c = tokio::net::TcpStream::connect(addr).await.unwrap();
+    c.write_all(b"GET /metrics HTTP/1.1\r\nHost: helmwatch\r\nConnection: close\r\n\r\n")
+        .await
+        .unwrap();
+    let mut body = String::new();
+    c.read_to_string(&mut body).await.unwrap();
+    body.lines()
+        .find_map(|l| l.strip_prefix(series))
+        .and_then(|v| v.trim().parse::<f64>().ok())
+        .map_or(0, |v| v as u64)
+}
+
 /// One side of a partition: a router on a free loopback endpoint, and that endpoint.
 async fn partition() -> (String, zenoh::Session) {
     let ep = endpoint();
@@ -570,7 +585,6 @@ async fn a_healed_partition_leaves_one_driver() {
 /// A standby configured for another ship refuses the holder's state (its fingerprint), and a
 /// standby with no holder alive answers a trigger with its refusal.
 #[tokio::test(flavor = "multi_thread")]
-#[ignore = "racy (failed in a clean CI run on 2026-11-26, passed twice locally): the holder publishes its state when it takes over and after each decision, not when a standby appears, so a standby that subscribes after the holder's last publication never receives a state to refuse; run with --ignored until the holder republishes for a new standby"]
 async fn a_state_of_another_configuration_is_refused_and_a_lone_standby_refuses_triggers() {
     let router_ep = endpoint();
     let router = zenoh::open(loopback(ZenohMode::Router, &[router_ep.clone()], &[]).unwrap())
@@ -587,8 +601,18 @@ async fn a_state_of_another_configuration_is_refused_and_a_lone_standby_refuses_
     owners.wait("a", "holder", "a").await;
     let mut other = cfg.clone();
     other.ship.length_m *= 1.5;
+    other.daemon.metrics_listen = "127.0.0.1:0".into();
     let b = daemon_in_process(&other, "b", &router_ep).await;
     owners.wait("b", "standby", "a").await;
+    // The holder's state reaches b (published for the new candidate, and asked for by b) and
+    // is refused: seen on b's metrics before the holder goes.
+    let refused = r#"helmwatch_replicated_states_refused_total{vessel="self"}"#;
+    let metrics = b.metrics_addr().unwrap();
+    let deadline = Instant::now() + LIMIT;
+    while counter(metrics, refused).await < 1 {
+        assert!(Instant::now() < deadline, "b refused no state of a");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
     // The holder is gone: within takeover-s the standby answers, refusing.
     a.stop().await;
     owners.wait("b", "standby", "null").await;
@@ -611,7 +635,6 @@ async fn a_state_of_another_configuration_is_refused_and_a_lone_standby_refuses_
 /// healing) is marked with that daemon: `a` drives the ship through a test when the partition
 /// heals and `b` appears as a second holder (and yields).
 #[tokio::test(flavor = "multi_thread")]
-#[ignore = "racy (1 run in 3 on 2026-11-26): the vessel task reads its role from a watch channel, which keeps only the latest view, so a second holder that yields within one read is never seen and the report goes unmarked; run with --ignored until the ownership view accumulates the holders it saw"]
 async fn a_report_made_while_two_held_the_vessel_is_marked() {
     let ((ep_a, router_a), (ep_b, router_b)) = (partition().await, partition().await);
     let mut cfg = common::daemon_config();

@@ -21,6 +21,7 @@
 //! | `helmwatch_queue_dropped_total` | counter | vessel | samples dropped because the queue was full (`dropped.flood`) |
 //! | `helmwatch_controls_dropped_total` | counter | vessel | trigger and commission requests refused: queue full (`dropped.triggers`) |
 //! | `helmwatch_publish_errors_total` | counter | vessel | failed publications |
+//! | `helmwatch_replicated_states_refused_total` | counter | vessel | the holder's `fdi/state` refused by this standby (another format, vessel, configuration or models) |
 //! | `helmwatch_excitation_latency_seconds` | histogram | vessel | wall time from a heading sample's arrival (the Zenoh callback) to its excitation's publication |
 
 use crate::core::monitor::input::RejectReason;
@@ -43,7 +44,7 @@ use std::time::Duration;
 pub const CONTENT_TYPE: &str = "application/openmetrics-text; version=1.0.0; charset=utf-8";
 
 /// Every metric family's name, as exposed (counters with their `_total`).
-pub const FAMILIES: [&str; 13] = [
+pub const FAMILIES: [&str; 14] = [
     "helmwatch_inputs_accepted_total",
     "helmwatch_inputs_rejected_total",
     "helmwatch_tests_started_total",
@@ -56,6 +57,7 @@ pub const FAMILIES: [&str; 13] = [
     "helmwatch_queue_dropped_total",
     "helmwatch_controls_dropped_total",
     "helmwatch_publish_errors_total",
+    "helmwatch_replicated_states_refused_total",
     "helmwatch_excitation_latency_seconds",
 ];
 
@@ -154,6 +156,7 @@ pub struct Metrics {
     queue_dropped: Family<VesselLabels, Counter>,
     controls_dropped: Family<VesselLabels, Counter>,
     publish_errors: Family<VesselLabels, Counter>,
+    states_refused: Family<VesselLabels, Counter>,
     excitation_latency: LatencyFamily,
 }
 
@@ -178,6 +181,7 @@ impl Metrics {
             queue_dropped: Family::default(),
             controls_dropped: Family::default(),
             publish_errors: Family::default(),
+            states_refused: Family::default(),
             excitation_latency: Family::new_with_constructor(latency_histogram as fn() -> _),
         };
         m.registry.register(
@@ -229,6 +233,11 @@ impl Metrics {
             "publish_errors",
             "Publications that failed",
             m.publish_errors.clone(),
+        );
+        m.registry.register(
+            "replicated_states_refused",
+            "States published by the vessel's holder that this standby refused (another format, vessel, configuration or models)",
+            m.states_refused.clone(),
         );
         m.registry.register_with_unit(
             "excitation_latency",
@@ -286,6 +295,7 @@ impl Metrics {
             queue_dropped: self.queue_dropped.get_or_create_owned(&vl),
             controls_dropped: self.controls_dropped.get_or_create_owned(&vl),
             publish_errors: self.publish_errors.get_or_create_owned(&vl),
+            states_refused: self.states_refused.get_or_create_owned(&vl),
             latency: self.excitation_latency.get_or_create_owned(&vl),
         }
     }
@@ -331,6 +341,7 @@ pub struct VesselMetrics {
     queue_dropped: Counter,
     controls_dropped: Counter,
     publish_errors: Counter,
+    states_refused: Counter,
     latency: Histogram,
 }
 
@@ -416,6 +427,11 @@ impl VesselMetrics {
     /// A failed publication.
     pub fn publish_error(&self) {
         self.publish_errors.inc();
+    }
+
+    /// A replicated state refused.
+    pub fn state_refused(&self) {
+        self.states_refused.inc();
     }
 
     /// An excitation published `latency` after its heading arrived.

@@ -122,6 +122,9 @@ enum Msg {
     /// The vessel's state as its holder published it (`fdi/state`), or as it answered a
     /// standby's query.
     State { payload: Vec<u8> },
+    /// Another daemon became a candidate for the vessel: the holder publishes its state for
+    /// it (a standby that came late has seen none), a standby ignores it.
+    CandidateJoined,
     /// A query for the vessel's state: the holder answers with it, a standby stays silent.
     StateQuery {
         reply: oneshot::Sender<Option<Vec<u8>>>,
@@ -455,7 +458,7 @@ impl Daemon {
                 driving: false,
                 replica: None,
                 refused_states: 0,
-                concurrent: std::collections::BTreeSet::new(),
+                concurrent_since: 0,
             };
             vessel_tasks.push(tokio::spawn(task.run(cancel.clone())));
             senders.push(tx);

@@ -13,14 +13,15 @@
 //! - **to standby**: the vessel task is told first (it stops answering at once: nothing more
 //!   is published for the vessel), then the two tokens are undeclared;
 //! - every change is logged and published on `vessels/<v>/fdi/ownership`, and a standby that
-//!   learns of a holder asks it for the vessel's state (`fdi/state`, a query).
+//!   learns of a holder asks it for the vessel's state (`fdi/state`, a query); the holder
+//!   also publishes it when another candidate appears.
 //!
 //! The vessel task reads its role from a `watch` channel (never lost, never blocks).
 
 use super::DaemonError;
 use crate::core::ownership::{Event, Ownership, Role};
 use crate::core::wire::Keys;
-use std::collections::{BTreeSet, HashMap};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::time::{Duration, Instant};
 use tokio::sync::{mpsc, oneshot, watch};
 use tokio_util::sync::CancellationToken;
@@ -37,6 +38,14 @@ pub(super) struct RoleView {
     /// Other daemons driving the vessel at the same time (a healed partition, until they
     /// yield): reports made meanwhile are marked with them.
     pub others_holding: BTreeSet<String>,
+    /// The number of this view: one more at every view sent.
+    pub seq: u64,
+    /// Every other daemon seen driving the vessel while this one drove, with the number of
+    /// the last view at which it still did (the view that showed it gone, or the current
+    /// one). The channel keeps only the latest view, so a holder that came and yielded
+    /// between two reads of it is found here: it drove during a test started at view `s`
+    /// when its number is above `s` (see [`RoleView::drove_since`]). One entry per daemon.
+    pub last_held: BTreeMap<String, u64>,
 }
 
 impl RoleView {
@@ -45,7 +54,22 @@ impl RoleView {
         Self {
             role: Role::Claiming,
             others_holding: BTreeSet::new(),
+            seq: 0,
+            last_held: BTreeMap::new(),
         }
+    }
+
+    /// The other daemons that drove the vessel with this one at any time since view `since`
+    /// (taken when a test started): those driving now and those that stopped after it.
+    pub fn drove_since(&self, since: u64) -> BTreeSet<String> {
+        let mut ids = self.others_holding.clone();
+        ids.extend(
+            self.last_held
+                .iter()
+                .filter(|(_, &s)| s > since)
+                .map(|(id, _)| id.clone()),
+        );
+        ids
     }
 
     /// The words of a refusal or a journal line: "standby, holder b".
@@ -82,6 +106,8 @@ struct Vessel {
     keys: Keys,
     machine: Ownership,
     role: watch::Sender<RoleView>,
+    /// The last view sent on `role` (its number, the holders seen).
+    view: RoleView,
     /// `fdi/holder/<id>` and `fdi/alive`, while this daemon drives.
     tokens: Vec<LivelinessToken>,
     /// Where a replicated state fetched from the holder goes (the vessel's queue).
@@ -152,6 +178,7 @@ impl OwnerDriver {
                 keys: Keys::new(name),
                 machine: Ownership::new(id, 0.0, claim_s, takeover_s),
                 role,
+                view: RoleView::claiming(),
                 tokens: Vec::new(),
                 state_in,
             })
@@ -246,6 +273,12 @@ async fn run(
             ev = rx.recv() => match ev {
                 Some((vessel, ev)) => {
                     if let Some(&i) = index.get(&vessel) {
+                        if matches!(&ev, Event::CandidateUp(c) if *c != id)
+                            && vessels[i].machine.role().drives()
+                        {
+                            // A new standby: it gets the state now, not at the next decision.
+                            let _ = vessels[i].state_in.try_send(super::Msg::CandidateJoined);
+                        }
                         let t = now();
                         let before = vessels[i].machine.other_holders().clone();
                         let change = vessels[i].machine.handle(t, ev);
@@ -290,21 +323,34 @@ async fn apply(
     holders_before: &BTreeSet<String>,
 ) {
     let others = v.machine.other_holders().clone();
-    let view = RoleView {
-        role: v.machine.role().clone(),
-        others_holding: if v.machine.role().drives() {
-            others.clone()
-        } else {
-            BTreeSet::new()
-        },
-    };
-    let Some(role) = change else {
-        if view.role.drives() && others != *holders_before {
-            if !others.is_empty() {
-                tracing::warn!(vessel = %v.name, others = ?others, "another daemon drives this vessel too (a healed partition): it yields, reports meanwhile are marked");
-            }
-            v.role.send_replace(view);
+    let drives = v.machine.role().drives();
+    let changed = change.is_some() || (drives && others != *holders_before);
+    if !changed {
+        return;
+    }
+    // The next view: the holders that drove with this daemon until now, and those that do.
+    let mut view = v.view.clone();
+    view.seq += 1;
+    if view.role.drives() {
+        for id in holders_before {
+            view.last_held.insert(id.clone(), view.seq);
         }
+    }
+    view.role = v.machine.role().clone();
+    view.others_holding = if drives {
+        others.clone()
+    } else {
+        BTreeSet::new()
+    };
+    for id in &view.others_holding {
+        view.last_held.insert(id.clone(), view.seq);
+    }
+    v.view = view.clone();
+    let Some(role) = change else {
+        if !others.is_empty() {
+            tracing::warn!(vessel = %v.name, others = ?others, "another daemon drives this vessel too (a healed partition): it yields, reports meanwhile are marked");
+        }
+        v.role.send_replace(view);
         return;
     };
     // The vessel task first: it stops (or starts) driving before the world is told.

@@ -28,7 +28,7 @@ use crate::core::wire::{self, Input, Keys};
 use crate::shells::history::{History, Kind};
 use crate::shells::recording::{self, Recorder};
 use crate::shells::state::{Loaded, StateDir};
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use tokio::sync::{mpsc, watch};
@@ -165,8 +165,9 @@ pub(super) struct VesselTask {
     pub(super) replica: Option<VesselState>,
     /// Replicated states refused (another format, vessel or fingerprint).
     pub(super) refused_states: u64,
-    /// Other daemons that drove the vessel during the test under way (its report is marked).
-    pub(super) concurrent: BTreeSet<String>,
+    /// The role view's number when the test under way started: the daemons that drove the
+    /// vessel with this one since then mark its report ([`RoleView::drove_since`]).
+    pub(super) concurrent_since: u64,
 }
 
 /// What a fresh core is made of.
@@ -321,9 +322,6 @@ impl VesselTask {
             self.pending_heading = None;
             tracing::warn!(vessel = %self.name, dropped_outputs = dropped, state = ?self.monitor.state(), "stopped driving ({}): the test under way is left to expire", view.describe());
         }
-        if drives {
-            self.concurrent.extend(view.others_holding.iter().cloned());
-        }
     }
 
     /// Starts driving: a fresh core restored from the holder's replicated state (else from
@@ -368,7 +366,7 @@ impl VesselTask {
         self.shared.metrics.alarm(self.monitor.alarm_state());
         self.last_heading = None;
         self.pending_heading = None;
-        self.concurrent.clear();
+        self.concurrent_since = self.role_rx.borrow().seq;
         self.driving = true;
         self.restored = restored;
         tracing::info!(vessel = %self.name, daemon = %self.daemon_id, "driving the vessel");
@@ -405,6 +403,7 @@ impl VesselTask {
         }
         let refuse = |me: &mut Self, from: &str, why: String| {
             me.refused_states += 1;
+            me.shared.metrics.state_refused();
             if me.refused_states.is_power_of_two() {
                 tracing::error!(vessel = %me.name, from, count = me.refused_states, "replicated state refused: {why}");
             }
@@ -451,6 +450,7 @@ impl VesselTask {
         }
         match msg {
             Msg::State { .. } => {}
+            Msg::CandidateJoined => self.publish_state().await,
             Msg::StateQuery { reply } => {
                 let _ = reply.send(self.state_payload());
             }
@@ -561,7 +561,7 @@ impl VesselTask {
         // Left to the holder when one is alive (a second reply would race its answer).
         let holder_alive = matches!(view.role, Role::Standby { holder: Some(_) });
         match msg {
-            Msg::Sample { .. } => {}
+            Msg::Sample { .. } | Msg::CandidateJoined => {}
             Msg::State { payload } => self.on_state(&payload),
             Msg::StateQuery { reply } => {
                 let _ = reply.send(None);
@@ -692,7 +692,7 @@ impl VesselTask {
                 Output::Status(s) => {
                     if s.state == wire::MonitorState::Settling {
                         // A new test: marked only if another daemon drives during it.
-                        self.concurrent = self.role_rx.borrow().others_holding.clone();
+                        self.concurrent_since = self.role_rx.borrow().seq;
                         // A test started: its id is taken, even if the daemon dies before it ends.
                         self.save_state();
                         if let Some(m) = s.method {
@@ -707,20 +707,21 @@ impl VesselTask {
                     self.save_state();
                     self.last_report_t = r.t_end;
                     // Made while another daemon also drove the vessel: marked.
-                    let marked = if self.concurrent.is_empty() {
+                    let (concurrent, seq) = {
+                        let view = self.role_rx.borrow();
+                        (view.drove_since(self.concurrent_since), view.seq)
+                    };
+                    let marked = if concurrent.is_empty() {
                         None
                     } else {
                         let mut v = serde_json::to_value(r).unwrap_or_default();
                         if let Some(o) = v.as_object_mut() {
-                            o.insert(
-                                "concurrent_drivers".into(),
-                                serde_json::json!(self.concurrent),
-                            );
+                            o.insert("concurrent_drivers".into(), serde_json::json!(concurrent));
                         }
-                        tracing::warn!(vessel = %self.name, test = %r.test, others = ?self.concurrent, "report made while another daemon drove too: marked");
+                        tracing::warn!(vessel = %self.name, test = %r.test, others = ?concurrent, "report made while another daemon drove too: marked");
                         Some(v)
                     };
-                    self.concurrent = self.role_rx.borrow().others_holding.clone();
+                    self.concurrent_since = seq;
                     match &marked {
                         Some(v) => self.record(Kind::Report, r.t_end, v),
                         None => self.record(Kind::Report, r.t_end, r),
