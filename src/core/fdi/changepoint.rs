@@ -79,9 +79,12 @@ pub fn change_point(
         let (mb, xb) = b.means();
         let sp = a.scatter().plus(b.scatter());
         let f = 1.0 / k as f64 + 1.0 / (n - k) as f64;
-        let (du, dl) = (xb[0] - xa[0], xb[1] - xa[1]);
-        let psi =
-            |j: usize| (env.slope_speed[j] * du).powi(2) + (env.slope_loading[j] * dl).powi(2);
+        let (du, dl, dg) = (xb[0] - xa[0], xb[1] - xa[1], xb[2] - xa[2]);
+        let psi = |j: usize| {
+            (env.slope_speed[j] * du).powi(2)
+                + (env.slope_loading[j] * dl).powi(2)
+                + (env.slope_excitation[j] * dg).powi(2)
+        };
         let per = sp.times(1.0 / nu);
         let nu_eff = |v: f64, f: f64| {
             if v > 0.0 {
@@ -121,7 +124,7 @@ struct Sums {
     n: f64,
     e: [f64; 2],
     ee: [f64; 3],
-    x: [f64; 2],
+    x: [f64; 3],
 }
 
 impl Sums {
@@ -134,10 +137,10 @@ impl Sums {
                 self.ee[1] + s.e[0] * s.e[1],
                 self.ee[2] + s.e[1] * s.e[1],
             ],
-            x: [
-                self.x[0] + s.speed_mps,
-                self.x[1] + s.displacement_t.max(1e-9).ln(),
-            ],
+            x: {
+                let x = s.point().x();
+                [self.x[0] + x[0], self.x[1] + x[1], self.x[2] + x[2]]
+            },
         }
     }
 
@@ -150,16 +153,16 @@ impl Sums {
                 self.ee[1] - o.ee[1],
                 self.ee[2] - o.ee[2],
             ],
-            x: [self.x[0] - o.x[0], self.x[1] - o.x[1]],
+            x: [self.x[0] - o.x[0], self.x[1] - o.x[1], self.x[2] - o.x[2]],
         }
     }
 
     /// Mean residual and mean operating point.
-    fn means(&self) -> ([f64; 2], [f64; 2]) {
+    fn means(&self) -> ([f64; 2], [f64; 3]) {
         let n = self.n.max(1.0);
         (
             [self.e[0] / n, self.e[1] / n],
-            [self.x[0] / n, self.x[1] / n],
+            [self.x[0] / n, self.x[1] / n, self.x[2] / n],
         )
     }
 
@@ -183,9 +186,10 @@ mod tests {
 
     fn env() -> Envelope {
         Envelope {
-            bandwidth: [1.0, 0.1],
+            bandwidth: [1.0, 0.1, 0.1],
             slope_speed: [0.5, 0.03],
             slope_loading: [4.0, 0.3],
+            slope_excitation: [3.0, 0.3],
         }
     }
 
@@ -199,6 +203,7 @@ mod tests {
             s: [0.05, 0.002],
             speed_mps: u,
             displacement_t: 7000.0,
+            excitation_scale: 1.0,
         }
     }
 
@@ -266,6 +271,7 @@ mod tests {
                             s: [0.05, 0.002],
                             speed_mps: 7.0,
                             displacement_t: 7000.0,
+                            excitation_scale: 1.0,
                         }
                     })
                     .collect();

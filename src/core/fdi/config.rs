@@ -26,6 +26,12 @@ pub struct ReferenceConfig {
     /// Prior standard deviation of the offset's slope in declared loading: `[e_u, e_D]`
     /// [m/s, fraction of D, per unit of ln D].
     pub slope_loading: [f64; 2],
+    /// Kernel width in the excitation's scale [ln s]: a test sized down to the loop it
+    /// found (HBT's relay, CLFRT's tones) is another operating point; 0.1 is about 10 %.
+    pub bandwidth_excitation: f64,
+    /// Prior standard deviation of the offset's slope in the excitation's scale: `[e_u,
+    /// e_D]` [m/s, fraction of D, per unit of ln s].
+    pub slope_excitation: [f64; 2],
     /// At most this many learned tests per method.
     pub memory_tests: u32,
     /// Commissioning ends when a speed-log bias of this size would cross the single-test
@@ -43,6 +49,8 @@ impl Default for ReferenceConfig {
             bandwidth_loading: 0.1,
             slope_speed: [0.5, 0.03],
             slope_loading: [4.0, 0.3],
+            bandwidth_excitation: 0.1,
+            slope_excitation: [3.0, 0.3],
             memory_tests: 200,
             resolve_speed_mps: 0.5,
             resolve_displacement: 0.1,
@@ -82,6 +90,17 @@ impl ReferenceConfig {
         };
         pair("reference.slope-speed", self.slope_speed, [10.0, 1.0])?;
         pair("reference.slope-loading", self.slope_loading, [100.0, 10.0])?;
+        check_range_open_low(
+            "reference.bandwidth-excitation",
+            self.bandwidth_excitation,
+            0.0,
+            2.0,
+        )?;
+        pair(
+            "reference.slope-excitation",
+            self.slope_excitation,
+            [100.0, 10.0],
+        )?;
         check_count("reference.memory-tests", self.memory_tests, 6, 5000)?;
         check_range_open_low(
             "reference.resolve-speed-mps",

@@ -3,27 +3,35 @@
 //!
 //! ## Model
 //!
-//! A healthy test of one method at the operating point `x = (u, l)` (`u` the speed log
-//! [m/s], `l = ln D_decl` the declared displacement's logarithm) has the raw residual
+//! A healthy test of one method at the operating point `x = (u, l, g)` (`u` the speed log
+//! [m/s], `l = ln D_decl` the declared displacement's logarithm, `g = ln s` the logarithm of
+//! the excitation's scale against its design: HBT's relay scale, CLFRT's tones' geometric
+//! mean, 0 when the test played as designed) has the raw residual
 //! (`crate::core::fdi::reference`) `e = m(x) + eps`, with
 //!
-//! - `m(x)` the networks' structural bias on this ship: smooth in `x`, unknown, learned;
+//! - `m(x)` the networks' structural bias on this ship: smooth in `x`, unknown, learned.
+//!   The excitation's scale is part of the point because a test sized down to the loop it
+//!   found (`crate::core::monitor::sizing`) is read back to the design by the describing
+//!   function of a linear ship: on a nonlinear hull the read-back is biased, by as much as
+//!   0.4 m/s of HBT's speed for a relay at 0.83 of its design (KVLCC2, 9.5 m/s), and a
+//!   ship near the sizing's threshold plays one scale or the other from test to test;
 //! - `eps ~ N(0, S_sea S~ S_sea)`: the test-to-test scatter, its *shape* `S~` (a 2 x 2
 //!   covariance in units of the design spreads) the same over the envelope, carried to a
 //!   test's sea by that test's design spreads `S_sea = diag(s_u, s_D)`.
 //!
-//! Near a point `x*`, `m(x) ~ a_0 + a_u (u - u*) + a_l (l - l*)` per component. Each
+//! Near a point `x*`, `m(x) ~ a_0 + a_u (u - u*) + a_l (l - l*) + a_g (g - g*)` per
+//! component. Each
 //! component is fitted by weighted least squares over the learned tests, each test weighted
 //! by its noise (`1 / (s_ij^2 S~_jj)`) and by a kernel of its distance from `x*`,
 //!
 //! ```text
-//! w = 1 / (1 + d^2),   d^2 = ((u - u*) / b_u)^2 + ((l - l*) / b_l)^2
+//! w = 1 / (1 + d^2),   d^2 = ((u - u*) / b_u)^2 + ((l - l*) / b_l)^2 + ((g - g*) / b_g)^2
 //! ```
 //!
-//! (`reference.bandwidth-speed-mps`, `reference.bandwidth-loading`): a soft bin, the method
+//! (`reference.bandwidth-speed-mps`, `-loading`, `-excitation`): a soft bin, the method
 //! of bins of wind-turbine power curves (IEC 61400-12) made continuous, and ISO 19030's
 //! reference conditions made local. The slopes carry a Gaussian prior of mean 0 and standard
-//! deviations `reference.slope-speed` and `reference.slope-loading` (per component): how
+//! deviations `reference.slope-speed`, `-loading` and `-excitation` (per component): how
 //! fast a network's bias on a ship unlike its training model may change across the
 //! envelope. The intercept has a flat prior. The fit's intercept is the predicted offset at
 //! `x*`; its posterior variance `(A^-1)_00` is the prediction's own: small where the ship
@@ -37,7 +45,7 @@
 //! the noise weights, then with the first pass's shape.
 
 use super::stats::Cov2;
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix4, Vector4};
 use serde::{Deserialize, Serialize};
 
 /// Smallest noise variance in design-spread units (a sample with no scatter at all).
@@ -54,32 +62,77 @@ pub struct Sample {
     pub speed_mps: f64,
     /// Declared displacement [t].
     pub displacement_t: f64,
+    /// The excitation's scale against its design (1: as designed).
+    #[serde(default = "as_designed")]
+    pub excitation_scale: f64,
+}
+
+fn as_designed() -> f64 {
+    1.0
 }
 
 impl Sample {
-    fn x(&self) -> [f64; 2] {
-        [self.speed_mps, self.displacement_t.max(1e-9).ln()]
+    /// Its operating point.
+    pub fn point(&self) -> Point {
+        Point {
+            speed_mps: self.speed_mps,
+            displacement_t: self.displacement_t,
+            excitation_scale: self.excitation_scale,
+        }
+    }
+
+    fn x(&self) -> [f64; 3] {
+        self.point().x()
+    }
+}
+
+/// An operating point: what a test's healthy residual depends on besides the ship.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Point {
+    /// Speed log [m/s].
+    pub speed_mps: f64,
+    /// Declared displacement [t].
+    pub displacement_t: f64,
+    /// The excitation's scale against its design (1: as designed).
+    pub excitation_scale: f64,
+}
+
+impl Point {
+    /// `(u, ln D, ln s)`.
+    pub fn x(&self) -> [f64; 3] {
+        [
+            self.speed_mps,
+            self.displacement_t.max(1e-9).ln(),
+            self.excitation_scale.max(1e-9).ln(),
+        ]
     }
 }
 
 /// The regression's settings (from `[reference]`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Settings {
-    /// Kernel widths `(b_u [m/s], b_l [ln D])`.
-    pub bandwidth: [f64; 2],
+    /// Kernel widths `(b_u [m/s], b_l [ln D], b_g [ln s])`.
+    pub bandwidth: [f64; 3],
     /// Prior standard deviation of the slopes in speed `(e_u [m/s per m/s], e_D [per m/s])`.
     pub slope_speed: [f64; 2],
     /// Prior standard deviation of the slopes in `ln D` `(e_u [m/s], e_D [fraction])`.
     pub slope_loading: [f64; 2],
+    /// Prior standard deviation of the slopes in `ln s` `(e_u [m/s], e_D [fraction])`.
+    pub slope_excitation: [f64; 2],
 }
 
 impl Settings {
     /// The settings of `[reference]`.
     pub fn of(r: &super::config::ReferenceConfig) -> Self {
         Self {
-            bandwidth: [r.bandwidth_speed_mps, r.bandwidth_loading],
+            bandwidth: [
+                r.bandwidth_speed_mps,
+                r.bandwidth_loading,
+                r.bandwidth_excitation,
+            ],
             slope_speed: r.slope_speed,
             slope_loading: r.slope_loading,
+            slope_excitation: r.slope_excitation,
         }
     }
 }
@@ -107,10 +160,10 @@ pub struct Prediction {
 }
 
 /// The kernel weight and squared distance between two operating points.
-fn kernel(st: &Settings, a: [f64; 2], b: [f64; 2]) -> (f64, f64) {
-    let du = (a[0] - b[0]) / st.bandwidth[0];
-    let dl = (a[1] - b[1]) / st.bandwidth[1];
-    let d2 = du * du + dl * dl;
+fn kernel(st: &Settings, a: [f64; 3], b: [f64; 3]) -> (f64, f64) {
+    let d2 = (0..3)
+        .map(|i| ((a[i] - b[i]) / st.bandwidth[i]).powi(2))
+        .sum::<f64>();
     (1.0 / (1.0 + d2), d2)
 }
 
@@ -118,17 +171,18 @@ fn kernel(st: &Settings, a: [f64; 2], b: [f64; 2]) -> (f64, f64) {
 fn fit_component(
     samples: &[Sample],
     st: &Settings,
-    at: [f64; 2],
+    at: [f64; 3],
     j: usize,
     noise: f64,
 ) -> Option<(f64, f64)> {
     let prior = |sd: f64| 1.0 / sd.max(1e-12).powi(2);
-    let mut a = Matrix3::from_diagonal(&Vector3::new(
+    let mut a = Matrix4::from_diagonal(&Vector4::new(
         0.0,
         prior(st.slope_speed[j]),
         prior(st.slope_loading[j]),
+        prior(st.slope_excitation[j]),
     ));
-    let mut b = Vector3::zeros();
+    let mut b = Vector4::zeros();
     for smp in samples {
         let x = smp.x();
         let (w, _) = kernel(st, x, at);
@@ -136,7 +190,7 @@ fn fit_component(
         if var.is_nan() || var <= 0.0 {
             continue;
         }
-        let phi = Vector3::new(1.0, x[0] - at[0], x[1] - at[1]);
+        let phi = Vector4::new(1.0, x[0] - at[0], x[1] - at[1], x[2] - at[2]);
         a += phi * phi.transpose() * (w / var);
         b += phi * (w * smp.e[j] / var);
     }
@@ -150,7 +204,7 @@ fn fit_component(
 fn fit(
     samples: &[Sample],
     st: &Settings,
-    at: [f64; 2],
+    at: [f64; 3],
     noise: [f64; 2],
 ) -> Option<[(f64, f64); 2]> {
     Some([
@@ -178,7 +232,7 @@ pub fn shape(samples: &[Sample], st: &Settings) -> Option<Shape> {
     let mut noise = [var(0, m0), var(1, m1)];
     // The fit at each distinct operating point, once (a commissioning sample is often at
     // one point: one fit for all).
-    let mut points: Vec<[f64; 2]> = Vec::new();
+    let mut points: Vec<[f64; 3]> = Vec::new();
     let index: Vec<usize> = samples
         .iter()
         .map(|s| {
@@ -222,15 +276,9 @@ pub fn shape(samples: &[Sample], st: &Settings) -> Option<Shape> {
     out
 }
 
-/// The predicted offset at the operating point `(speed_mps, displacement_t)`.
-pub fn predict(
-    samples: &[Sample],
-    st: &Settings,
-    shape: &Shape,
-    speed_mps: f64,
-    displacement_t: f64,
-) -> Option<Prediction> {
-    let at = [speed_mps, displacement_t.max(1e-9).ln()];
+/// The predicted offset at the operating point `at`.
+pub fn predict(samples: &[Sample], st: &Settings, shape: &Shape, at: &Point) -> Option<Prediction> {
+    let at = at.x();
     let f = fit(samples, st, at, [shape.cov.xx, shape.cov.yy])?;
     let rho = shape.cov.correlation();
     let (support, nearest) = samples.iter().fold((0.0, f64::INFINITY), |(w, d), s| {
@@ -255,9 +303,10 @@ mod tests {
 
     fn st() -> Settings {
         Settings {
-            bandwidth: [1.0, 0.1],
+            bandwidth: [1.0, 0.1, 0.1],
             slope_speed: [0.5, 0.03],
             slope_loading: [4.0, 0.3],
+            slope_excitation: [3.0, 0.3],
         }
     }
 
@@ -267,6 +316,15 @@ mod tests {
             s: [0.1, 0.01],
             speed_mps: u,
             displacement_t: d,
+            excitation_scale: 1.0,
+        }
+    }
+
+    fn at(u: f64, d: f64) -> Point {
+        Point {
+            speed_mps: u,
+            displacement_t: d,
+            excitation_scale: 1.0,
         }
     }
 
@@ -301,7 +359,7 @@ mod tests {
         assert!((sh.cov.xx - sxx).abs() < 1e-9 * sxx);
         assert!((sh.cov.xy - sxy).abs() < 1e-9 * sxy.abs());
         assert!((sh.cov.yy - syy).abs() < 1e-9 * syy);
-        let p = predict(&samples, &st(), &sh, 7.0, 7000.0).unwrap();
+        let p = predict(&samples, &st(), &sh, &at(7.0, 7000.0)).unwrap();
         assert!((p.offset[0] - mu.0).abs() < 1e-12);
         assert!((p.offset[1] - mu.1).abs() < 1e-12);
         // The mean's variance: S / n in physical units.
@@ -324,7 +382,7 @@ mod tests {
         .collect();
         let sh = shape(&samples, &st()).unwrap();
         let du = 1.5;
-        let p = predict(&samples, &st(), &sh, 7.0 + du, 7000.0).unwrap();
+        let p = predict(&samples, &st(), &sh, &at(7.0 + du, 7000.0)).unwrap();
         // By hand: all data at one distance d = 1.5 bandwidths, weight w = 1 / (1 + d^2);
         // intercept variance = 1 / W + du^2 tau^2 with W = n w / sigma^2.
         let w = 1.0 / (1.0 + du * du);
@@ -341,6 +399,47 @@ mod tests {
         assert!((p.nearest - 1.5).abs() < 1e-12);
     }
 
+    /// A relay sized down is another point: predicted from the designed relay's tests with
+    /// the slope prior's interval in `ln s`; once learned, each scale keeps its own offset.
+    #[test]
+    fn an_excitation_sized_down_is_another_operating_point() {
+        let wob = [0.01, -0.01, 0.005, -0.005, 0.0];
+        let mut samples: Vec<Sample> = wob
+            .iter()
+            .map(|w| smp([2.0 + w, -0.70 + w / 10.0], 9.5, 7000.0))
+            .collect();
+        let sh = shape(&samples, &st()).unwrap();
+        let scaled = Point {
+            excitation_scale: 0.83,
+            ..at(9.5, 7000.0)
+        };
+        let p = predict(&samples, &st(), &sh, &scaled).unwrap();
+        // By hand: every test at g = ln 0.83 from the point, d = |g| / b_g.
+        let g = 0.83f64.ln();
+        let w = 1.0 / (1.0 + (g / 0.1).powi(2));
+        let want = sh.cov.xx * 0.01 / (5.0 * w) + (g * 3.0).powi(2);
+        assert!(
+            (p.cov.xx - want).abs() < 1e-9 * want,
+            "{} vs {want}",
+            p.cov.xx
+        );
+        assert!((p.offset[0] - 2.0).abs() < 1e-9, "{:?}", p.offset);
+        // Tests at 0.83 read 0.4 m/s lower (the read-back's bias on a nonlinear hull).
+        for w in wob {
+            let mut t = smp([1.6 + w, -0.68 + w / 10.0], 9.5, 7000.0);
+            t.excitation_scale = 0.83;
+            samples.push(t);
+        }
+        let sh = shape(&samples, &st()).unwrap();
+        // The shape is the scatter about each scale's offset, not the gap between them.
+        assert!(sh.cov.xx < 0.2, "{:?}", sh.cov);
+        let lo = predict(&samples, &st(), &sh, &scaled).unwrap();
+        let hi = predict(&samples, &st(), &sh, &at(9.5, 7000.0)).unwrap();
+        assert!((lo.offset[0] - 1.6).abs() < 0.02, "{:?}", lo.offset);
+        assert!((hi.offset[0] - 2.0).abs() < 0.02, "{:?}", hi.offset);
+        assert!(lo.cov.xx.sqrt() < 0.02, "{}", lo.cov.xx.sqrt());
+    }
+
     #[test]
     fn two_learned_speeds_give_the_slope_between_them() {
         // e_u = 1 - (u - 7) exactly (the estimate does not follow the speed), e_D flat,
@@ -351,7 +450,7 @@ mod tests {
             samples.push(smp([1.0 - (u - 7.0) + wob, -0.2 + wob / 10.0], *u, 7000.0));
         }
         let sh = shape(&samples, &st()).unwrap();
-        let p = predict(&samples, &st(), &sh, 6.25, 7000.0).unwrap();
+        let p = predict(&samples, &st(), &sh, &at(6.25, 7000.0)).unwrap();
         assert!((p.offset[0] - 1.75).abs() < 0.01, "{:?}", p.offset);
         assert!((p.offset[1] + 0.2).abs() < 0.002);
         // Between two learned points the interval is far narrower than the prior's alone

@@ -36,13 +36,14 @@ pub mod decision;
 pub mod envelope;
 mod fit;
 pub mod isolation;
+pub mod measured;
+mod raw;
 pub mod reference;
 mod report;
 pub mod sensitivity;
 pub mod stats;
 
 use crate::core::baseline::config::BaselineConfig;
-use crate::core::estimator::model::{Target, Uncertainty};
 use crate::core::estimator::{Estimator, EstimatorScratch};
 use crate::core::fdi::config::{FdiConfig, ReferenceConfig};
 use crate::core::model::ShipConfig;
@@ -50,20 +51,16 @@ pub use crate::core::model::{displacement_from_b, speed_from_a};
 use crate::core::monitor::config::CoreConfig;
 use crate::core::wire::residuals::{
     DecisionReport, ParameterResiduals, RawResiduals, ReferenceKind, ReferenceReport, Residuals,
-    ServoCheck, TrackState,
+    TrackState,
 };
 use crate::core::wire::{AlarmState, Cause, Decision, Estimate, Features, Method, Notification};
 use decision::{Entry, Limits, Sequential};
-use reference::{Added, Basis, Commissioning, Measured, Phase, Raw};
+pub use raw::sea_index;
+use raw::{lerp, sea_fraction};
+use reference::{Added, Basis, Commissioning, Measured, Phase};
 pub use report::{Fingerprint, MISMATCH_ADVICE};
 use serde::{Deserialize, Serialize};
 use stats::Cov2;
-
-/// Speed step of the central difference for `dD/du_log` [m/s].
-const DU_MPS: f64 = 0.05;
-
-/// Relative step of `b` for the displacement's direction (`sensitivity`).
-const DB_REL: f64 = 0.01;
 
 /// What the FDI adds to a completed test's report.
 #[derive(Debug, Clone, PartialEq)]
@@ -148,53 +145,6 @@ fn method_index(m: Method) -> usize {
     match m {
         Method::Clfrt => 0,
         Method::Hbt => 1,
-    }
-}
-
-/// The sea index of a test's features: its wave yaw [deg], if it has one.
-pub fn sea_index(features: &Features) -> Option<f64> {
-    features
-        .wave_yaw_rad()
-        .map(f64::to_degrees)
-        .filter(|x| x.is_finite() && *x >= 0.0)
-}
-
-/// Where `index` sits between the calm (0) and moderate (1) anchors, clamped to [0, 3].
-fn sea_fraction(anchors: [f64; 2], index: Option<f64>) -> f64 {
-    match index {
-        None => 1.0,
-        Some(i) => ((i - anchors[0]) / (anchors[1] - anchors[0])).clamp(0.0, 3.0),
-    }
-}
-
-/// Interpolates a `[calm, moderate]` pair at `frac`.
-fn lerp(pair: [f64; 2], frac: f64) -> f64 {
-    pair[0] + frac * (pair[1] - pair[0])
-}
-
-/// `(bias, spread)` of a model's residuals at sea fraction `frac`; relative to `reference`
-/// when given and the model file records relative spreads.
-fn spread(u: &Uncertainty, frac: f64, reference: Option<f64>) -> (f64, f64) {
-    use crate::core::model::SeaState;
-    let of = |s: SeaState| u.by_sea.iter().find(|b| b.sea == s);
-    let pick =
-        |mean: [f64; 2], sd: [f64; 2]| (lerp(mean, frac.min(1.0)), lerp(sd, frac).max(sd[0]));
-    match (of(SeaState::Calm), of(SeaState::Moderate)) {
-        (Some(c), Some(m)) => match (reference, c.relative_std, m.relative_std) {
-            (Some(y), Some(rc), Some(rm)) => {
-                let means = [
-                    c.relative_mean.unwrap_or(0.0),
-                    m.relative_mean.unwrap_or(0.0),
-                ];
-                let (bm, bs) = pick(means, [rc, rm]);
-                (bm * y, bs * y)
-            }
-            _ => pick(
-                [c.residual_mean, m.residual_mean],
-                [c.residual_std, m.residual_std],
-            ),
-        },
-        _ => (u.residual_mean, u.residual_std),
     }
 }
 
@@ -365,76 +315,6 @@ impl Fdi {
             TrackState::Alert => AlarmState::Alert,
             TrackState::Alarm => AlarmState::Alarm,
         }
-    }
-
-    /// The neural estimator's raw residuals against the design for a completed test, and
-    /// `dD_est / du_log` [t per m/s].
-    #[allow(clippy::too_many_arguments)]
-    fn nn_raw(
-        &self,
-        method: Method,
-        features: &Features,
-        estimate: &Estimate,
-        d_nom_t: f64,
-        est: &Estimator,
-        scratch: &mut EstimatorScratch,
-        frac: f64,
-    ) -> Option<(Raw, f64, [f64; 2])> {
-        let u_log = features.speed_log_mps().filter(|u| u.is_finite())?;
-        let (mu, su) = spread(
-            &est.model(method, Target::Speed).file.uncertainty,
-            frac,
-            None,
-        );
-        let (md, sd) = spread(
-            &est.model(method, Target::Displacement).file.uncertainty,
-            frac,
-            Some(d_nom_t),
-        );
-        let mut at = |u: f64| -> Option<f64> {
-            est.predict_at_speed_log(method, Target::Displacement, features, u, scratch)
-                .ok()
-        };
-        let g = (at(u_log + DU_MPS)? - at(u_log - DU_MPS)?) / (2.0 * DU_MPS);
-        // The displacement's direction through the networks: the same test on a ship with
-        // b 1 % smaller (`sensitivity`); (0, 1) when the features cannot say.
-        let d_dir = sensitivity::scale_b(features, 1.0 - DB_REL)
-            .and_then(|f| est.estimate(method, &f, scratch).ok())
-            .map(|e| {
-                [
-                    e.speed_mps - estimate.speed_mps,
-                    (e.displacement_t - estimate.displacement_t) / d_nom_t,
-                ]
-            })
-            .filter(|v| v.iter().all(|x| x.is_finite()) && v[1].abs() > 0.0)
-            .unwrap_or([0.0, 1.0]);
-        let raw = Raw {
-            speed_mps: estimate.speed_mps - u_log - mu,
-            displacement: (estimate.displacement_t - d_nom_t - md) / d_nom_t,
-            speed_sigma_mps: su,
-            displacement_sigma: sd / d_nom_t,
-            speed_log_mps: u_log,
-            displacement_declared_t: d_nom_t,
-        };
-        let ok = [raw.speed_mps, raw.displacement, g]
-            .iter()
-            .all(|x| x.is_finite())
-            && raw.speed_sigma_mps > 0.0
-            && raw.displacement_sigma > 0.0;
-        ok.then_some((raw, g, d_dir))
-    }
-
-    /// The servo check of a test: `(rho, z_rate)`.
-    fn servo_check(&self, features: &Features) -> Option<ServoCheck> {
-        let (rate, nominal) = features.servo_rate_rad_s()?;
-        if !rate.is_finite() || !nominal.is_finite() || nominal <= 0.0 {
-            return None;
-        }
-        let rho = rate / nominal;
-        Some(ServoCheck {
-            rate_ratio: rho,
-            z_rate: ((1.0 - rho) / self.cfg.actuator_rate_sigma).max(0.0),
-        })
     }
 
     /// Assesses a completed test. `estimate` is the networks' estimate (with the estimator

@@ -93,12 +93,10 @@
 use super::changepoint;
 use super::config::{FdiConfig, ReferenceConfig};
 use super::decision::Limits;
-use super::envelope::{self, Prediction, Sample, Shape};
+use super::envelope::{self, Sample, Shape};
+pub use super::measured::{calibration, kappa, Basis, Measured};
 use super::stats::Cov2;
 use serde::{Deserialize, Serialize};
-
-/// The residual vector's dimension (speed, displacement).
-const P: f64 = 2.0;
 
 /// The one-sided normal quantile of the power commissioning resolves its faults with (95 %).
 pub const RESOLVE_POWER_Z: f64 = 1.645;
@@ -234,6 +232,8 @@ pub struct Raw {
     pub speed_log_mps: f64,
     /// The declared (nominal) displacement in force [t].
     pub displacement_declared_t: f64,
+    /// The excitation's scale against its design (`Features::excitation_scale`).
+    pub excitation_scale: f64,
 }
 
 impl Raw {
@@ -243,98 +243,9 @@ impl Raw {
             s: [self.speed_sigma_mps, self.displacement_sigma],
             speed_mps: self.speed_log_mps,
             displacement_t: self.displacement_declared_t,
+            excitation_scale: self.excitation_scale,
         }
     }
-}
-
-/// Which reference a test was measured against.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Basis {
-    /// No commissioning configured: the design's own spreads.
-    Design,
-    /// Commissioning, this test being number `done + 1` of at most `of` when it joins.
-    Commissioning {
-        /// Tests in the sample before this one.
-        done: u32,
-        /// `fdi.commissioning-tests`.
-        of: u32,
-    },
-    /// The commissioning sample held a change at test `at`: wide limits.
-    Inconsistent {
-        /// The first test after the change.
-        at: u32,
-    },
-    /// The vessel's own, predicted at the test's operating point.
-    Vessel(Prediction),
-}
-
-/// A test's residual against a reference.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Measured {
-    /// `(r_u [m/s], r_D [fraction])`.
-    pub r: [f64; 2],
-    /// Its covariance for a healthy ship (the offset's error included).
-    pub cov: Cov2,
-    /// The offset error's share of `cov`, shared by every later test against this reference
-    /// (`Some(0)` for the design's); `None` on wide design limits (the residual there is the
-    /// model's bias on this ship, the same at every test: no average over tests shrinks it).
-    pub offset_var: Option<f64>,
-    /// The degrees of freedom the learned part of `cov` was estimated with (infinite:
-    /// nothing learned).
-    pub dof: f64,
-    /// The part of `cov` that rests on the learned tests (the scatter and the offset's
-    /// error; the rest, the floors, is known).
-    pub learned: Cov2,
-}
-
-impl Measured {
-    /// The whitened residual, calibrated: `z = L^-1 r` (`L L' = cov`) scaled so that
-    /// `|z|^2` has the chi-square's tail where `r' cov^-1 r` has Hotelling's (see the module
-    /// doc); `None` unless `cov` is positive definite.
-    pub fn whitened(&self) -> Option<[f64; 2]> {
-        let z = self.cov.whiten(self.r)?;
-        let t = z[0] * z[0] + z[1] * z[1];
-        let k = calibration(t, self.effective_dof());
-        Some([z[0] * k, z[1] * k])
-    }
-
-    /// The degrees of freedom along the residual: `nu T / (y' A y)`, `y = Sigma^-1 r`, `A`
-    /// the learned part: the known floors' share of the residual's variance in its own
-    /// direction adds degrees of freedom (the conservative root of Satterthwaite's
-    /// approximation, `nu / share_learned`).
-    pub fn effective_dof(&self) -> f64 {
-        if !self.dof.is_finite() {
-            return f64::INFINITY;
-        }
-        let Cov2 { xx, xy, yy } = self.cov;
-        let det = xx * yy - xy * xy;
-        if det.is_nan() || det <= 0.0 {
-            return self.dof;
-        }
-        let y = [
-            (yy * self.r[0] - xy * self.r[1]) / det,
-            (xx * self.r[1] - xy * self.r[0]) / det,
-        ];
-        let t = self.r[0] * y[0] + self.r[1] * y[1];
-        let a = self.learned;
-        let ya = y[0] * y[0] * a.xx + 2.0 * y[0] * y[1] * a.xy + y[1] * y[1] * a.yy;
-        if ya > 0.0 && t > 0.0 {
-            (self.dof * t / ya).max(self.dof)
-        } else {
-            f64::INFINITY
-        }
-    }
-}
-
-/// The factor `sqrt(T' / T)` that maps Hotelling's `T^2(2, nu)` statistic `t` onto the
-/// chi-square (2 dof) of the same tail probability: `P(T^2 > t) = (1 + t / nu)^(-(nu - 1) /
-/// 2)`, so `T' = (nu - 1) ln(1 + t / nu)`.
-pub fn calibration(t: f64, nu: f64) -> f64 {
-    if !nu.is_finite() || t.is_nan() || t <= 0.0 {
-        return 1.0;
-    }
-    let nu = nu.max(P + 1.5);
-    ((nu - 1.0) * (t / nu).ln_1p() / t).sqrt()
 }
 
 /// What adding a test did.
@@ -395,13 +306,9 @@ impl Commissioning {
                 let Some(shape) = self.shape else {
                     return (commissioning, wide);
                 };
-                let Some(p) = envelope::predict(
-                    &self.samples,
-                    &s.envelope,
-                    &shape,
-                    raw.speed_log_mps,
-                    raw.displacement_declared_t,
-                ) else {
+                let Some(p) =
+                    envelope::predict(&self.samples, &s.envelope, &shape, &raw.sample().point())
+                else {
                     return (commissioning, wide);
                 };
                 // The scatter and the offset's error rest on the learned tests (away from them,
@@ -545,8 +452,12 @@ impl Commissioning {
         let s_u = mean(&|x| x.s[0]);
         let s_d = mean(&|x| x.s[1]);
         let u = mean(&|x| x.speed_mps);
-        let d = mean(&|x| x.displacement_t.ln()).exp();
-        let off = envelope::predict(&self.samples, &s.envelope, &sh, u, d)
+        let at = envelope::Point {
+            speed_mps: u,
+            displacement_t: mean(&|x| x.displacement_t.ln()).exp(),
+            excitation_scale: mean(&|x| x.excitation_scale.ln()).exp(),
+        };
+        let off = envelope::predict(&self.samples, &s.envelope, &sh, &at)
             .map_or([mean(&|x| x.e[0]), mean(&|x| x.e[1])], |p| p.offset);
         self.reference = Some(Reference {
             tests: self.tests,
@@ -563,7 +474,8 @@ impl Commissioning {
         });
     }
 
-    /// The reference over speed at the declared displacement `d_t`: per speed, the
+    /// The reference over speed at the declared displacement `d_t`, the excitation as
+    /// designed: per speed, the
     /// predicted offset `(e_u, e_D)` and its standard deviations (the prediction's, the
     /// shape's at the learned tests' mean design spreads and the floors). For plots.
     pub fn curve(&self, s: &Settings, speeds: &[f64], d_t: f64) -> Vec<(f64, [f64; 2], [f64; 2])> {
@@ -574,7 +486,12 @@ impl Commissioning {
         speeds
             .iter()
             .filter_map(|&u| {
-                let p = envelope::predict(&self.samples, &s.envelope, &sh, u, d_t)?;
+                let at = envelope::Point {
+                    speed_mps: u,
+                    displacement_t: d_t,
+                    excitation_scale: 1.0,
+                };
+                let p = envelope::predict(&self.samples, &s.envelope, &sh, &at)?;
                 let sd = |var: f64, pv: f64, floor: f64| (k * (var + pv) + floor * floor).sqrt();
                 Some((
                     u,
@@ -645,26 +562,6 @@ fn forget(samples: &mut Vec<Sample>, s: &Settings) {
         };
         if let Some(i) = samples.iter().position(|x| bin(x) == fullest) {
             samples.remove(i);
-        }
-    }
-}
-
-/// The Hotelling factor `nu / (nu - p - 1)` for a shape with `nu` effective dof (see the
-/// module doc); `nu <= p + 1.5` is taken as `p + 1.5` (a factor of `nu / 0.5`).
-pub fn kappa(nu: f64) -> f64 {
-    let nu = nu.max(P + 1.5);
-    nu / (nu - P - 1.0)
-}
-
-impl Basis {
-    /// Name in the report's `residuals.reference.kind`.
-    pub fn name(&self) -> &'static str {
-        match self {
-            Basis::Design => "design",
-            Basis::Commissioning { .. } => "commissioning",
-            Basis::Inconsistent { .. } => "commissioning_inconsistent",
-            Basis::Vessel(p) if p.nearest <= 1.0 => "commissioned",
-            Basis::Vessel(_) => "predicted",
         }
     }
 }

@@ -23,6 +23,7 @@ fn raw_at(e_u: f64, e_d: f64, u: f64, d: f64) -> Raw {
         displacement_sigma: 0.002,
         speed_log_mps: u,
         displacement_declared_t: d,
+        excitation_scale: 1.0,
     }
 }
 

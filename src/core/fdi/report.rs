@@ -18,8 +18,9 @@ use serde_json::Value;
 pub const MISMATCH_ADVICE: &str = "the ship's response is not the trained model's (a higher-order hull, a dead band or an autopilot of its own): this is no fault of the ship; decisions rest on the vessel's commissioned reference, so commission it on a healthy ship (`helmwatch commission`), and train models for this class (`helmwatch train --family`) if it persists";
 
 /// The version of the decision's model: a reference made under another is discarded (its
-/// covariance means something else).
-const DECISION_MODEL: u32 = 3;
+/// covariance means something else; 4: the excitation's scale is a coordinate of the
+/// operating point, unknown in older samples).
+const DECISION_MODEL: u32 = 4;
 
 /// The `model_mismatch` warning of a fit, if its chi-square is over `threshold`.
 pub fn mismatch(fit: &ModelFit, threshold: f64) -> Option<ModelMismatch> {

@@ -1,6 +1,8 @@
 use super::decision::{Entry, Limits, Sequential, YEAR_S};
+use super::raw::spread;
 use super::reference::{Basis, Commissioning, Raw};
 use super::*;
+use crate::core::estimator::model::Uncertainty;
 use crate::core::wire::features::{sample, ClfrtFeatures, ServoRateFeatures};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -229,6 +231,7 @@ fn monte_carlo(
             displacement_sigma: 0.002,
             speed_log_mps: 7.0,
             displacement_declared_t: 7000.0,
+            excitation_scale: 1.0,
         }
     };
     for _ in 0..vessels {
@@ -446,6 +449,7 @@ fn a_reference_is_kept_only_for_its_configuration_and_models() {
         displacement_sigma: 0.002,
         speed_log_mps: 7.0,
         displacement_declared_t: 7000.0,
+        excitation_scale: 1.0,
     };
     // No scatter: the floors alone resolve the faults, so commissioning ends at 6 tests.
     while fdi.commissioning[1].in_progress(&s) {

@@ -81,6 +81,28 @@ impl Features {
         }
     }
 
+    /// The excitation's scale against its design: HBT's relay scale, the geometric mean of
+    /// CLFRT's tone scales; 1 when the test played as designed (or was aborted).
+    pub fn excitation_scale(&self) -> f64 {
+        let s = match self {
+            Features::Hbt(f) => f.relay_scale.unwrap_or(1.0),
+            Features::Clfrt(f) => f.amplitude_scales.as_ref().map_or(1.0, |v| {
+                let logs: Vec<f64> = v.iter().filter(|x| **x > 0.0).map(|x| x.ln()).collect();
+                if logs.is_empty() {
+                    1.0
+                } else {
+                    (logs.iter().sum::<f64>() / logs.len() as f64).exp()
+                }
+            }),
+            Features::None => 1.0,
+        };
+        if s.is_finite() && s > 0.0 {
+            s
+        } else {
+            1.0
+        }
+    }
+
     /// Mean speed-log reading over the test [m/s] (none for an aborted test or without a
     /// speed log).
     pub fn speed_log_mps(&self) -> Option<f64> {

@@ -7,7 +7,7 @@ use crate::core::model::SeaState;
 /// its drawn operating point and the one after the change, the test's phase (`commissioning`,
 /// `test` for a classic scenario after commissioning, else `before change`, `after change`,
 /// `after fault`), whether the fault was present, the operating point the report saw (mean
-/// speed log, nominal displacement in force), the reference's kind, and its decision and
+/// speed log, HBT's relay scale, nominal displacement in force), the reference's kind, and its decision and
 /// residuals.
 pub(super) fn write_outcomes(
     w: &mut impl std::io::Write,
@@ -33,6 +33,7 @@ pub(super) fn write_outcomes(
                     "test": i,
                     "completed": t.completed,
                     "speed_log_mps": nan_null(t.speed_log_mps),
+                    "relay_scale": nan_null(t.relay_scale),
                     "displacement_nominal_t": nan_null(t.displacement_nominal_t),
                     "decision": t.decision,
                     "state": t.state,

@@ -80,6 +80,9 @@ pub struct TestOutcome {
     pub fault_present: bool,
     /// The mean speed log over the test (`features.speed_log_mps`) [m/s] (NaN without).
     pub speed_log_mps: f64,
+    /// HBT: the relay's scale as played (`features.relay_scale`; 1 as designed, NaN for
+    /// CLFRT or an aborted test).
+    pub relay_scale: f64,
     /// The nominal displacement in force (`residuals.displacement_nominal_t`) [t] (NaN
     /// without).
     pub displacement_nominal_t: f64,
@@ -175,6 +178,10 @@ pub(super) fn outcome_of(r: &Report) -> TestOutcome {
         phase: Phase::Test,
         fault_present: false,
         speed_log_mps: r.features.speed_log_mps().unwrap_or(nan),
+        relay_scale: match &r.features {
+            crate::core::wire::Features::Hbt(f) => f.relay_scale.unwrap_or(1.0),
+            _ => nan,
+        },
         displacement_nominal_t: res.displacement_nominal_t.unwrap_or(nan),
         state: res.decision.as_ref().map(|d| d.state),
         inconsistent: says_inconsistent(r),

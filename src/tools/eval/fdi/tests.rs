@@ -27,6 +27,7 @@ fn outcome(decision: Decision, raw0: f64) -> TestOutcome {
         phase: Phase::Test,
         fault_present: false,
         speed_log_mps: 7.0,
+        relay_scale: f64::NAN,
         displacement_nominal_t: 6000.0,
         state: None,
         inconsistent: false,

@@ -1,0 +1,119 @@
+//! A test's residual against the vessel's reference: which reference ([`Basis`]), the
+//! residual and its covariance ([`Measured`]), and the calibration of Hotelling's statistic
+//! onto the chi-square (the model: `crate::core::fdi::reference`).
+
+use super::envelope::Prediction;
+use super::stats::Cov2;
+
+/// The residual vector's dimension (speed, displacement).
+const P: f64 = 2.0;
+
+/// Which reference a test was measured against.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Basis {
+    /// No commissioning configured: the design's own spreads.
+    Design,
+    /// Commissioning, this test being number `done + 1` of at most `of` when it joins.
+    Commissioning {
+        /// Tests in the sample before this one.
+        done: u32,
+        /// `fdi.commissioning-tests`.
+        of: u32,
+    },
+    /// The commissioning sample held a change at test `at`: wide limits.
+    Inconsistent {
+        /// The first test after the change.
+        at: u32,
+    },
+    /// The vessel's own, predicted at the test's operating point.
+    Vessel(Prediction),
+}
+
+/// A test's residual against a reference.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Measured {
+    /// `(r_u [m/s], r_D [fraction])`.
+    pub r: [f64; 2],
+    /// Its covariance for a healthy ship (the offset's error included).
+    pub cov: Cov2,
+    /// The offset error's share of `cov`, shared by every later test against this reference
+    /// (`Some(0)` for the design's); `None` on wide design limits (the residual there is the
+    /// model's bias on this ship, the same at every test: no average over tests shrinks it).
+    pub offset_var: Option<f64>,
+    /// The degrees of freedom the learned part of `cov` was estimated with (infinite:
+    /// nothing learned).
+    pub dof: f64,
+    /// The part of `cov` that rests on the learned tests (the scatter and the offset's
+    /// error; the rest, the floors, is known).
+    pub learned: Cov2,
+}
+
+impl Measured {
+    /// The whitened residual, calibrated: `z = L^-1 r` (`L L' = cov`) scaled so that
+    /// `|z|^2` has the chi-square's tail where `r' cov^-1 r` has Hotelling's (see the module
+    /// doc); `None` unless `cov` is positive definite.
+    pub fn whitened(&self) -> Option<[f64; 2]> {
+        let z = self.cov.whiten(self.r)?;
+        let t = z[0] * z[0] + z[1] * z[1];
+        let k = calibration(t, self.effective_dof());
+        Some([z[0] * k, z[1] * k])
+    }
+
+    /// The degrees of freedom along the residual: `nu T / (y' A y)`, `y = Sigma^-1 r`, `A`
+    /// the learned part: the known floors' share of the residual's variance in its own
+    /// direction adds degrees of freedom (the conservative root of Satterthwaite's
+    /// approximation, `nu / share_learned`).
+    pub fn effective_dof(&self) -> f64 {
+        if !self.dof.is_finite() {
+            return f64::INFINITY;
+        }
+        let Cov2 { xx, xy, yy } = self.cov;
+        let det = xx * yy - xy * xy;
+        if det.is_nan() || det <= 0.0 {
+            return self.dof;
+        }
+        let y = [
+            (yy * self.r[0] - xy * self.r[1]) / det,
+            (xx * self.r[1] - xy * self.r[0]) / det,
+        ];
+        let t = self.r[0] * y[0] + self.r[1] * y[1];
+        let a = self.learned;
+        let ya = y[0] * y[0] * a.xx + 2.0 * y[0] * y[1] * a.xy + y[1] * y[1] * a.yy;
+        if ya > 0.0 && t > 0.0 {
+            (self.dof * t / ya).max(self.dof)
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+/// The factor `sqrt(T' / T)` that maps Hotelling's `T^2(2, nu)` statistic `t` onto the
+/// chi-square (2 dof) of the same tail probability: `P(T^2 > t) = (1 + t / nu)^(-(nu - 1) /
+/// 2)`, so `T' = (nu - 1) ln(1 + t / nu)`.
+pub fn calibration(t: f64, nu: f64) -> f64 {
+    if !nu.is_finite() || t.is_nan() || t <= 0.0 {
+        return 1.0;
+    }
+    let nu = nu.max(P + 1.5);
+    ((nu - 1.0) * (t / nu).ln_1p() / t).sqrt()
+}
+
+/// The Hotelling factor `nu / (nu - p - 1)` for a shape with `nu` effective dof (see the
+/// module doc); `nu <= p + 1.5` is taken as `p + 1.5` (a factor of `nu / 0.5`).
+pub fn kappa(nu: f64) -> f64 {
+    let nu = nu.max(P + 1.5);
+    nu / (nu - P - 1.0)
+}
+
+impl Basis {
+    /// Name in the report's `residuals.reference.kind`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Basis::Design => "design",
+            Basis::Commissioning { .. } => "commissioning",
+            Basis::Inconsistent { .. } => "commissioning_inconsistent",
+            Basis::Vessel(p) if p.nearest <= 1.0 => "commissioned",
+            Basis::Vessel(_) => "predicted",
+        }
+    }
+}
