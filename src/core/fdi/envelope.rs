@@ -200,6 +200,9 @@ fn fit_component(
     (coef[0].is_finite() && v.is_finite() && v >= 0.0).then_some((coef[0], v))
 }
 
+/// A local fit: per component, `(intercept, its variance)`.
+type Fit = [(f64, f64); 2];
+
 /// Both components' local fits at `at`, with the noise variances `noise` (`S~_jj`).
 fn fit(
     samples: &[Sample],
@@ -274,6 +277,64 @@ pub fn shape(samples: &[Sample], st: &Settings) -> Option<Shape> {
         out = Some(Shape { cov, dof });
     }
     out
+}
+
+/// The shape of the scatter near `at`: the learned tests' residuals about the fit at their
+/// own points (with `global`'s noise weights), each weighted by the kernel from `at`,
+///
+/// ```text
+/// S~(x*) = sum w_i r_i r_i' / sum w_i (1 - h_i),   nu(x*) = (sum a_i)^2 / sum a_i^2,
+/// a_i = w_i (1 - h_i)
+/// ```
+///
+/// (Satterthwaite's dof of a weighted variance, at most `global`'s). Where every test is
+/// near `at` it is `global`; where the ship has been tested a few times at a point whose
+/// scatter is not the commissioning point's (an estimator pressed against its training
+/// box's edge scatters less there than inside it), the tests at that point speak for it,
+/// with the few dof they are worth.
+pub fn local_shape(samples: &[Sample], st: &Settings, global: &Shape, at: &Point) -> Shape {
+    let noise = [global.cov.xx, global.cov.yy];
+    let at = at.x();
+    let mut fits: Vec<([f64; 3], Fit)> = Vec::new();
+    let (mut xx, mut xy, mut yy, mut den, mut den2) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for s in samples {
+        let x = s.x();
+        let f = match fits.iter().find(|(p, _)| *p == x) {
+            Some((_, f)) => *f,
+            None => {
+                let Some(f) = fit(samples, st, x, noise) else {
+                    return *global;
+                };
+                fits.push((x, f));
+                f
+            }
+        };
+        let r = [(s.e[0] - f[0].0) / s.s[0], (s.e[1] - f[1].0) / s.s[1]];
+        let h0 = f[0].1 / (s.s[0] * s.s[0] * noise[0].max(MIN_SHAPE_VAR));
+        let h1 = f[1].1 / (s.s[1] * s.s[1] * noise[1].max(MIN_SHAPE_VAR));
+        let keep = (1.0 - 0.5 * (h0 + h1)).clamp(0.0, 1.0);
+        let (w, _) = kernel(st, x, at);
+        xx += w * r[0] * r[0];
+        xy += w * r[0] * r[1];
+        yy += w * r[1] * r[1];
+        den += w * keep;
+        den2 += (w * keep).powi(2);
+    }
+    if den <= 0.0 || den2 <= 0.0 {
+        return *global;
+    }
+    let cov = Cov2 {
+        xx: xx / den,
+        xy: xy / den,
+        yy: yy / den,
+    };
+    if ![cov.xx, cov.xy, cov.yy].iter().all(|v| v.is_finite()) || cov.xx <= 0.0 || cov.yy <= 0.0 {
+        return *global;
+    }
+    Shape {
+        cov,
+        dof: (den * den / den2).min(global.dof),
+    }
 }
 
 /// The predicted offset at the operating point `at`.
@@ -438,6 +499,55 @@ mod tests {
         assert!((lo.offset[0] - 1.6).abs() < 0.02, "{:?}", lo.offset);
         assert!((hi.offset[0] - 2.0).abs() < 0.02, "{:?}", hi.offset);
         assert!(lo.cov.xx.sqrt() < 0.02, "{}", lo.cov.xx.sqrt());
+    }
+
+    /// The local shape: the global one where every test is; where a second point scatters
+    /// ten times more, its own tests speak for it there, and hardly at the first point.
+    #[test]
+    fn the_local_shape_is_the_scatter_of_the_tests_near_the_point() {
+        let wob = [0.01, -0.01, 0.005, -0.005, 0.0, 0.008, -0.008, 0.0];
+        let mut samples: Vec<Sample> = wob
+            .iter()
+            .map(|w| smp([1.0 + w, -0.2 + w / 10.0], 7.0, 7000.0))
+            .collect();
+        let sh = shape(&samples, &st()).unwrap();
+        let here = local_shape(&samples, &st(), &sh, &at(7.0, 7000.0));
+        assert!(
+            (here.cov.xx / sh.cov.xx - 1.0).abs() < 1e-9,
+            "{here:?} vs {sh:?}"
+        );
+        assert!((here.cov.yy / sh.cov.yy - 1.0).abs() < 1e-9);
+        assert!(
+            (here.dof - sh.dof).abs() < 1e-9,
+            "{} vs {}",
+            here.dof,
+            sh.dof
+        );
+        // Far away, with nothing near, the same shape (every weight alike).
+        let far = local_shape(&samples, &st(), &sh, &at(12.0, 7000.0));
+        assert!((far.cov.xx / sh.cov.xx - 1.0).abs() < 1e-9);
+        // Eight tests at 4 m/s (3 bandwidths away) with ten times the scatter.
+        for w in wob {
+            samples.push(smp([0.5 + 10.0 * w, -0.1 + w], 4.0, 7000.0));
+        }
+        let sh = shape(&samples, &st()).unwrap();
+        let there = local_shape(&samples, &st(), &sh, &at(4.0, 7000.0));
+        let here = local_shape(&samples, &st(), &sh, &at(7.0, 7000.0));
+        // By hand: kernel 1 at its own point, 1 / (1 + 9) = 0.1 from the other; the
+        // residuals are each point's own about its mean (0.01 x 0.1 kernel mixes in).
+        let var = |k: f64| wob.iter().map(|w| (k * w).powi(2)).sum::<f64>() / 0.01;
+        let want_there = (var(10.0) + 0.1 * var(1.0)) / (1.1 * 7.0);
+        let want_here = (var(1.0) + 0.1 * var(10.0)) / (1.1 * 7.0);
+        assert!(
+            (there.cov.xx / want_there - 1.0).abs() < 0.05,
+            "{there:?} vs {want_there}"
+        );
+        assert!(
+            (here.cov.xx / want_here - 1.0).abs() < 0.05,
+            "{here:?} vs {want_here}"
+        );
+        // Each point keeps most of its own scatter (9 times apart, by the sums above).
+        assert!(there.cov.xx > 5.0 * here.cov.xx, "{there:?} {here:?}");
     }
 
     #[test]

@@ -306,9 +306,11 @@ impl Commissioning {
                 let Some(shape) = self.shape else {
                     return (commissioning, wide);
                 };
-                let Some(p) =
-                    envelope::predict(&self.samples, &s.envelope, &shape, &raw.sample().point())
-                else {
+                let at = raw.sample().point();
+                // The scatter as the tests near this point show it (the shape learned
+                // elsewhere where there are none).
+                let shape = envelope::local_shape(&self.samples, &s.envelope, &shape, &at);
+                let Some(p) = envelope::predict(&self.samples, &s.envelope, &shape, &at) else {
                     return (commissioning, wide);
                 };
                 // The scatter and the offset's error rest on the learned tests (away from them,
