@@ -403,6 +403,7 @@ impl Daemon {
         let mut state_keys = Vec::with_capacity(names.len());
         let mut roles = Vec::with_capacity(names.len());
         let mut vessel_tasks = Vec::with_capacity(names.len());
+        let mut settled = Vec::with_capacity(names.len());
         let daemon_id = cfg.daemon_id();
         for (v, (name, core)) in vessels.iter().enumerate() {
             let (multisine, estimator) = &cores[part_of[v]].1;
@@ -420,6 +421,8 @@ impl Daemon {
                 KeyExpr::try_from(keys.state()).map_err(DaemonError::declare("state key", name))?;
             let (role_tx, role_rx) = watch::channel(owner::RoleView::claiming());
             roles.push(role_tx);
+            let (settled_tx, settled_rx) = oneshot::channel();
+            settled.push(settled_rx);
             // The state is taken up when the vessel is taken over (from the holder's
             // publication, else from the state directory).
             let mut monitor = Monitor::with_parts(core, name, multisine.clone(), estimator.clone());
@@ -459,6 +462,7 @@ impl Daemon {
                 replica: None,
                 refused_states: 0,
                 concurrent_since: 0,
+                settled: Some(settled_tx),
             };
             vessel_tasks.push(tokio::spawn(task.run(cancel.clone())));
             senders.push(tx);
@@ -614,6 +618,16 @@ impl Daemon {
             owner_cancel.clone(),
         )
         .await?;
+        // Ready once every vessel task has taken up its role: a held vessel's state restored
+        // (and its alarm published again), a standby standing by.
+        for rx in settled {
+            if tokio::time::timeout(Duration::from_secs(5), rx)
+                .await
+                .is_err()
+            {
+                tracing::warn!("a vessel task did not take up its role within 5 s");
+            }
+        }
         let metrics = match metrics_listener {
             Some(listener) => {
                 let addr =

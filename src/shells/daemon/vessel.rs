@@ -168,6 +168,9 @@ pub(super) struct VesselTask {
     /// The role view's number when the test under way started: the daemons that drove the
     /// vessel with this one since then mark its report ([`RoleView::drove_since`]).
     pub(super) concurrent_since: u64,
+    /// Told once the first role after the claim window is taken up (the daemon is ready
+    /// then).
+    pub(super) settled: Option<tokio::sync::oneshot::Sender<()>>,
 }
 
 /// What a fresh core is made of.
@@ -321,6 +324,11 @@ impl VesselTask {
             self.last_heading = None;
             self.pending_heading = None;
             tracing::warn!(vessel = %self.name, dropped_outputs = dropped, state = ?self.monitor.state(), "stopped driving ({}): the test under way is left to expire", view.describe());
+        }
+        if view.role != Role::Claiming {
+            if let Some(tx) = self.settled.take() {
+                let _ = tx.send(());
+            }
         }
     }
 
