@@ -326,9 +326,14 @@ impl VesselTask {
             tracing::warn!(vessel = %self.name, dropped_outputs = dropped, state = ?self.monitor.state(), "stopped driving ({}): the test under way is left to expire", view.describe());
         }
         if view.role != Role::Claiming {
-            if let Some(tx) = self.settled.take() {
-                let _ = tx.send(());
-            }
+            self.signal_settled();
+        }
+    }
+
+    /// Tells the daemon this vessel has taken up its role (once).
+    fn signal_settled(&mut self) {
+        if let Some(tx) = self.settled.take() {
+            let _ = tx.send(());
         }
     }
 
@@ -378,6 +383,8 @@ impl VesselTask {
         self.driving = true;
         self.restored = restored;
         tracing::info!(vessel = %self.name, daemon = %self.daemon_id, "driving the vessel");
+        // Ready: the state is taken up. The restored alarm waits (briefly) for a listener.
+        self.signal_settled();
         self.publish_restored().await;
         self.save_state();
         self.publish_state().await;
