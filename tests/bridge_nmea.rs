@@ -442,16 +442,7 @@ async fn tcp_and_serial_streams_are_cut_into_lines_and_reopened() {
     }
     // The counters on the metrics endpoint: both headings of both connections, the two
     // over-long lines at least.
-    let text = {
-        use tokio::io::{AsyncReadExt, AsyncWriteExt};
-        let mut c = tokio::net::TcpStream::connect(metrics).await.unwrap();
-        c.write_all(b"GET /metrics HTTP/1.1\r\nHost: bridge\r\nConnection: close\r\n\r\n")
-            .await
-            .unwrap();
-        let mut body = String::new();
-        c.read_to_string(&mut body).await.unwrap();
-        body
-    };
+    let text = common::scrape_metrics(metrics).await;
     for family in helmwatch::shells::bridge::METRIC_FAMILIES {
         assert!(text.contains(family), "{family}: {text}");
     }

@@ -487,14 +487,9 @@ async fn daemon_in_process(
 
 /// The value of one series on a daemon's metrics endpoint (0 when absent).
 async fn counter(addr: std::net::SocketAddr, series: &str) -> u64 {
-    use tokio::io::{AsyncReadExt, AsyncWriteExt};
-    let mut c = tokio::net::TcpStream::connect(addr).await.unwrap();
-    c.write_all(b"GET /metrics HTTP/1.1\r\nHost: helmwatch\r\nConnection: close\r\n\r\n")
+    common::scrape_metrics(addr)
         .await
-        .unwrap();
-    let mut body = String::new();
-    c.read_to_string(&mut body).await.unwrap();
-    body.lines()
+        .lines()
         .find_map(|l| l.strip_prefix(series))
         .and_then(|v| v.trim().parse::<f64>().ok())
         .map_or(0, |v| v as u64)

@@ -212,3 +212,15 @@ pub fn ran_to_analysis(report: &Value) -> bool {
         _ => false,
     }
 }
+
+/// The text of a metrics endpoint's `GET /metrics` (the HTTP response, headers included).
+pub async fn scrape_metrics(addr: std::net::SocketAddr) -> String {
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let mut c = tokio::net::TcpStream::connect(addr).await.unwrap();
+    c.write_all(b"GET /metrics HTTP/1.1\r\nHost: helmwatch\r\nConnection: close\r\n\r\n")
+        .await
+        .unwrap();
+    let mut body = String::new();
+    c.read_to_string(&mut body).await.unwrap();
+    body
+}
