@@ -61,6 +61,7 @@
 //! --false-alarms` checks the arithmetic by Monte Carlo on the model itself.
 
 use super::isolation;
+use super::reference::Raw;
 use super::stats::{chi2_isf_even, normal_isf};
 use crate::core::wire::residuals::{Look, TrackState};
 use crate::core::wire::{Cause, Method};
@@ -130,6 +131,20 @@ pub struct Entry {
     pub directions: [[f64; 2]; 2],
     /// The servo check's score (`None`: no servo check).
     pub z_rate: Option<f64>,
+    /// What it was measured from, to measure it again against a newer reference of its
+    /// method (`None`: as it stands).
+    #[serde(default)]
+    pub source: Option<Source>,
+}
+
+/// A test's raw residuals and its cause directions before whitening (speed log,
+/// displacement), from which its entry is measured against the method's reference.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Source {
+    /// Its raw residuals against the design.
+    pub raw: Raw,
+    /// The causes' directions in `(e_u, e_D)`.
+    pub directions: [[f64; 2]; 2],
 }
 
 /// Which tests of the window a look covers, and its statistic.
@@ -172,6 +187,17 @@ pub struct Step {
 }
 
 impl Sequential {
+    /// Measures the window's tests again where `f` gives a new entry (a newer reference of
+    /// their method, which never contains them: `crate::core::fdi::learning`), so each look
+    /// is taken against the best reference there is for its tests.
+    pub fn remeasure(&mut self, mut f: impl FnMut(&Entry) -> Option<Entry>) {
+        for e in self.window.iter_mut() {
+            if let Some(n) = f(e) {
+                *e = n;
+            }
+        }
+    }
+
     /// Takes one completed test; `limits` from the budget.
     pub fn update(&mut self, limits: &Limits, entry: Entry) -> Step {
         // One reference per method in the window.

@@ -36,6 +36,7 @@ pub mod decision;
 pub mod envelope;
 mod fit;
 pub mod isolation;
+pub mod learning;
 pub mod measured;
 mod raw;
 pub mod reference;
@@ -54,7 +55,8 @@ use crate::core::wire::residuals::{
     TrackState,
 };
 use crate::core::wire::{AlarmState, Cause, Decision, Estimate, Features, Method, Notification};
-use decision::{Entry, Limits, Sequential};
+use decision::{Entry, Limits, Sequential, Source};
+use learning::{measure_entry, Pending};
 pub use raw::sea_index;
 use raw::{lerp, sea_fraction};
 use reference::{Added, Basis, Commissioning, Measured, Phase};
@@ -122,6 +124,9 @@ pub struct FdiState {
     /// What the reference was made under.
     #[serde(default)]
     pub fingerprint: Fingerprint,
+    /// The tests in the decision's window waiting to be learned.
+    #[serde(default)]
+    pub pending: Pending,
 }
 
 /// The FDI of one vessel.
@@ -139,6 +144,7 @@ pub struct Fdi {
     commissioning: [Commissioning; 2],
     generation: [u32; 2],
     fingerprint: Fingerprint,
+    pending: Pending,
 }
 
 fn method_index(m: Method) -> usize {
@@ -168,6 +174,7 @@ impl Fdi {
             commissioning: Default::default(),
             generation: [0; 2],
             fingerprint: Fingerprint::of(cfg),
+            pending: Pending::default(),
         }
     }
 
@@ -276,6 +283,7 @@ impl Fdi {
             commissioning: self.commissioning.clone(),
             generation: self.generation,
             fingerprint: self.fingerprint.clone(),
+            pending: self.pending.clone(),
         }
     }
 
@@ -286,11 +294,13 @@ impl Fdi {
         self.published = s.published;
         self.last_notification = s.last_notification;
         self.generation = s.generation;
+        self.pending = s.pending;
         let had = s.commissioning.iter().any(|c| c.tests > 0);
         match self.fingerprint.difference(&s.fingerprint) {
             Some(why) if had => {
                 self.commissioning = Default::default();
                 self.sequential.window.clear();
+                self.pending = Pending::default();
                 Some(format!(
                     "commissioning reference discarded, commissioning starts again: {why}"
                 ))
@@ -333,56 +343,51 @@ impl Fdi {
             self.nn_raw(method, features, e, d_nom_t, est, scratch, frac)
         });
         let settings = self.settings();
-        let measured_basis = raw.map(|(r, _, _)| self.commissioning[i].measure(&settings, &r));
-        let basis = measured_basis.map(|(b, _)| b);
-        let measured = measured_basis.map(|(_, m)| m);
-        let z = measured.and_then(|m| m.whitened());
+        let source = raw.map(|(r, g, d_dir)| Source {
+            raw: r,
+            directions: [[-1.0, g / d_nom_t], d_dir],
+        });
         let servo = self.servo_check(features);
+        let z_rate = servo.map(|s| s.z_rate);
+        let epoch = self.generation[i];
+        let measured_basis = source.map(|src| {
+            measure_entry(
+                &self.commissioning[i],
+                &settings,
+                method,
+                src,
+                epoch,
+                z_rate,
+            )
+        });
+        let basis = measured_basis.map(|(b, _, _)| b);
+        let measured = measured_basis.map(|(_, m, _)| m);
+        let z = measured.and_then(|m| m.whitened());
         let parameters = match (measured, z) {
             (Some(m), Some(z)) => Some(parameter_report(&m, z, d_nom_t)),
             _ => None,
         };
-        let directions = match (raw, measured) {
-            (Some((_, g, d_dir)), Some(m)) => [
-                m.cov.whiten([-1.0, g / d_nom_t]).unwrap_or([0.0; 2]),
-                m.cov.whiten(d_dir).unwrap_or([0.0; 2]),
-            ],
-            _ => [[0.0; 2]; 2],
-        };
-        let step = self.cfg.enabled.then(|| {
-            self.sequential.update(
-                &self.limits,
-                Entry {
-                    method,
-                    z,
-                    offset_var: measured.and_then(|m| m.offset_var),
-                    epoch: self.generation[i],
-                    directions,
-                    z_rate: servo.map(|s| s.z_rate),
-                },
-            )
+        let entry = measured_basis.map(|(_, _, e)| e).unwrap_or(Entry {
+            method,
+            z: None,
+            offset_var: None,
+            epoch,
+            directions: [[0.0; 2]; 2],
+            z_rate,
+            source: None,
         });
-        // A healthy test joins what the vessel has learned: while commissioning, within the
-        // wide limits' alert level; after, when its own look is under the alarm limit and
-        // the vessel is not in alarm after it (a step the prediction calls a fault is a
-        // fault, never a new point). An alert does not stop learning: a reference learned
-        // from too few tests alerts on healthy tests, and only learning them cures it.
-        let mut added = Added::Nothing;
-        if let (Some((r, _, _)), Some(b), Some(z)) = (raw, &basis, z) {
-            let q = z[0] * z[0] + z[1] * z[1];
-            let alarm = step.as_ref().is_some_and(|s| s.state == TrackState::Alarm);
-            let learn = match b {
-                Basis::Commissioning { .. } => q <= self.limits.param_alert[0],
-                Basis::Vessel(_) => q <= self.limits.param[0] && !alarm,
-                _ => false,
-            };
-            if self.cfg.enabled && learn {
-                added = self.commissioning[i].add(&settings, &r);
-                if added == Added::Completed {
-                    self.generation[i] += 1;
-                }
-            }
-        }
+        let step = self.cfg.enabled.then(|| {
+            self.remeasure_window(&settings);
+            self.sequential.update(&self.limits, entry)
+        });
+        let added = self.learn(
+            i,
+            raw.map(|(r, _, _)| r),
+            basis.as_ref(),
+            z,
+            step.as_ref(),
+            &settings,
+        );
         let completed = added == Added::Completed;
         let fit = match method {
             Method::Clfrt => fit::model_fit(features, &self.ship, &self.cfg),

@@ -79,15 +79,17 @@
 //!
 //! A test at a point never visited gets the prediction from the points learned, with its
 //! wider interval (the kernel's and the slope prior's); a fault the prediction calls one is a
-//! fault. A test is learned (`reference.learn`) when its own look is under the alarm's
-//! single-test limit and the vessel is not in alarm after it: the new point is learned from
-//! its own healthy tests, the reference follows slow changes, and what the vessel's scatter
-//! looks like stops resting on a handful of tests. An alert does not stop learning: learning
-//! only the quiet tests of a reference whose covariance came out too small keeps it too small
-//! (measured by the decision's Monte Carlo: 4.8 times the budget that way, 0.64 learning all
-//! but alarms). At most `reference.memory-tests` are kept; beyond, the
-//! oldest test of the most populated soft bin goes. Commissioning starts again on request
-//! (the `fdi/commission` queryable, `helmwatch commission`) and when the saved reference was
+//! fault. A test is learned (`reference.learn`) when its own look was under the alarm's
+//! single-test limit: at once when the decision after it is quiet, else once it has left the
+//! decision's window with no alarm raised meanwhile (`crate::core::fdi::learning`): the new
+//! point is learned from its own healthy tests, the reference follows slow changes, and what
+//! the vessel's scatter looks like stops resting on a handful of tests, while evidence that
+//! is building up is never learned before it is judged. An alert does not stop learning:
+//! learning only the quiet tests of a reference whose covariance came out too small keeps it
+//! too small (measured by the decision's Monte Carlo: 4.8 times the budget that way, 1.05
+//! learning all but alarms). At most `reference.memory-tests` are kept; beyond, the oldest
+//! test of the most populated soft bin goes. Commissioning starts again on request (the
+//! `fdi/commission` queryable, `helmwatch commission`) and when the saved reference was
 //! made under another ship configuration or other models (the daemon says which).
 
 use super::changepoint;
@@ -218,7 +220,7 @@ pub struct Reference {
 }
 
 /// One test's raw residuals against the design (see the module doc).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Raw {
     /// `e_u` [m/s].
     pub speed_mps: f64,

@@ -1,4 +1,5 @@
-use super::decision::{Entry, Limits, Sequential, YEAR_S};
+use super::decision::{Entry, Limits, Sequential, Source, YEAR_S};
+use super::learning::{after_decision, Held};
 use super::raw::spread;
 use super::reference::{Basis, Commissioning, Raw};
 use super::*;
@@ -16,6 +17,7 @@ fn entry(method: Method, z: [f64; 2], c: Option<f64>) -> Entry {
         epoch: 0,
         directions: [[-1.0, 0.3], [0.0, 1.0]],
         z_rate: None,
+        source: None,
     }
 }
 
@@ -241,10 +243,24 @@ fn monte_carlo(
         };
         let mut c = [sample(), sample()];
         let mut s = Sequential::default();
+        let mut pending = Pending::default();
         for k in 0..tests {
             let m = k % 2;
             let method = [Method::Clfrt, Method::Hbt][m];
             let raw = draw(&mut rng);
+            // The window against the references as they are now, as the daemon does.
+            s.remeasure(|e| {
+                let src = e.source?;
+                let j = [Method::Clfrt, Method::Hbt]
+                    .iter()
+                    .position(|x| *x == e.method)?;
+                let (_, n) = c[j].measure(&settings, &src.raw);
+                Some(Entry {
+                    z: n.whitened(),
+                    offset_var: n.offset_var,
+                    ..*e
+                })
+            });
             let (basis, meas) = c[m].measure(&settings, &raw);
             assert!(
                 matches!(basis, Basis::Vessel(_)),
@@ -262,16 +278,29 @@ fn monte_carlo(
                     epoch: 0,
                     directions: [[-1.0, 0.0], [0.0, 1.0]],
                     z_rate: Some(rng.sample::<f64, _>(StandardNormal).max(0.0)),
+                    source: Some(Source {
+                        raw,
+                        directions: [[-1.0, 0.0], [0.0, 1.0]],
+                    }),
                 },
             );
             decided += 1;
             if before != TrackState::Alarm && st.state == TrackState::Alarm {
                 alarms += 1;
             }
-            // Learned as the daemon learns: quiet, and normal after it.
+            // Learned as the daemon learns (`learning`): under the single-test limit, at once
+            // when the decision is quiet, else once it leaves the window with no alarm.
             let q = z.map_or(f64::INFINITY, |z| z[0] * z[0] + z[1] * z[1]);
-            if learn && q <= l.param[0] && st.state != TrackState::Alarm {
-                c[m].add(&settings, &raw);
+            let held = (learn && q <= l.param[0]).then_some(Held {
+                method: m,
+                generation: 0,
+                raw,
+            });
+            for h in after_decision(&mut pending, &mut s, held, l.window)
+                .into_iter()
+                .flatten()
+            {
+                c[h.method].add(&settings, &h.raw);
             }
         }
     }
@@ -303,7 +332,7 @@ fn monte_carlo_scan() {
 
 /// A vessel commissioned on 8 tests, then learning its tests as the daemon does: the false
 /// alarms counted on the model itself are within a factor of two of the budget (measured
-/// 0.64; without learning 1.43, the calibration alone; K = 200, the covariance known: 0.79).
+/// 1.05; without learning 1.43, the calibration alone; K = 200, the covariance known: 0.79).
 /// A budget of 2 a year (2.4e-4 per test) is small enough for the Gaussian tails to decouple
 /// the overlapping looks and large enough to count 300 alarms in 2e6 tests.
 #[test]
@@ -313,6 +342,7 @@ fn monte_carlo_false_alarm_rate_is_within_a_factor_two_of_the_budget() {
     let per_test = alarms as f64 / decided as f64;
     let want = Limits::new(budget, 3720.0, 4).alpha_test;
     let ratio = per_test / want;
+    eprintln!("{alarms} alarms in {decided} tests: ratio {ratio:.3}");
     assert!(
         (0.5..=2.0).contains(&ratio),
         "{alarms} alarms in {decided} tests: {per_test:.4} per test against {want:.4} ({ratio:.2})"

@@ -1,0 +1,269 @@
+//! When a test against the vessel's reference is learned: once the decision has seen all it
+//! can of it.
+//!
+//! ## Model
+//!
+//! The decision (`decision`) judges each test within a window of the vessel's last N tests
+//! (`fdi.window-tests`): a fault's evidence is added up over up to N tests, against a
+//! reference that must not already contain them. A test learned at once moves the
+//! reference towards itself by `1 / (n + 1)` of its residual at a point with n learned
+//! tests, and at a point the vessel has not been tested at (n near 0) by nearly all of it:
+//! a moderate fault, or a speed-log bias that moves the operating point itself, would be
+//! learned by its first test and never reach its window's limit.
+//!
+//! So a test after commissioning is learned at once only when the decision after it is
+//! quiet (every look under its alert limit: nothing is building up). A test under an alert
+//! is held while it is in the window and learned as it leaves it (N tests of the ship
+//! later), if the vessel raised no alarm in between: every look that could contain it has
+//! then been taken. An alarm empties the queue as it empties the window (the evidence is
+//! spent; a step the prediction calls a fault is never a new point). A test is eligible when
+//! its own look was under the single-test alarm limit, as before (an alert does not stop
+//! learning, it delays it: a reference whose covariance came out too small alerts on
+//! healthy tests, and only learning them cures it). A test held under one reference is
+//! dropped if the method has been commissioned again since (its generation). The window's
+//! held tests are measured again at every test against their method's newest reference
+//! (`decision::Sequential::remeasure`), which never contains them.
+//!
+//! The price: an alerting new operating point is learned N tests later than it could be,
+//! its tests meanwhile judged against the prediction's wider interval.
+
+use super::decision::{Entry, Sequential, Source, Step};
+use super::reference::{Added, Basis, Commissioning, Measured, Raw, Settings};
+use super::{method_index, Fdi};
+use crate::core::wire::residuals::TrackState;
+use crate::core::wire::Method;
+use serde::{Deserialize, Serialize};
+use std::collections::VecDeque;
+
+/// One held test.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Held {
+    /// Its method's index (0 CLFRT, 1 HBT).
+    pub method: usize,
+    /// The method's reference generation it was measured against.
+    pub generation: u32,
+    /// Its raw residuals.
+    pub raw: Raw,
+}
+
+/// The tests in the decision's window that wait to be learned, oldest first: one slot per
+/// test of the ship (`None`: not to be learned).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Pending {
+    slots: VecDeque<Option<Held>>,
+}
+
+/// What the decision said after a test.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum After {
+    /// Every look under its alert limit: nothing is building up.
+    Quiet,
+    /// An alert: evidence is building, no alarm.
+    Alert,
+    /// An alarm raised or holding.
+    Alarm,
+}
+
+impl From<TrackState> for After {
+    fn from(s: TrackState) -> Self {
+        match s {
+            TrackState::Normal => After::Quiet,
+            TrackState::Alert => After::Alert,
+            TrackState::Alarm => After::Alarm,
+        }
+    }
+}
+
+impl Pending {
+    /// Takes the test just decided (`held`: it is eligible) with what the decision said
+    /// after it; returns the tests to learn now: the test itself when the decision was
+    /// quiet, and the test that leaves a window of `window` tests.
+    pub fn push(&mut self, held: Option<Held>, after: After, window: usize) -> [Option<Held>; 2] {
+        let (now, slot) = match after {
+            After::Alarm => {
+                self.slots.clear();
+                return [None, None];
+            }
+            After::Quiet => (held, None),
+            After::Alert => (None, held),
+        };
+        self.slots.push_back(slot);
+        let leaving = if self.slots.len() > window {
+            self.slots.pop_front().flatten()
+        } else {
+            None
+        };
+        [leaving, now]
+    }
+
+    /// Tests waiting.
+    pub fn waiting(&self) -> usize {
+        self.slots.iter().flatten().count()
+    }
+}
+
+/// After the decision on a test (`seq` updated with it): the tests to learn now, `held` the
+/// test itself if eligible. A test learned at once stays in the window as it was measured.
+pub fn after_decision(
+    pending: &mut Pending,
+    seq: &mut Sequential,
+    held: Option<Held>,
+    window: usize,
+) -> [Option<Held>; 2] {
+    let after = After::from(seq.state);
+    if after == After::Quiet && held.is_some() {
+        if let Some(e) = seq.window.back_mut() {
+            e.source = None;
+        }
+    }
+    pending.push(held, after, window)
+}
+
+impl Fdi {
+    /// Learns what the test just decided lets the vessel learn (see the module doc): while
+    /// commissioning at once, within the wide limits' alert level; after, by `Pending`.
+    pub(super) fn learn(
+        &mut self,
+        i: usize,
+        raw: Option<Raw>,
+        basis: Option<&Basis>,
+        z: Option<[f64; 2]>,
+        step: Option<&Step>,
+        settings: &Settings,
+    ) -> Added {
+        let mut added = Added::Nothing;
+        let mut held = None;
+        if let (true, Some(r), Some(b), Some(z)) = (self.cfg.enabled, raw, basis, z) {
+            let q = z[0] * z[0] + z[1] * z[1];
+            match b {
+                Basis::Commissioning { .. } if q <= self.limits.param_alert[0] => {
+                    added = self.commissioning[i].add(settings, &r);
+                    if added == Added::Completed {
+                        self.generation[i] += 1;
+                    }
+                }
+                Basis::Vessel(_) if q <= self.limits.param[0] => {
+                    held = Some(Held {
+                        method: i,
+                        generation: self.generation[i],
+                        raw: r,
+                    });
+                }
+                _ => {}
+            }
+        }
+        if step.is_some() {
+            for h in after_decision(
+                &mut self.pending,
+                &mut self.sequential,
+                held,
+                self.limits.window,
+            )
+            .into_iter()
+            .flatten()
+            {
+                if h.generation == self.generation[h.method] {
+                    self.commissioning[h.method].add(settings, &h.raw);
+                }
+            }
+        }
+        added
+    }
+
+    /// Measures the window's held tests again against their methods' references as they are
+    /// now (a test measured on wide limits, or under an older reference, stays as it was).
+    pub(super) fn remeasure_window(&mut self, settings: &Settings) {
+        let (generation, commissioning) = (self.generation, &self.commissioning);
+        self.sequential.remeasure(|e| {
+            let (src, _) = (e.source?, e.offset_var?);
+            let m = method_index(e.method);
+            (e.epoch == generation[m])
+                .then(|| {
+                    measure_entry(
+                        &commissioning[m],
+                        settings,
+                        e.method,
+                        src,
+                        e.epoch,
+                        e.z_rate,
+                    )
+                })
+                .filter(|(b, _, _)| matches!(b, Basis::Vessel(_)))
+                .map(|(_, _, n)| n)
+        });
+    }
+}
+
+/// A test's entry in the vessel's window, measured against `c`, its method's reference.
+pub(super) fn measure_entry(
+    c: &Commissioning,
+    settings: &Settings,
+    method: Method,
+    source: Source,
+    epoch: u32,
+    z_rate: Option<f64>,
+) -> (Basis, Measured, Entry) {
+    let (basis, m) = c.measure(settings, &source.raw);
+    let entry = Entry {
+        method,
+        z: m.whitened(),
+        offset_var: m.offset_var,
+        epoch,
+        directions: source
+            .directions
+            .map(|d| m.cov.whiten(d).unwrap_or([0.0; 2])),
+        z_rate,
+        source: Some(source),
+    };
+    (basis, m, entry)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn held(i: u32) -> Held {
+        Held {
+            method: (i % 2) as usize,
+            generation: i,
+            raw: Raw {
+                speed_mps: 0.0,
+                displacement: 0.0,
+                speed_sigma_mps: 0.1,
+                displacement_sigma: 0.01,
+                speed_log_mps: 7.0,
+                displacement_declared_t: 7000.0,
+                excitation_scale: 1.0,
+            },
+        }
+    }
+
+    /// A quiet test is learned at once; one under an alert leaves N tests later; a test
+    /// not eligible leaves nothing; an alarm drops every held test and the one that raised it.
+    #[test]
+    fn held_for_the_window_dropped_by_an_alarm() {
+        use After::*;
+        let mut p = Pending::default();
+        assert_eq!(p.push(Some(held(0)), Quiet, 4), [None, Some(held(0))]);
+        for i in 1..4 {
+            assert_eq!(p.push(Some(held(i)), Alert, 4), [None, None]);
+        }
+        assert_eq!(p.waiting(), 3);
+        assert_eq!(p.push(None, Alert, 4), [None, None]);
+        assert_eq!(
+            p.push(Some(held(5)), Quiet, 4),
+            [Some(held(1)), Some(held(5))]
+        );
+        assert_eq!(p.push(Some(held(6)), Alarm, 4), [None, None]);
+        assert_eq!(p.waiting(), 0);
+        for i in 7..11 {
+            assert_eq!(p.push(Some(held(i)), Alert, 4), [None, None]);
+        }
+        assert_eq!(p.push(None, Quiet, 4), [Some(held(7)), None]);
+        // A window of one: learned at the next test.
+        let mut q = Pending::default();
+        assert_eq!(q.push(Some(held(1)), Alert, 1), [None, None]);
+        assert_eq!(q.push(Some(held(2)), Alert, 1), [Some(held(1)), None]);
+    }
+}
