@@ -21,9 +21,20 @@
 //! likelihood, is, per channel,
 //!
 //! ```text
-//! T_n = sum_m |sum_{k in last n, method m} z_k|^2 / (n_m (1 + (n_m - 1) c_m))  chi2, 2 M_n dof
-//! S_n = sum_{k in last n} z_rate,k / sqrt(n_s)                             N(0, 1) or below
+//! T_n     = sum_m |s_m|^2 / (n_m (1 + (n_m - 1) c_m))           chi2, 2 M_n dof
+//! T_n,D   = sum_m (u_mD . s_m)^2 / (n_m (1 + (n_m - 1) c_m))    chi2, M_n dof
+//! T_n,log = (sum_k v_k . z_k)^2 / sum_m ((1 - c_m) sum_k |v_k|^2 + c_m |sum_k v_k|^2)
+//!                                                               chi2, 1 dof
+//! S_n     = sum_{k in last n} z_rate,k / sqrt(n_s)              N(0, 1) or below
 //! ```
+//!
+//! (`s_m = sum_{k in last n, method m} z_k`.) The cause looks are the ratio under narrower
+//! H1s: the shift lies along the direction in which the cause moves each test's whitened
+//! residual (`isolation`): for a displacement or rudder-effectiveness change along `u_mD`,
+//! the unit mean of the method's displacement directions, with a size per method; for a
+//! speed-log bias `beta` by exactly `beta v_k` (`v_k` the whitened log direction per m/s),
+//! one size for both methods (`COMMON_SIZE`). The alarm is named by isolation over the
+//! raising look's window, whichever look raised it.
 //!
 //! (`n_m` of the last n tests are of method m, `M_n` methods among them; the sum's covariance
 //! is at most `n_m (1 + (n_m - 1) c_m) I`, so `T_n` errs low where the share is below `c_m`:
@@ -38,21 +49,23 @@
 //! With `F = fdi.false-alarms-per-year` and the scheduler's test rate `N_y = 365.25 x 86400 /
 //! (scheduler.interval-s + scheduler.steady-time-s)` tests a year (at most: a test's own
 //! duration is left out, so the rate is over-counted and the limits err high), each test may
-//! raise a false alarm with probability `alpha = F / N_y`, split evenly over the two channels
-//! and the `N = fdi.window-tests` window lengths (Bonferroni: the looks overlap, so the true
-//! rate is below the budget):
+//! raise a false alarm with probability `alpha = F / N_y`, split evenly over the four families
+//! of looks (the servo's, the free shift's, one per parameter cause) and the `N =
+//! fdi.window-tests` window lengths (Bonferroni: the looks overlap, and a cause's is part of
+//! the free one, so the true rate is below the budget):
 //!
 //! ```text
-//! alpha_n = alpha / (2 N)
-//! T_n > h_n = chi2_{2 M_n}^-1(1 - alpha_n)        S_n > g = Phi^-1(1 - alpha_n)
+//! alpha_n = alpha / (4 N)
+//! T_n > h_n = chi2_{2 M_n}^-1(1 - alpha_n)     T_n,c > k_n = chi2_{M_n}^-1(1 - alpha_n)
+//! S_n > g = Phi^-1(1 - alpha_n)
 //! ```
 //!
-//! Defaults (F = 0.1, 3720 s, N = 4): `alpha = 1.18e-5`, `alpha_n = 1.47e-6`, `h = 26.9` (one
-//! method) / 32.9 (both), `g = 4.67`. A look over its limit raises the alarm at once; the
-//! evidence is spent (the window empties), so the alarm holds on new tests or clears after N
-//! tests in a row under the alert limits, which are the same statistics at a thousand times
-//! the per-look probability (`alpha_n x 1000`: `h = 13.1` / 18.8, `g = 2.98`): an alert says
-//! evidence is building.
+//! Defaults (F = 0.1, 3720 s, N = 4): `alpha = 1.18e-5`, `alpha_n = 7.37e-7`, `h = 28.2` (one
+//! method) / 34.0 (both), `k = 24.5` / 28.2, `g = 4.81`. A look over its limit raises the
+//! alarm at once; the evidence is spent (the window empties), so the alarm holds on new tests
+//! or clears after N tests in a row under the alert limits, which are the same statistics at
+//! a thousand times the per-look probability (`alpha_n x 1000`: `h = 14.4` / 19.1, `k =
+//! 11.4` / 14.4, `g = 3.18`): an alert says evidence is building.
 //!
 //! What the arithmetic does not cover: residuals that are not Gaussian (heavy tails of a hull
 //! unlike the training model), a covariance learned from few tests (the K-sample factor
@@ -74,6 +87,11 @@ pub const YEAR_S: f64 = 365.25 * 86400.0;
 /// The alert limits' per-look probability over the alarm's.
 pub const ALERT_FACTOR: f64 = 1000.0;
 
+/// The families of looks that share a test's false-alarm probability, each over the N
+/// window lengths: the servo's, the parameters' free shift, and one per parameter cause
+/// (`isolation::PARAMETER_CAUSES`).
+pub const LOOK_FAMILIES: usize = 2 + isolation::PARAMETER_CAUSES.len();
+
 /// The limits of the sequential test, from the budget.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Limits {
@@ -85,6 +103,10 @@ pub struct Limits {
     pub param: [f64; 2],
     /// The alert limits, likewise.
     pub param_alert: [f64; 2],
+    /// `k_n` for one named cause, one method in the window, both (1 dof per method).
+    pub cause: [f64; 2],
+    /// The alert limits, likewise.
+    pub cause_alert: [f64; 2],
     /// `g`.
     pub servo: f64,
     /// The servo's alert limit.
@@ -100,13 +122,17 @@ impl Limits {
         let tests_per_year = YEAR_S / test_period_s.max(1.0);
         let alpha_test = (false_alarms_per_year / tests_per_year).min(0.5);
         let n = window.max(1) as usize;
-        let alpha_look = alpha_test / (2.0 * n as f64);
+        let alpha_look = alpha_test / (LOOK_FAMILIES as f64 * n as f64);
         let alert = (alpha_look * ALERT_FACTOR).min(0.5);
+        // chi2 with 1 dof: the square of a two-sided normal score.
+        let chi2_1 = |p: f64| normal_isf(p / 2.0).powi(2);
         Self {
             window: n,
             alpha_look,
             param: [chi2_isf_even(alpha_look, 2), chi2_isf_even(alpha_look, 4)],
             param_alert: [chi2_isf_even(alert, 2), chi2_isf_even(alert, 4)],
+            cause: [chi2_1(alpha_look), chi2_isf_even(alpha_look, 2)],
+            cause_alert: [chi2_1(alert), chi2_isf_even(alert, 2)],
             servo: normal_isf(alpha_look),
             servo_alert: normal_isf(alert),
             alpha_test,
@@ -154,6 +180,8 @@ pub struct Scored {
     pub look: Look,
     /// How many of the newest entries it covers.
     pub n: usize,
+    /// The parameter cause whose direction it tests (`None`: a free shift, or the servo).
+    pub cause: Option<Cause>,
 }
 
 /// The vessel's decision state.
@@ -261,39 +289,50 @@ impl Sequential {
         }
     }
 
-    /// The parameter look nearest its limit.
+    /// The parameter look nearest its limit: over every window length, the free shift's
+    /// and each cause's.
     fn param_look(&self, limits: &Limits) -> Option<Scored> {
         let newest = self.window.back()?;
+        // A newest test on wide limits has only its own look, the free shift's.
+        let wide = newest.offset_var.is_none();
+        let longest = if wide { 1 } else { self.window.len() };
         let mut best: Option<Scored> = None;
-        for n in 1..=self.window.len() {
-            let Some((t, methods)) = param_statistic(&self.window, n) else {
+        for n in 1..=longest {
+            let Some(t) = param_statistics(&self.window, n) else {
                 continue;
             };
-            let m = methods.clamp(1, 2);
-            let look = Look {
-                statistic: t,
-                window: n,
-                dof: 2 * m,
-                threshold: limits.param[m - 1],
-                alert_threshold: limits.param_alert[m - 1],
-            };
-            let s = Scored { look, n };
-            if best.is_none_or(|b| ratio(Some(s)) > ratio(Some(b))) {
-                best = Some(s);
-            }
-        }
-        // A newest test on wide limits has only its own look.
-        if newest.offset_var.is_none() {
-            return param_statistic(&self.window, 1).map(|(t, _)| Scored {
+            let m = t.methods.clamp(1, 2);
+            let free = Scored {
                 look: Look {
-                    statistic: t,
-                    window: 1,
-                    dof: 2,
-                    threshold: limits.param[0],
-                    alert_threshold: limits.param_alert[0],
+                    statistic: t.free,
+                    window: n,
+                    dof: 2 * m,
+                    threshold: limits.param[m - 1],
+                    alert_threshold: limits.param_alert[m - 1],
                 },
-                n: 1,
-            });
+                n,
+                cause: None,
+            };
+            let causes = isolation::PARAMETER_CAUSES
+                .iter()
+                .zip(t.along.into_iter().zip(t.along_dof))
+                .map(|(c, (along, dof))| Scored {
+                    look: Look {
+                        statistic: along,
+                        window: n,
+                        dof,
+                        threshold: limits.cause[dof.clamp(1, 2) - 1],
+                        alert_threshold: limits.cause_alert[dof.clamp(1, 2) - 1],
+                    },
+                    n,
+                    cause: Some(*c),
+                })
+                .filter(|_| !wide);
+            for s in std::iter::once(free).chain(causes) {
+                if best.is_none_or(|b| ratio(Some(s)) > ratio(Some(b))) {
+                    best = Some(s);
+                }
+            }
         }
         best
     }
@@ -320,6 +359,7 @@ impl Sequential {
                     alert_threshold: limits.servo_alert,
                 },
                 n: i + 1,
+                cause: None,
             };
             if best.is_none_or(|b| ratio(Some(s)) > ratio(Some(b))) {
                 best = Some(s);
@@ -343,6 +383,13 @@ pub struct MethodSums {
     pub sum: [f64; 2],
     /// Sum of its tests' unit cause directions (speed log, displacement).
     pub directions: [[f64; 2]; 2],
+    /// Per cause, the sum of its tests' whitened directions as they are (per unit of the
+    /// cause: m/s of log bias, the displacement's step).
+    pub along_sum: [[f64; 2]; 2],
+    /// Per cause, `sum_k v_k . z_k`.
+    pub projection: [f64; 2],
+    /// Per cause, `sum_k |v_k|^2`.
+    pub norm2: [f64; 2],
     /// Its tests in the look.
     pub tests: usize,
     /// Its reference offset error's share `c` (the largest among its tests in the look).
@@ -361,6 +408,9 @@ pub fn method_sums(window: &VecDeque<Entry>, n: usize) -> Vec<MethodSums> {
             (None, _) => continue,
         };
         let d = e.directions.map(isolation::unit);
+        let v = e.directions;
+        let projection = v.map(|v| v[0] * z[0] + v[1] * z[1]);
+        let norm2 = v.map(|v| v[0] * v[0] + v[1] * v[1]);
         match out.iter_mut().find(|o| o.method == e.method) {
             Some(o) => {
                 o.offset_var = o.offset_var.max(c);
@@ -369,6 +419,11 @@ pub fn method_sums(window: &VecDeque<Entry>, n: usize) -> Vec<MethodSums> {
                     for (acc, di) in o.directions.iter_mut().zip(&d) {
                         acc[i] += di[i];
                     }
+                    for (acc, vi) in o.along_sum.iter_mut().zip(&v) {
+                        acc[i] += vi[i];
+                    }
+                    o.projection[i] += projection[i];
+                    o.norm2[i] += norm2[i];
                 }
                 o.tests += 1;
             }
@@ -376,6 +431,9 @@ pub fn method_sums(window: &VecDeque<Entry>, n: usize) -> Vec<MethodSums> {
                 method: e.method,
                 sum: z,
                 directions: d,
+                along_sum: v,
+                projection,
+                norm2,
                 tests: 1,
                 offset_var: c,
             }),
@@ -384,18 +442,73 @@ pub fn method_sums(window: &VecDeque<Entry>, n: usize) -> Vec<MethodSums> {
     out
 }
 
-/// `T_n` and the number of methods in it (`None`: no parameter residual among the newest n).
-fn param_statistic(window: &VecDeque<Entry>, n: usize) -> Option<(f64, usize)> {
+/// Per cause of `isolation::PARAMETER_CAUSES`, whether its size is one for every method. A
+/// speed-log bias is: the log enters both methods' residuals the same way, `e_u` by `-beta`
+/// exactly and `e_D` through each displacement network's own `dD/du_log`, so the whitened
+/// directions per m/s are exact and one size `beta` moves both (1 dof). A displacement's
+/// direction is read through each method's networks from a model of how `b` moves the
+/// features (`sensitivity`), which a hull unlike the training model can bend, even turn:
+/// a size of its own per method (1 dof per method).
+pub const COMMON_SIZE: [bool; 2] = [true, false];
+
+/// The parameter statistics of the newest `n` entries.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ParamStatistics {
+    /// `T_n`, the free shift's (2 dof per method).
+    pub free: f64,
+    /// `T_n,c` per cause of `isolation::PARAMETER_CAUSES`: the evidence along the cause's
+    /// directions (see `COMMON_SIZE`).
+    pub along: [f64; 2],
+    /// Their degrees of freedom: 1 for a cause of one size, else 1 per method.
+    pub along_dof: [usize; 2],
+    /// Methods among the entries.
+    pub methods: usize,
+}
+
+/// The parameter statistics of the newest `n` entries (`None`: no parameter residual among
+/// them).
+pub fn param_statistics(window: &VecDeque<Entry>, n: usize) -> Option<ParamStatistics> {
     let sums = method_sums(window, n);
     if sums.is_empty() {
         return None;
     }
-    let t: f64 = sums
-        .iter()
-        .map(|m| {
-            let (s, k) = (m.sum, m.tests as f64);
-            (s[0] * s[0] + s[1] * s[1]) / (k * (1.0 + (k - 1.0) * m.offset_var))
-        })
-        .sum();
-    t.is_finite().then_some((t, sums.len()))
+    let (mut free, mut along) = (0.0, [0.0; 2]);
+    // A cause of one size: `sum_k v_k . z_k` and its variance over every method.
+    let (mut proj, mut var) = ([0.0; 2], [0.0; 2]);
+    for m in &sums {
+        let (s, k, c) = (m.sum, m.tests as f64, m.offset_var);
+        let scale = k * (1.0 + (k - 1.0) * c);
+        free += (s[0] * s[0] + s[1] * s[1]) / scale;
+        for j in 0..2 {
+            let u = isolation::unit(m.directions[j]);
+            let t = u[0] * s[0] + u[1] * s[1];
+            let w = m.along_sum[j];
+            proj[j] += m.projection[j];
+            var[j] += (1.0 - c) * m.norm2[j] + c * (w[0] * w[0] + w[1] * w[1]);
+            if !COMMON_SIZE[j] {
+                along[j] += t * t / scale;
+            }
+        }
+    }
+    let mut along_dof = [sums.len(); 2];
+    for j in 0..2 {
+        if COMMON_SIZE[j] {
+            along[j] = if var[j] > 0.0 {
+                proj[j] * proj[j] / var[j]
+            } else {
+                0.0
+            };
+            along_dof[j] = 1;
+        }
+    }
+    (free.is_finite() && along.iter().all(|a| a.is_finite())).then_some(ParamStatistics {
+        free,
+        along,
+        along_dof,
+        methods: sums.len(),
+    })
 }
+
+#[cfg(test)]
+#[path = "decision_tests.rs"]
+pub(crate) mod tests;

@@ -18,8 +18,11 @@
 //! J_c = sum_m |s_m - (u_mc . s_m) u_mc|^2 / (n_m (1 + n_m c_m)),   u_mc = unit(mean of v~)
 //! ```
 //!
-//! (`s_m` the sum of method m's whitened residuals in the look, as in the decision). The
-//! cause with the smallest `J_c` is named. The servo channel names `steering_actuator` by
+//! (`s_m` the sum of method m's whitened residuals in the look, as in the decision: the free
+//! shift's statistic less the part along the cause, `crate::core::fdi::decision`). The cause
+//! with the smallest `J_c` over the raising look's window is named, whichever look (the free
+//! shift's or a cause's) raised the alarm: the sizes per method here, so that a look with
+//! fewer degrees of freedom does not win the name by them. The servo channel names `steering_actuator` by
 //! itself (`crate::core::fdi::decision`): one fault at a time, and a slow servo also moves
 //! the parameter residuals (its lag changes the loop the networks learned), which the servo
 //! check measures directly.

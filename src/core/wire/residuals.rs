@@ -212,7 +212,8 @@ pub struct Look {
     pub statistic: f64,
     /// `n`: tests of the ship in the window.
     pub window: usize,
-    /// Degrees of freedom (parameters: 2 per method in the window; servo: 1).
+    /// Degrees of freedom (parameters: 2 per method in the window for a free shift, 1 per
+    /// method along one cause's direction; servo: 1).
     pub dof: usize,
     /// The alarm limit for this window.
     pub threshold: f64,

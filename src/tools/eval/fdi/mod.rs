@@ -227,12 +227,14 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
         f.window_tests,
     );
     println!(
-        "decision: window GLR over {} tests of the ship, {} false alarms per vessel-year ({:.2e} per test): limits {:.1} (one method) / {:.1} (both), servo {:.2}",
+        "decision: window GLR over {} tests of the ship, {} false alarms per vessel-year ({:.2e} per test): limits {:.1} (one method) / {:.1} (both), along one cause {:.1} / {:.1}, servo {:.2}",
         f.window_tests,
         f.false_alarms_per_year,
         limits.alpha_test,
         limits.param[0],
         limits.param[1],
+        limits.cause[0],
+        limits.cause[1],
         limits.servo
     );
     let schedules: Vec<Vec<Method>> = if o.in_turn {
