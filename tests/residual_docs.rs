@@ -5,7 +5,7 @@ use helmwatch::core::wire::residuals::{
     BaselineReport, DecisionReport, Look, ModelFitReport, ModelMismatch, ParameterResiduals,
     RawResiduals, ReferenceKind, ReferenceReport, Residuals, ServoCheck, TrackState,
 };
-use helmwatch::core::wire::Decision;
+use helmwatch::core::wire::{Cause, Decision};
 use serde_json::Value;
 use std::collections::BTreeSet;
 
@@ -24,8 +24,9 @@ fn full() -> Residuals {
         statistic: 1.0,
         window: 2,
         dof: 4,
-        threshold: 32.6,
-        alert_threshold: 17.6,
+        threshold: 34.0,
+        alert_threshold: 19.1,
+        cause: Some(Cause::SpeedLog),
     };
     Residuals {
         sea_index: Some(0.1),

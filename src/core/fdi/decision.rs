@@ -180,8 +180,6 @@ pub struct Scored {
     pub look: Look,
     /// How many of the newest entries it covers.
     pub n: usize,
-    /// The parameter cause whose direction it tests (`None`: a free shift, or the servo).
-    pub cause: Option<Cause>,
 }
 
 /// The vessel's decision state.
@@ -309,9 +307,9 @@ impl Sequential {
                     dof: 2 * m,
                     threshold: limits.param[m - 1],
                     alert_threshold: limits.param_alert[m - 1],
+                    cause: None,
                 },
                 n,
-                cause: None,
             };
             let causes = isolation::PARAMETER_CAUSES
                 .iter()
@@ -323,9 +321,9 @@ impl Sequential {
                         dof,
                         threshold: limits.cause[dof.clamp(1, 2) - 1],
                         alert_threshold: limits.cause_alert[dof.clamp(1, 2) - 1],
+                        cause: Some(*c),
                     },
                     n,
-                    cause: Some(*c),
                 })
                 .filter(|_| !wide);
             for s in std::iter::once(free).chain(causes) {
@@ -357,9 +355,9 @@ impl Sequential {
                     dof: 1,
                     threshold: limits.servo,
                     alert_threshold: limits.servo_alert,
+                    cause: None,
                 },
                 n: i + 1,
-                cause: None,
             };
             if best.is_none_or(|b| ratio(Some(s)) > ratio(Some(b))) {
                 best = Some(s);

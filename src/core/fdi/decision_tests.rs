@@ -76,7 +76,7 @@ fn a_persistent_shift_adds_up_over_the_window_as_the_glr_says() {
     // (0, 1): its look (1 dof) is over the alert limit (11.4), not the alarm's (24.5).
     let p = second.param.unwrap();
     assert_eq!(
-        (p.n, p.look.dof, p.cause),
+        (p.n, p.look.dof, p.look.cause),
         (2, 1, Some(Cause::DisplacementOrRudderEffectiveness))
     );
     assert!(
@@ -162,7 +162,7 @@ fn a_shift_along_a_cause_alarms_with_one_degree_of_freedom_per_method() {
     let p = st.param.unwrap();
     // T_2 = 14.44 + 14.44 = 28.88 > 28.2 (2 dof) where the free look (4 dof) needs 34.0.
     assert_eq!(
-        (p.look.dof, p.cause),
+        (p.look.dof, p.look.cause),
         (2, Some(Cause::DisplacementOrRudderEffectiveness))
     );
     assert_eq!(st.state, TrackState::Alarm);
@@ -183,7 +183,7 @@ fn a_speed_log_bias_is_one_size_for_both_methods() {
     let p = st.param.unwrap();
     let t = (2.0f64 * 3.5 * 1.09).powi(2) / (2.0 * 1.09);
     assert!((p.look.statistic - t).abs() < 1e-9, "{p:?} {t}");
-    assert_eq!((p.look.dof, p.cause), (1, Some(Cause::SpeedLog)));
+    assert_eq!((p.look.dof, p.look.cause), (1, Some(Cause::SpeedLog)));
     assert!(t > l.cause[0] && t < l.cause[1]);
     assert_eq!(st.state, TrackState::Alarm);
     assert_eq!(st.isolation, vec![Cause::SpeedLog]);

@@ -243,7 +243,8 @@ fn a_new_operating_point_is_predicted_wider_then_learned() {
         m.cov.xx,
         at_home.cov.xx
     );
-    // A +12 % displacement there now crosses the single-test limit (26.9) on its own.
+    // A +12 % displacement there now crosses the displacement look's single-test limit (24.5)
+    // on its own.
     let (_, f) = c.measure(&s, &raw_at(0.25, -0.08, 8.5, 7000.0));
     let z = f.cov.whiten(f.r).unwrap();
     assert!(z[0] * z[0] + z[1] * z[1] > 27.0, "{z:?}");

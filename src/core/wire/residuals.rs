@@ -219,6 +219,10 @@ pub struct Look {
     pub threshold: f64,
     /// The alert limit for this window.
     pub alert_threshold: f64,
+    /// The parameter cause whose direction the look tests (absent: a free shift, or the
+    /// servo channel).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cause: Option<Cause>,
 }
 
 /// A track's alarm state.
