@@ -414,7 +414,7 @@ fn monte_carlo_scan() {
 
 /// A vessel commissioned on 8 tests, then learning its tests as the daemon does: the false
 /// alarms counted on the model itself are within a factor of two of the budget (measured
-/// 1.05; without learning 1.43, the calibration alone; K = 200, the covariance known: 0.79).
+/// 1.02; without learning 1.51, the calibration alone; K = 200, the covariance known: 0.65).
 /// A budget of 2 a year (2.4e-4 per test) is small enough for the Gaussian tails to decouple
 /// the overlapping looks and large enough to count 300 alarms in 2e6 tests.
 #[test]

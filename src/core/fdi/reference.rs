@@ -86,7 +86,7 @@
 //! the vessel's scatter looks like stops resting on a handful of tests, while evidence that
 //! is building up is never learned before it is judged. An alert does not stop learning:
 //! learning only the quiet tests of a reference whose covariance came out too small keeps it
-//! too small (measured by the decision's Monte Carlo: 4.8 times the budget that way, 1.05
+//! too small (measured by the decision's Monte Carlo: 4.8 times the budget that way, 1.02
 //! learning all but alarms). At most `reference.memory-tests` are kept; beyond, the oldest
 //! test of the most populated soft bin goes. Commissioning starts again on request (the
 //! `fdi/commission` queryable, `helmwatch commission`) and when the saved reference was
