@@ -394,6 +394,20 @@ pub struct MethodSums {
     pub offset_var: f64,
 }
 
+impl MethodSums {
+    /// The sum's variance bound in units of one test's: `n_m (1 + (n_m - 1) c_m)`.
+    pub fn scale(&self) -> f64 {
+        let k = self.tests as f64;
+        k * (1.0 + (k - 1.0) * self.offset_var)
+    }
+
+    /// The sum's component along cause `j`'s unit mean direction, `u_mj . s_m`.
+    pub fn along(&self, j: usize) -> f64 {
+        let u = isolation::unit(self.directions[j]);
+        u[0] * self.sum[0] + u[1] * self.sum[1]
+    }
+}
+
 /// The per-method sums of the newest `n` entries (`n = 1`: the newest alone, wide or not;
 /// `n > 1`: entries on wide limits left out).
 pub fn method_sums(window: &VecDeque<Entry>, n: usize) -> Vec<MethodSums> {
@@ -474,12 +488,10 @@ pub fn param_statistics(window: &VecDeque<Entry>, n: usize) -> Option<ParamStati
     // A cause of one size: `sum_k v_k . z_k` and its variance over every method.
     let (mut proj, mut var) = ([0.0; 2], [0.0; 2]);
     for m in &sums {
-        let (s, k, c) = (m.sum, m.tests as f64, m.offset_var);
-        let scale = k * (1.0 + (k - 1.0) * c);
+        let (s, c, scale) = (m.sum, m.offset_var, m.scale());
         free += (s[0] * s[0] + s[1] * s[1]) / scale;
         for j in 0..2 {
-            let u = isolation::unit(m.directions[j]);
-            let t = u[0] * s[0] + u[1] * s[1];
+            let t = m.along(j);
             let w = m.along_sum[j];
             proj[j] += m.projection[j];
             var[j] += (1.0 - c) * m.norm2[j] + c * (w[0] * w[0] + w[1] * w[1]);

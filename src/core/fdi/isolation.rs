@@ -40,12 +40,9 @@ pub fn costs(window: &VecDeque<Entry>, n: usize) -> [f64; 2] {
     let per = method_sums(window, n);
     let mut j = [0.0; 2];
     for p in per {
-        let k = p.tests as f64;
-        let scale = k * (1.0 + (k - 1.0) * p.offset_var);
-        let s = p.sum;
-        for (cost, dir) in j.iter_mut().zip(p.directions) {
-            let u = unit(dir);
-            let along = u[0] * s[0] + u[1] * s[1];
+        let (s, scale) = (p.sum, p.scale());
+        for (c, cost) in j.iter_mut().enumerate() {
+            let along = p.along(c);
             let off = (s[0] * s[0] + s[1] * s[1] - along * along).max(0.0);
             *cost += off / scale;
         }

@@ -27,11 +27,11 @@
 //! The price: an alerting new operating point is learned N tests later than it could be,
 //! its tests meanwhile judged against the prediction's wider interval.
 
-use super::decision::{Entry, Sequential, Source, Step};
-use super::reference::{Added, Basis, Commissioning, Measured, Raw, Settings};
+use super::decision::{Sequential, Step};
+use super::measured::measure_entry;
+use super::reference::{Added, Basis, Raw, Settings};
 use super::{method_index, Fdi};
 use crate::core::wire::residuals::TrackState;
-use crate::core::wire::Method;
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
 
@@ -98,7 +98,8 @@ impl Pending {
     }
 
     /// Tests waiting.
-    pub fn waiting(&self) -> usize {
+    #[cfg(test)]
+    fn waiting(&self) -> usize {
         self.slots.iter().flatten().count()
     }
 }
@@ -193,30 +194,6 @@ impl Fdi {
                 .map(|(_, _, n)| n)
         });
     }
-}
-
-/// A test's entry in the vessel's window, measured against `c`, its method's reference.
-pub(super) fn measure_entry(
-    c: &Commissioning,
-    settings: &Settings,
-    method: Method,
-    source: Source,
-    epoch: u32,
-    z_rate: Option<f64>,
-) -> (Basis, Measured, Entry) {
-    let (basis, m) = c.measure(settings, &source.raw);
-    let entry = Entry {
-        method,
-        z: m.whitened(),
-        offset_var: m.offset_var,
-        epoch,
-        directions: source
-            .directions
-            .map(|d| m.cov.whiten(d).unwrap_or([0.0; 2])),
-        z_rate,
-        source: Some(source),
-    };
-    (basis, m, entry)
 }
 
 #[cfg(test)]

@@ -2,8 +2,11 @@
 //! residual and its covariance ([`Measured`]), and the calibration of Hotelling's statistic
 //! onto the chi-square (the model: `crate::core::fdi::reference`).
 
+use super::decision::{Entry, Source};
 use super::envelope::Prediction;
+use super::reference::{Commissioning, Settings};
 use super::stats::Cov2;
+use crate::core::wire::Method;
 
 /// The residual vector's dimension (speed, displacement).
 const P: f64 = 2.0;
@@ -116,4 +119,28 @@ impl Basis {
             Basis::Vessel(_) => "predicted",
         }
     }
+}
+
+/// A test's entry in the vessel's window, measured against `c`, its method's reference.
+pub(super) fn measure_entry(
+    c: &Commissioning,
+    settings: &Settings,
+    method: Method,
+    source: Source,
+    epoch: u32,
+    z_rate: Option<f64>,
+) -> (Basis, Measured, Entry) {
+    let (basis, m) = c.measure(settings, &source.raw);
+    let entry = Entry {
+        method,
+        z: m.whitened(),
+        offset_var: m.offset_var,
+        epoch,
+        directions: source
+            .directions
+            .map(|d| m.cov.whiten(d).unwrap_or([0.0; 2])),
+        z_rate,
+        source: Some(source),
+    };
+    (basis, m, entry)
 }

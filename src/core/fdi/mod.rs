@@ -56,7 +56,8 @@ use crate::core::wire::residuals::{
 };
 use crate::core::wire::{AlarmState, Cause, Decision, Estimate, Features, Method, Notification};
 use decision::{Entry, Limits, Sequential, Source};
-use learning::{measure_entry, Pending};
+use learning::Pending;
+use measured::measure_entry;
 pub use raw::sea_index;
 use raw::{lerp, sea_fraction};
 use reference::{Added, Basis, Commissioning, Measured, Phase};
