@@ -9,7 +9,8 @@
 //!   is against the commissioned reference); the first daemon, restarted, stands by, and takes
 //!   over the same way when the second is killed.
 //! - A partition (two routers, a third joins them later): of the two holders the higher id
-//!   yields, no heading is answered twice, and a report made while both held is marked.
+//!   yields, no heading is answered twice, and a report made while both held is marked (also
+//!   when the yielder's holder token never reached the holder: its `fdi/yielded` token does).
 //! - A state made under another ship configuration is refused; a standby with no holder
 //!   alive answers a trigger with its refusal.
 //!
@@ -685,4 +686,56 @@ async fn a_report_made_while_two_held_the_vessel_is_marked() {
     bridge.close().await.unwrap();
     router_a.close().await.unwrap();
     router_b.close().await.unwrap();
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn a_daemon_that_yielded_unseen_marks_the_report_of_the_test_it_overlapped() {
+    // The race of a healed partition made certain: the other daemon's holder token never
+    // reaches the holder (it yielded before the routes formed); only its `fdi/yielded` token
+    // does, declared here by hand while a test runs.
+    let (ep, router) = partition().await;
+    let mut cfg = common::daemon_config();
+    cfg.scheduler.enabled = false;
+    let obs = Observer::new(&ep, "self", true).await;
+    let owners = Ownership::new(&obs.session).await;
+    let a = daemon_in_process(&cfg, "a", &ep).await;
+    owners.wait("a", "holder", "a").await;
+    let (stop, ship_task) = ship(
+        &Config::default(),
+        &Scenario::nominal(&cfg.sim(), 6),
+        0.0,
+        None,
+        &ep,
+    );
+    let test = obs.trigger("hbt").await.test.unwrap();
+    obs.wait_for("steering/autopilot/excitation", LIMIT, |e| {
+        e["mode"] == "replace"
+    })
+    .await;
+    let yielded = obs
+        .session
+        .liveliness()
+        .declare_token("vessels/self/fdi/yielded/b")
+        .await
+        .unwrap();
+    let report = obs
+        .wait_for("fdi/report", LIMIT, |r| r["test"] == test.as_str())
+        .await;
+    assert_eq!(
+        report["concurrent_drivers"],
+        serde_json::json!(["b"]),
+        "{report}"
+    );
+    // The token still stands (b stands by): the next test is not marked.
+    let next = obs.trigger("hbt").await.test.unwrap();
+    let report = obs
+        .wait_for("fdi/report", LIMIT, |r| r["test"] == next.as_str())
+        .await;
+    assert!(report.get("concurrent_drivers").is_none(), "{report}");
+    yielded.undeclare().await.unwrap();
+    stop.cancel();
+    let _ = ship_task.await;
+    a.stop().await;
+    obs.close().await;
+    router.close().await.unwrap();
 }

@@ -175,6 +175,11 @@ impl Keys {
     pub fn holder(&self, daemon: &str) -> String {
         format!("{}/fdi/holder/{daemon}", self.prefix)
     }
+    /// `fdi/yielded/<daemon>` (liveliness token of a daemon standing by after it yielded to
+    /// another holder: it drove the vessel until then).
+    pub fn yielded(&self, daemon: &str) -> String {
+        format!("{}/fdi/yielded/{daemon}", self.prefix)
+    }
     /// `fdi/ownership`: each daemon's role, published on every change.
     pub fn ownership(&self) -> String {
         format!("{}/fdi/ownership", self.prefix)

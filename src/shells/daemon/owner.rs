@@ -12,6 +12,10 @@
 //!   answering headings), then the tokens `fdi/holder/<id>` and `fdi/alive` are declared;
 //! - **to standby**: the vessel task is told first (it stops answering at once: nothing more
 //!   is published for the vessel), then the two tokens are undeclared;
+//! - a holder that yields to another (two holders, a healed partition) declares
+//!   `fdi/yielded/<id>` while it stands by: the holder it yielded to may never have seen its
+//!   holder token (declared and undeclared before the routes across the healed link formed),
+//!   and counts it, when this token appears, as having driven with it until then;
 //! - every change is logged and published on `vessels/<v>/fdi/ownership`, and a standby that
 //!   learns of a holder asks it for the vessel's state (`fdi/state`, a query); the holder
 //!   also publishes it when another candidate appears.
@@ -110,6 +114,8 @@ struct Vessel {
     view: RoleView,
     /// `fdi/holder/<id>` and `fdi/alive`, while this daemon drives.
     tokens: Vec<LivelinessToken>,
+    /// `fdi/yielded/<id>`, while this daemon stands by after yielding to another holder.
+    yielded: Option<LivelinessToken>,
     /// Where a replicated state fetched from the holder goes (the vessel's queue).
     state_in: mpsc::Sender<super::Msg>,
 }
@@ -146,10 +152,10 @@ impl OwnerDriver {
                 .map_err(DaemonError::declare("liveliness token", &key))?;
             candidate_tokens.push(t);
         }
-        let (tx, rx) = mpsc::unbounded_channel::<(String, Event)>();
+        let (tx, rx) = mpsc::unbounded_channel::<(String, Seen)>();
         let single = (names.len() == 1).then(|| Keys::new(&names[0]));
-        let mut subs = Vec::with_capacity(2);
-        for what in ["candidate", "holder"] {
+        let mut subs = Vec::with_capacity(3);
+        for what in ["candidate", "holder", "yielded"] {
             let key = match &single {
                 Some(k) => format!("{}/fdi/{what}/*", k.prefix),
                 None => format!("vessels/*/fdi/{what}/*"),
@@ -180,6 +186,7 @@ impl OwnerDriver {
                 role,
                 view: RoleView::claiming(),
                 tokens: Vec::new(),
+                yielded: None,
                 state_in,
             })
             .collect();
@@ -222,8 +229,18 @@ impl OwnerDriver {
     }
 }
 
-/// `vessels/<v>/fdi/candidate/<id>` or `.../holder/<id>` as an event about vessel `v`.
-fn parse(key: &str, kind: SampleKind) -> Option<(String, Event)> {
+/// A liveliness event the driver acts on.
+#[derive(Debug, Clone, PartialEq)]
+enum Seen {
+    /// A candidate or holder token: the ownership machine's input.
+    Machine(Event),
+    /// `fdi/yielded/<id>` appeared: that daemon drove the vessel until it yielded.
+    Yielded(String),
+}
+
+/// `vessels/<v>/fdi/candidate/<id>`, `.../holder/<id>` or `.../yielded/<id>` as an event about
+/// vessel `v` (a yielded token's going away says nothing).
+fn parse(key: &str, kind: SampleKind) -> Option<(String, Seen)> {
     let rest = key.strip_prefix("vessels/")?;
     let (vessel, rest) = rest.split_once('/')?;
     let rest = rest.strip_prefix("fdi/")?;
@@ -231,10 +248,11 @@ fn parse(key: &str, kind: SampleKind) -> Option<(String, Event)> {
     let id = id.to_string();
     let up = kind == SampleKind::Put;
     let ev = match (what, up) {
-        ("candidate", true) => Event::CandidateUp(id),
-        ("candidate", false) => Event::CandidateDown(id),
-        ("holder", true) => Event::HolderUp(id),
-        ("holder", false) => Event::HolderDown(id),
+        ("candidate", true) => Seen::Machine(Event::CandidateUp(id)),
+        ("candidate", false) => Seen::Machine(Event::CandidateDown(id)),
+        ("holder", true) => Seen::Machine(Event::HolderUp(id)),
+        ("holder", false) => Seen::Machine(Event::HolderDown(id)),
+        ("yielded", true) => Seen::Yielded(id),
         _ => return None,
     };
     Some((vessel.to_string(), ev))
@@ -244,7 +262,7 @@ async fn run(
     session: zenoh::Session,
     id: String,
     mut vessels: Vec<Vessel>,
-    mut rx: mpsc::UnboundedReceiver<(String, Event)>,
+    mut rx: mpsc::UnboundedReceiver<(String, Seen)>,
     origin: Instant,
     cancel: CancellationToken,
     settled: oneshot::Sender<()>,
@@ -271,7 +289,14 @@ async fn run(
             biased;
             _ = cancel.cancelled() => break,
             ev = rx.recv() => match ev {
-                Some((vessel, ev)) => {
+                Some((vessel, Seen::Yielded(other))) => {
+                    if let Some(&i) = index.get(&vessel) {
+                        if other != id {
+                            yielded_to_me(&mut vessels[i], &other);
+                        }
+                    }
+                }
+                Some((vessel, Seen::Machine(ev))) => {
                     if let Some(&i) = index.get(&vessel) {
                         if matches!(&ev, Event::CandidateUp(c) if *c != id)
                             && vessels[i].machine.role().drives()
@@ -306,12 +331,27 @@ async fn run(
         }
     }
     for v in vessels {
-        for t in v.tokens {
+        for t in v.tokens.into_iter().chain(v.yielded) {
             if let Err(e) = t.undeclare().await {
                 tracing::warn!(vessel = %v.name, "undeclaring a holder token: {e}");
             }
         }
     }
+}
+
+/// Another daemon says it drove the vessel until it yielded: while this one drives, it is
+/// counted as having driven with it until now (a test started before this moment is marked).
+/// It may have yielded to this very daemon before its holder token was ever seen here.
+fn yielded_to_me(v: &mut Vessel, other: &str) {
+    if !v.machine.role().drives() {
+        return;
+    }
+    let mut view = v.view.clone();
+    view.seq += 1;
+    view.last_held.insert(other.to_string(), view.seq);
+    tracing::warn!(vessel = %v.name, other, "another daemon drove this vessel until it yielded (a healed partition): the report of the test under way is marked");
+    v.view = view.clone();
+    v.role.send_replace(view);
 }
 
 /// Carries out a change of role (or of the other holders seen while holding).
@@ -357,6 +397,11 @@ async fn apply(
     v.role.send_replace(view.clone());
     match &role {
         Role::Holder => {
+            if let Some(t) = v.yielded.take() {
+                if let Err(e) = t.undeclare().await {
+                    tracing::warn!(vessel = %v.name, "undeclaring the yielded token: {e}");
+                }
+            }
             for key in [v.keys.holder(id), v.keys.alive()] {
                 match session.liveliness().declare_token(key.clone()).await {
                     Ok(t) => v.tokens.push(t),
@@ -366,9 +411,17 @@ async fn apply(
             tracing::info!(vessel = %v.name, daemon = id, standbys = ?v.machine.other_candidates(), "holding the vessel: driving it");
         }
         Role::Standby { holder } => {
+            let was_holding = !v.tokens.is_empty();
             for t in v.tokens.drain(..) {
                 if let Err(e) = t.undeclare().await {
                     tracing::warn!(vessel = %v.name, "undeclaring a holder token: {e}");
+                }
+            }
+            if was_holding && v.yielded.is_none() {
+                let key = v.keys.yielded(id);
+                match session.liveliness().declare_token(key.clone()).await {
+                    Ok(t) => v.yielded = Some(t),
+                    Err(e) => tracing::error!(vessel = %v.name, "declaring {key}: {e}"),
                 }
             }
             tracing::warn!(vessel = %v.name, daemon = id, holder = ?holder, "{}: no excitation, no tests, no reports", view.describe());
@@ -420,12 +473,20 @@ mod tests {
     fn token_keys_parse_into_events_of_their_vessel() {
         assert_eq!(
             parse("vessels/self/fdi/candidate/a-1", SampleKind::Put),
-            Some(("self".into(), Event::CandidateUp("a-1".into())))
+            Some((
+                "self".into(),
+                Seen::Machine(Event::CandidateUp("a-1".into()))
+            ))
         );
         assert_eq!(
             parse("vessels/v2/fdi/holder/b", SampleKind::Delete),
-            Some(("v2".into(), Event::HolderDown("b".into())))
+            Some(("v2".into(), Seen::Machine(Event::HolderDown("b".into()))))
         );
+        assert_eq!(
+            parse("vessels/v2/fdi/yielded/b", SampleKind::Put),
+            Some(("v2".into(), Seen::Yielded("b".into())))
+        );
+        assert_eq!(parse("vessels/v2/fdi/yielded/b", SampleKind::Delete), None);
         assert_eq!(parse("vessels/v2/fdi/alive", SampleKind::Put), None);
         assert_eq!(parse("elsewhere/fdi/holder/b", SampleKind::Put), None);
     }
