@@ -211,7 +211,7 @@ pub fn family_scenarios() -> Vec<FdiScenario> {
 }
 
 /// Speed changes of the healthy envelope runs [m/s] (either sign).
-const ENVELOPE_SPEEDS_MPS: &[f64] = &[1.5, 2.0];
+const ENVELOPE_SPEEDS_MPS: &[f64] = &[0.5, 1.0, 1.5, 2.0];
 /// Speed change of the envelope runs with a fault [m/s] (either sign).
 const FAULT_SPEED_MPS: &[f64] = &[1.5];
 /// Loading changes of the healthy envelope runs (fraction of the displacement).
@@ -244,7 +244,7 @@ pub fn envelope_scenarios() -> Vec<FdiScenario> {
     let d_pm25 = Some([4000.0 / 0.75, 10000.0 / 1.25]);
     vec![
         e(
-            "envelope: speed +-1.5/2 m/s",
+            "envelope: speed +-0.5..2 m/s",
             None,
             None,
             None,
