@@ -630,6 +630,34 @@ async fn a_state_of_another_configuration_is_refused_and_a_lone_standby_refuses_
 /// The report of a test that ran while another daemon also held the vessel (a partition
 /// healing) is marked with that daemon: `a` drives the ship through a test when the partition
 /// heals and `b` appears as a second holder (and yields).
+/// Triggers an HBT test and waits for its relay: the test's id.
+async fn hbt_under_way(obs: &Observer) -> String {
+    let test = obs.trigger("hbt").await.test.unwrap();
+    obs.wait_for("steering/autopilot/excitation", LIMIT, |e| {
+        e["mode"] == "replace"
+    })
+    .await;
+    test
+}
+
+/// The report of `test` is marked as made while `b` drove too; the next test's, with `b`
+/// standing by, is not.
+async fn marked_by_b_then_not(obs: &Observer, test: &str) {
+    let report = obs
+        .wait_for("fdi/report", LIMIT, |r| r["test"] == test)
+        .await;
+    assert_eq!(
+        report["concurrent_drivers"],
+        serde_json::json!(["b"]),
+        "{report}"
+    );
+    let next = obs.trigger("hbt").await.test.unwrap();
+    let report = obs
+        .wait_for("fdi/report", LIMIT, |r| r["test"] == next.as_str())
+        .await;
+    assert!(report.get("concurrent_drivers").is_none(), "{report}");
+}
+
 #[tokio::test(flavor = "multi_thread")]
 async fn a_report_made_while_two_held_the_vessel_is_marked() {
     let ((ep_a, router_a), (ep_b, router_b)) = (partition().await, partition().await);
@@ -652,31 +680,13 @@ async fn a_report_made_while_two_held_the_vessel_is_marked() {
         None,
         &ep_a,
     );
-    let r = obs.trigger("hbt").await;
-    let test = r.test.unwrap();
-    obs.wait_for("steering/autopilot/excitation", LIMIT, |e| {
-        e["mode"] == "replace"
-    })
-    .await;
+    let test = hbt_under_way(&obs).await;
     let bridge =
         zenoh::open(loopback(ZenohMode::Router, &[], &[ep_a.clone(), ep_b.clone()]).unwrap())
             .await
             .unwrap();
     owners_b.wait("b", "standby", "a").await;
-    let report = obs
-        .wait_for("fdi/report", LIMIT, |r| r["test"] == test.as_str())
-        .await;
-    assert_eq!(
-        report["concurrent_drivers"],
-        serde_json::json!(["b"]),
-        "{report}"
-    );
-    // The next test, with b standing by, is not marked.
-    let next = obs.trigger("hbt").await.test.unwrap();
-    let report = obs
-        .wait_for("fdi/report", LIMIT, |r| r["test"] == next.as_str())
-        .await;
-    assert!(report.get("concurrent_drivers").is_none(), "{report}");
+    marked_by_b_then_not(&obs, &test).await;
     stop.cancel();
     let _ = ship_task.await;
     b.stop().await;
@@ -707,31 +717,15 @@ async fn a_daemon_that_yielded_unseen_marks_the_report_of_the_test_it_overlapped
         None,
         &ep,
     );
-    let test = obs.trigger("hbt").await.test.unwrap();
-    obs.wait_for("steering/autopilot/excitation", LIMIT, |e| {
-        e["mode"] == "replace"
-    })
-    .await;
+    let test = hbt_under_way(&obs).await;
     let yielded = obs
         .session
         .liveliness()
         .declare_token("vessels/self/fdi/yielded/b")
         .await
         .unwrap();
-    let report = obs
-        .wait_for("fdi/report", LIMIT, |r| r["test"] == test.as_str())
-        .await;
-    assert_eq!(
-        report["concurrent_drivers"],
-        serde_json::json!(["b"]),
-        "{report}"
-    );
     // The token still stands (b stands by): the next test is not marked.
-    let next = obs.trigger("hbt").await.test.unwrap();
-    let report = obs
-        .wait_for("fdi/report", LIMIT, |r| r["test"] == next.as_str())
-        .await;
-    assert!(report.get("concurrent_drivers").is_none(), "{report}");
+    marked_by_b_then_not(&obs, &test).await;
     yielded.undeclare().await.unwrap();
     stop.cancel();
     let _ = ship_task.await;
