@@ -41,8 +41,17 @@
 //! The shape `S~` is the scatter of the learned tests about the fit at their own points,
 //! normalised by their design spreads, over the effective degrees of freedom `nu = n -
 //! sum_i h_ii` (`h_ii` the leverage of test i at its own point): `n - 1` when every test was
-//! at one point, the sample covariance. It is computed twice: first with the raw scatter as
-//! the noise weights, then with the first pass's shape.
+//! at one point, the sample covariance. It is computed in passes to its fixed point (at most
+//! `SHAPE_PASSES`): the first with the raw scatter about the sample's mean as the noise
+//! weights and the slopes all but free (the prior `LOOSE` times wider), then with the
+//! previous pass's shape and the prior. At one operating point the first pass is the fixed
+//! point (the fit is the sample's mean whatever the weights). Across points the raw scatter
+//! counts the offset's move between them as noise, many times the real scatter; a fit
+//! weighted with that noise leans on the slope prior, is pulled towards the other points'
+//! offset and leaves the move in the residuals, which keeps the noise large: a fixed point
+//! of its own, which two passes from the raw scatter stayed near (a second point's offset
+//! fitted halfway to the first's, the unit test
+//! `a_second_point_is_fitted_at_its_own_offset_when_the_offset_moved_far`).
 
 use super::stats::Cov2;
 use nalgebra::{Matrix4, Vector4};
@@ -50,6 +59,13 @@ use serde::{Deserialize, Serialize};
 
 /// Smallest noise variance in design-spread units (a sample with no scatter at all).
 const MIN_SHAPE_VAR: f64 = 1e-8;
+
+/// The most passes of the shape's estimate (the fits weighted by the noise, the noise from
+/// the residuals about the fits), stopping early at its fixed point.
+const SHAPE_PASSES: usize = 12;
+
+/// How much wider the slope prior is in the shape's first pass.
+const LOOSE: f64 = 1000.0;
 
 /// One learned healthy test.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -246,11 +262,21 @@ pub fn shape(samples: &[Sample], st: &Settings) -> Option<Shape> {
             })
         })
         .collect();
-    let mut out = None;
-    for _ in 0..2 {
+    // Pass 0 fits with the slopes all but free (the prior LOOSE times wider): the raw
+    // scatter counts the offset's move between points as noise, and a fit weighted with it
+    // would lean on the prior and carry that move into the residuals.
+    let loose = Settings {
+        slope_speed: st.slope_speed.map(|v| v * LOOSE),
+        slope_loading: st.slope_loading.map(|v| v * LOOSE),
+        slope_excitation: st.slope_excitation.map(|v| v * LOOSE),
+        ..*st
+    };
+    let mut out: Option<Shape> = None;
+    for pass in 0..SHAPE_PASSES {
+        let prior = if pass == 0 { &loose } else { st };
         let fits: Vec<[(f64, f64); 2]> = points
             .iter()
-            .map(|&x| fit(samples, st, x, noise))
+            .map(|&x| fit(samples, prior, x, noise))
             .collect::<Option<_>>()?;
         let (mut xx, mut xy, mut yy, mut lev) = (0.0, 0.0, 0.0, 0.0);
         for (s, &i) in samples.iter().zip(&index) {
@@ -273,8 +299,15 @@ pub fn shape(samples: &[Sample], st: &Settings) -> Option<Shape> {
         if ![cov.xx, cov.xy, cov.yy].iter().all(|v| v.is_finite()) {
             return None;
         }
+        let settled = out.is_some_and(|o: Shape| {
+            let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
+            close(o.cov.xx, cov.xx) && close(o.cov.xy, cov.xy) && close(o.cov.yy, cov.yy)
+        });
         noise = [cov.xx, cov.yy];
         out = Some(Shape { cov, dof });
+        if settled {
+            break;
+        }
     }
     out
 }
@@ -427,6 +460,27 @@ mod tests {
         assert!((p.cov.xx - sxx * 0.01 / n).abs() < 1e-9 * p.cov.xx);
         assert!((p.cov.yy - syy * 1e-4 / n).abs() < 1e-9 * p.cov.yy);
         assert!((p.support - 5.0).abs() < 1e-12 && p.nearest == 0.0);
+    }
+
+    #[test]
+    fn a_second_point_is_fitted_at_its_own_offset_when_the_offset_moved_far() {
+        // Eight tests at 10 m/s and two at 9 m/s, the displacement offset 0.23 lower there
+        // (115 design spreads: a hull whose estimate does not follow the ship), the scatter
+        // 0.001 at both. The fit at 9 m/s is the two tests' own mean (the data fix the
+        // slope far better than its prior), and the shape is the scatter's, not the move's.
+        let jitter = [0.0, 0.8, -0.6, 0.3, -1.0, 0.5, -0.2, 0.9];
+        let mut samples: Vec<Sample> = jitter
+            .iter()
+            .map(|j| smp([-3.1 + 0.01 * j, 0.368 + 0.001 * j], 10.0, 7000.0))
+            .collect();
+        samples.push(smp([-2.13, 0.1375], 9.0, 7000.0));
+        samples.push(smp([-2.12, 0.1355], 9.0, 7000.0));
+        let sh = shape(&samples, &st()).unwrap();
+        let p = predict(&samples, &st(), &sh, &at(9.0, 7000.0)).unwrap();
+        assert!((p.offset[1] - 0.1365).abs() < 0.001, "{:?}", p.offset);
+        // The shape in design units (s_D = 0.01): the scatter's (0.1)^2 order, not the
+        // move's (23^2).
+        assert!(sh.cov.yy < 0.1, "{:?}", sh.cov);
     }
 
     #[test]
