@@ -314,18 +314,21 @@ impl Sequential {
             let causes = isolation::PARAMETER_CAUSES
                 .iter()
                 .zip(t.along.into_iter().zip(t.along_dof))
-                .map(|(c, (along, dof))| Scored {
-                    look: Look {
-                        statistic: along,
-                        window: n,
-                        dof,
-                        threshold: limits.cause[dof.clamp(1, 2) - 1],
-                        alert_threshold: limits.cause_alert[dof.clamp(1, 2) - 1],
-                        cause: Some(*c),
-                    },
-                    n,
-                })
-                .filter(|_| !wide);
+                .filter(|_| !wide)
+                .map(|(c, (along, dof))| {
+                    let i = dof.clamp(1, 2) - 1;
+                    Scored {
+                        look: Look {
+                            statistic: along,
+                            window: n,
+                            dof,
+                            threshold: limits.cause[i],
+                            alert_threshold: limits.cause_alert[i],
+                            cause: Some(*c),
+                        },
+                        n,
+                    }
+                });
             for s in std::iter::once(free).chain(causes) {
                 if best.is_none_or(|b| ratio(Some(s)) > ratio(Some(b))) {
                     best = Some(s);
@@ -491,25 +494,23 @@ pub fn param_statistics(window: &VecDeque<Entry>, n: usize) -> Option<ParamStati
         let (s, c, scale) = (m.sum, m.offset_var, m.scale());
         free += (s[0] * s[0] + s[1] * s[1]) / scale;
         for j in 0..2 {
-            let t = m.along(j);
-            let w = m.along_sum[j];
-            proj[j] += m.projection[j];
-            var[j] += (1.0 - c) * m.norm2[j] + c * (w[0] * w[0] + w[1] * w[1]);
-            if !COMMON_SIZE[j] {
-                along[j] += t * t / scale;
+            if COMMON_SIZE[j] {
+                let w = m.along_sum[j];
+                proj[j] += m.projection[j];
+                var[j] += (1.0 - c) * m.norm2[j] + c * (w[0] * w[0] + w[1] * w[1]);
+            } else {
+                along[j] += m.along(j).powi(2) / scale;
             }
         }
     }
     let mut along_dof = [sums.len(); 2];
-    for j in 0..2 {
-        if COMMON_SIZE[j] {
-            along[j] = if var[j] > 0.0 {
-                proj[j] * proj[j] / var[j]
-            } else {
-                0.0
-            };
-            along_dof[j] = 1;
-        }
+    for j in (0..2).filter(|&j| COMMON_SIZE[j]) {
+        along[j] = if var[j] > 0.0 {
+            proj[j] * proj[j] / var[j]
+        } else {
+            0.0
+        };
+        along_dof[j] = 1;
     }
     (free.is_finite() && along.iter().all(|a| a.is_finite())).then_some(ParamStatistics {
         free,
