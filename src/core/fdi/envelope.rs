@@ -262,9 +262,7 @@ pub fn shape(samples: &[Sample], st: &Settings) -> Option<Shape> {
             })
         })
         .collect();
-    // Pass 0 fits with the slopes all but free (the prior LOOSE times wider): the raw
-    // scatter counts the offset's move between points as noise, and a fit weighted with it
-    // would lean on the prior and carry that move into the residuals.
+    // Pass 0 fits with the slopes all but free (the module doc says why).
     let loose = Settings {
         slope_speed: st.slope_speed.map(|v| v * LOOSE),
         slope_loading: st.slope_loading.map(|v| v * LOOSE),
@@ -465,8 +463,8 @@ mod tests {
     #[test]
     fn a_second_point_is_fitted_at_its_own_offset_when_the_offset_moved_far() {
         // Eight tests at 10 m/s and two at 9 m/s, the displacement offset 0.23 lower there
-        // (115 design spreads: a hull whose estimate does not follow the ship), the scatter
-        // 0.001 at both. The fit at 9 m/s is the two tests' own mean (the data fix the
+        // (23 design spreads, 200 times the scatter: a hull whose estimate does not follow
+        // the ship), the scatter about 0.001 at both. The fit at 9 m/s is the two tests' own mean (the data fix the
         // slope far better than its prior), and the shape is the scatter's, not the move's.
         let jitter = [0.0, 0.8, -0.6, 0.3, -1.0, 0.5, -0.2, 0.9];
         let mut samples: Vec<Sample> = jitter
