@@ -1,0 +1,231 @@
+//! The reference's local fit and shape: by hand at one point and away from it, and across
+//! two points whose offsets differ.
+
+use super::*;
+
+fn st() -> Settings {
+    Settings {
+        bandwidth: [1.0, 0.1, 0.1],
+        slope_speed: [0.5, 0.03],
+        slope_loading: [4.0, 0.3],
+        slope_excitation: [3.0, 0.3],
+    }
+}
+
+fn smp(e: [f64; 2], u: f64, d: f64) -> Sample {
+    Sample {
+        e,
+        s: [0.1, 0.01],
+        speed_mps: u,
+        displacement_t: d,
+        excitation_scale: 1.0,
+    }
+}
+
+fn at(u: f64, d: f64) -> Point {
+    Point {
+        speed_mps: u,
+        displacement_t: d,
+        excitation_scale: 1.0,
+    }
+}
+
+#[test]
+fn at_one_point_the_fit_is_the_sample_mean_and_the_shape_its_covariance() {
+    let data = [
+        (1.0, -0.20),
+        (1.2, -0.22),
+        (0.8, -0.18),
+        (1.1, -0.20),
+        (0.9, -0.21),
+    ];
+    let samples: Vec<Sample> = data
+        .iter()
+        .map(|&(a, b)| smp([a, b], 7.0, 7000.0))
+        .collect();
+    let sh = shape(&samples, &st()).unwrap();
+    // Independent two-pass moments (n - 1), in design-spread units.
+    let n = 5.0;
+    let mu = data
+        .iter()
+        .fold((0.0, 0.0), |a, x| (a.0 + x.0 / n, a.1 + x.1 / n));
+    let sxx = data.iter().map(|x| (x.0 - mu.0).powi(2)).sum::<f64>() / 4.0 / 0.01;
+    let sxy = data
+        .iter()
+        .map(|x| (x.0 - mu.0) * (x.1 - mu.1))
+        .sum::<f64>()
+        / 4.0
+        / 0.001;
+    let syy = data.iter().map(|x| (x.1 - mu.1).powi(2)).sum::<f64>() / 4.0 / 1e-4;
+    assert!((sh.dof - 4.0).abs() < 1e-9, "{}", sh.dof);
+    assert!((sh.cov.xx - sxx).abs() < 1e-9 * sxx);
+    assert!((sh.cov.xy - sxy).abs() < 1e-9 * sxy.abs());
+    assert!((sh.cov.yy - syy).abs() < 1e-9 * syy);
+    let p = predict(&samples, &st(), &sh, &at(7.0, 7000.0)).unwrap();
+    assert!((p.offset[0] - mu.0).abs() < 1e-12);
+    assert!((p.offset[1] - mu.1).abs() < 1e-12);
+    // The mean's variance: S / n in physical units.
+    assert!((p.cov.xx - sxx * 0.01 / n).abs() < 1e-9 * p.cov.xx);
+    assert!((p.cov.yy - syy * 1e-4 / n).abs() < 1e-9 * p.cov.yy);
+    assert!((p.support - 5.0).abs() < 1e-12 && p.nearest == 0.0);
+}
+
+#[test]
+fn a_second_point_is_fitted_at_its_own_offset_when_the_offset_moved_far() {
+    // Eight tests at 10 m/s and two at 9 m/s, the displacement offset 0.23 lower there
+    // (23 design spreads, 200 times the scatter: a hull whose estimate does not follow
+    // the ship), the scatter about 0.001 at both. The fit at 9 m/s is the two tests' own mean (the data fix the
+    // slope far better than its prior), and the shape is the scatter's, not the move's.
+    let jitter = [0.0, 0.8, -0.6, 0.3, -1.0, 0.5, -0.2, 0.9];
+    let mut samples: Vec<Sample> = jitter
+        .iter()
+        .map(|j| smp([-3.1 + 0.01 * j, 0.368 + 0.001 * j], 10.0, 7000.0))
+        .collect();
+    samples.push(smp([-2.13, 0.1375], 9.0, 7000.0));
+    samples.push(smp([-2.12, 0.1355], 9.0, 7000.0));
+    let sh = shape(&samples, &st()).unwrap();
+    let p = predict(&samples, &st(), &sh, &at(9.0, 7000.0)).unwrap();
+    assert!((p.offset[1] - 0.1365).abs() < 0.001, "{:?}", p.offset);
+    // The shape in design units (s_D = 0.01): the scatter's (0.1)^2 order, not the
+    // move's (23^2).
+    assert!(sh.cov.yy < 0.1, "{:?}", sh.cov);
+}
+
+#[test]
+fn away_from_the_learned_point_the_interval_grows_by_the_kernel_and_the_slope_prior() {
+    let samples: Vec<Sample> = [
+        (1.0, -0.20),
+        (1.2, -0.22),
+        (0.8, -0.18),
+        (1.1, -0.20),
+        (0.9, -0.21),
+    ]
+    .iter()
+    .map(|&(a, b)| smp([a, b], 7.0, 7000.0))
+    .collect();
+    let sh = shape(&samples, &st()).unwrap();
+    let du = 1.5;
+    let p = predict(&samples, &st(), &sh, &at(7.0 + du, 7000.0)).unwrap();
+    // By hand: all data at one distance d = 1.5 bandwidths, weight w = 1 / (1 + d^2);
+    // intercept variance = 1 / W + du^2 tau^2 with W = n w / sigma^2.
+    let w = 1.0 / (1.0 + du * du);
+    for (j, (var, tau)) in [(sh.cov.xx * 0.01, 0.5), (sh.cov.yy * 1e-4, 0.03)]
+        .iter()
+        .enumerate()
+    {
+        let want = var / (5.0 * w) + du * du * tau * tau;
+        let got = [p.cov.xx, p.cov.yy][j];
+        assert!((got - want).abs() < 1e-9 * want, "{j}: {got} vs {want}");
+    }
+    // The offset is still the sample's (the prior slope is 0).
+    assert!((p.offset[0] - 1.0).abs() < 1e-12);
+    assert!((p.nearest - 1.5).abs() < 1e-12);
+}
+
+/// A relay sized down is another point: predicted from the designed relay's tests with
+/// the slope prior's interval in `ln s`; once learned, each scale keeps its own offset.
+#[test]
+fn an_excitation_sized_down_is_another_operating_point() {
+    let wob = [0.01, -0.01, 0.005, -0.005, 0.0];
+    let mut samples: Vec<Sample> = wob
+        .iter()
+        .map(|w| smp([2.0 + w, -0.70 + w / 10.0], 9.5, 7000.0))
+        .collect();
+    let sh = shape(&samples, &st()).unwrap();
+    let scaled = Point {
+        excitation_scale: 0.83,
+        ..at(9.5, 7000.0)
+    };
+    let p = predict(&samples, &st(), &sh, &scaled).unwrap();
+    // By hand: every test at g = ln 0.83 from the point, d = |g| / b_g.
+    let g = 0.83f64.ln();
+    let w = 1.0 / (1.0 + (g / 0.1).powi(2));
+    let want = sh.cov.xx * 0.01 / (5.0 * w) + (g * 3.0).powi(2);
+    assert!(
+        (p.cov.xx - want).abs() < 1e-9 * want,
+        "{} vs {want}",
+        p.cov.xx
+    );
+    assert!((p.offset[0] - 2.0).abs() < 1e-9, "{:?}", p.offset);
+    // Tests at 0.83 read 0.4 m/s lower (the read-back's bias on a nonlinear hull).
+    for w in wob {
+        let mut t = smp([1.6 + w, -0.68 + w / 10.0], 9.5, 7000.0);
+        t.excitation_scale = 0.83;
+        samples.push(t);
+    }
+    let sh = shape(&samples, &st()).unwrap();
+    // The shape is the scatter about each scale's offset, not the gap between them.
+    assert!(sh.cov.xx < 0.2, "{:?}", sh.cov);
+    let lo = predict(&samples, &st(), &sh, &scaled).unwrap();
+    let hi = predict(&samples, &st(), &sh, &at(9.5, 7000.0)).unwrap();
+    assert!((lo.offset[0] - 1.6).abs() < 0.02, "{:?}", lo.offset);
+    assert!((hi.offset[0] - 2.0).abs() < 0.02, "{:?}", hi.offset);
+    assert!(lo.cov.xx.sqrt() < 0.02, "{}", lo.cov.xx.sqrt());
+}
+
+/// The local shape: the global one where every test is; where a second point scatters
+/// ten times more, its own tests speak for it there, and hardly at the first point.
+#[test]
+fn the_local_shape_is_the_scatter_of_the_tests_near_the_point() {
+    let wob = [0.01, -0.01, 0.005, -0.005, 0.0, 0.008, -0.008, 0.0];
+    let mut samples: Vec<Sample> = wob
+        .iter()
+        .map(|w| smp([1.0 + w, -0.2 + w / 10.0], 7.0, 7000.0))
+        .collect();
+    let sh = shape(&samples, &st()).unwrap();
+    let here = local_shape(&samples, &st(), &sh, &at(7.0, 7000.0));
+    assert!(
+        (here.cov.xx / sh.cov.xx - 1.0).abs() < 1e-9,
+        "{here:?} vs {sh:?}"
+    );
+    assert!((here.cov.yy / sh.cov.yy - 1.0).abs() < 1e-9);
+    assert!(
+        (here.dof - sh.dof).abs() < 1e-9,
+        "{} vs {}",
+        here.dof,
+        sh.dof
+    );
+    // Far away, with nothing near, the same shape (every weight alike).
+    let far = local_shape(&samples, &st(), &sh, &at(12.0, 7000.0));
+    assert!((far.cov.xx / sh.cov.xx - 1.0).abs() < 1e-9);
+    // Eight tests at 4 m/s (3 bandwidths away) with ten times the scatter.
+    for w in wob {
+        samples.push(smp([0.5 + 10.0 * w, -0.1 + w], 4.0, 7000.0));
+    }
+    let sh = shape(&samples, &st()).unwrap();
+    let there = local_shape(&samples, &st(), &sh, &at(4.0, 7000.0));
+    let here = local_shape(&samples, &st(), &sh, &at(7.0, 7000.0));
+    // By hand: kernel 1 at its own point, 1 / (1 + 9) = 0.1 from the other; the
+    // residuals are each point's own about its mean (0.01 x 0.1 kernel mixes in).
+    let var = |k: f64| wob.iter().map(|w| (k * w).powi(2)).sum::<f64>() / 0.01;
+    let want_there = (var(10.0) + 0.1 * var(1.0)) / (1.1 * 7.0);
+    let want_here = (var(1.0) + 0.1 * var(10.0)) / (1.1 * 7.0);
+    assert!(
+        (there.cov.xx / want_there - 1.0).abs() < 0.05,
+        "{there:?} vs {want_there}"
+    );
+    assert!(
+        (here.cov.xx / want_here - 1.0).abs() < 0.05,
+        "{here:?} vs {want_here}"
+    );
+    // Each point keeps most of its own scatter (9 times apart, by the sums above).
+    assert!(there.cov.xx > 5.0 * here.cov.xx, "{there:?} {here:?}");
+}
+
+#[test]
+fn two_learned_speeds_give_the_slope_between_them() {
+    // e_u = 1 - (u - 7) exactly (the estimate does not follow the speed), e_D flat,
+    // with a small scatter.
+    let mut samples = Vec::new();
+    for (k, u) in [7.0, 7.0, 7.0, 7.0, 5.5, 5.5, 5.5, 5.5].iter().enumerate() {
+        let wob = [0.01, -0.01, 0.005, -0.005][k % 4];
+        samples.push(smp([1.0 - (u - 7.0) + wob, -0.2 + wob / 10.0], *u, 7000.0));
+    }
+    let sh = shape(&samples, &st()).unwrap();
+    let p = predict(&samples, &st(), &sh, &at(6.25, 7000.0)).unwrap();
+    assert!((p.offset[0] - 1.75).abs() < 0.01, "{:?}", p.offset);
+    assert!((p.offset[1] + 0.2).abs() < 0.002);
+    // Between two learned points the interval is far narrower than the prior's alone
+    // (0.75 m/s x 0.5 = 0.375 m/s).
+    assert!(p.cov.xx.sqrt() < 0.05, "{}", p.cov.xx.sqrt());
+}
