@@ -39,6 +39,7 @@ fn full() -> Residuals {
             displacement_sigma: 0.002,
             speed_log_mps: 7.0,
             dd_du_t_per_mps: 900.0,
+            speed_slope: [-0.2, 0.01],
         }),
         parameters: Some(p),
         servo_check: Some(ServoCheck {

@@ -204,6 +204,7 @@ mod tests {
             speed_mps: u,
             displacement_t: 7000.0,
             excitation_scale: 1.0,
+            speed_slope: [0.0; 2],
         }
     }
 
@@ -272,6 +273,7 @@ mod tests {
                             speed_mps: 7.0,
                             displacement_t: 7000.0,
                             excitation_scale: 1.0,
+                            speed_slope: [0.0; 2],
                         }
                     })
                     .collect();

@@ -20,8 +20,8 @@ pub struct ReferenceConfig {
     pub bandwidth_speed_mps: f64,
     /// Kernel width in declared loading [ln D]: 0.1 is about 10 % of the displacement.
     pub bandwidth_loading: f64,
-    /// Prior standard deviation of the offset's slope in speed: `[e_u, e_D]` [m/s per m/s,
-    /// fraction of D per m/s].
+    /// Prior standard deviation of the offset's slope in speed about the similarity law's
+    /// slope: `[e_u, e_D]` [m/s per m/s, fraction of D per m/s].
     pub slope_speed: [f64; 2],
     /// Prior standard deviation of the offset's slope in declared loading: `[e_u, e_D]`
     /// [m/s, fraction of D, per unit of ln D].

@@ -316,6 +316,7 @@ fn monte_carlo(
             speed_log_mps: 7.0,
             displacement_declared_t: 7000.0,
             excitation_scale: 1.0,
+            speed_slope: [0.0; 2],
         }
     };
     for _ in 0..vessels {

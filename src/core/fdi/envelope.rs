@@ -30,10 +30,17 @@
 //!
 //! (`reference.bandwidth-speed-mps`, `-loading`, `-excitation`): a soft bin, the method
 //! of bins of wind-turbine power curves (IEC 61400-12) made continuous, and ISO 19030's
-//! reference conditions made local. The slopes carry a Gaussian prior of mean 0 and standard
+//! reference conditions made local. The slopes carry a Gaussian prior with standard
 //! deviations `reference.slope-speed`, `-loading` and `-excitation` (per component): how
 //! fast a network's bias on a ship unlike its training model may change across the
-//! envelope. The intercept has a flat prior. The fit's intercept is the predicted offset at
+//! envelope beyond what physics predicts. The prior's mean is 0, except in speed: there it
+//! is the **similarity law's slope**, the kernel-weighted mean of the learned tests' own
+//! (`Sample::speed_slope`, `crate::core::fdi::sensitivity::scale_speed`): each test's
+//! features moved to a neighbouring speed as the same ship would play them there, read by
+//! the networks. On the first-order ship the networks were trained on it is near 0; on a
+//! hull unlike it, it is how the networks misread that hull at another speed (measured on
+//! the family: `e_D` of CLFRT on the T2/T1 0.1 hull -0.107 for 0.5 m/s slower, predicted
+//! -0.104; on the upper-strength hull -0.316 for 2 m/s, predicted -0.308). The intercept has a flat prior. The fit's intercept is the predicted offset at
 //! `x*`; its posterior variance `(A^-1)_00` is the prediction's own: small where the ship
 //! has been tested, growing with the distance from what was learned (the kernel and the
 //! slope prior), never the design's wide limits.
@@ -81,6 +88,10 @@ pub struct Sample {
     /// The excitation's scale against its design (1: as designed).
     #[serde(default = "as_designed")]
     pub excitation_scale: f64,
+    /// How its residual moves per m/s of the ship's own speed by the similarity law
+    /// (`crate::core::fdi::sensitivity::scale_speed`): the speed slope's prior mean.
+    #[serde(default)]
+    pub speed_slope: [f64; 2],
 }
 
 fn as_designed() -> f64 {
@@ -173,6 +184,9 @@ pub struct Prediction {
     pub support: f64,
     /// Distance to the nearest learned test, in bandwidths.
     pub nearest: f64,
+    /// The slope prior's share of each component's variance in `cov` (0 where the tests
+    /// span the point).
+    pub prior_share: [f64; 2],
 }
 
 /// The kernel weight and squared distance between two operating points.
@@ -183,22 +197,36 @@ fn kernel(st: &Settings, a: [f64; 3], b: [f64; 3]) -> (f64, f64) {
     (1.0 / (1.0 + d2), d2)
 }
 
-/// One component's local fit at `at`: `(intercept, its variance)`.
+/// One component's local fit at `at`: `(intercept, its variance, the slope prior's part of
+/// that variance)`.
 fn fit_component(
     samples: &[Sample],
     st: &Settings,
     at: [f64; 3],
     j: usize,
     noise: f64,
-) -> Option<(f64, f64)> {
+) -> Option<(f64, f64, f64)> {
     let prior = |sd: f64| 1.0 / sd.max(1e-12).powi(2);
-    let mut a = Matrix4::from_diagonal(&Vector4::new(
+    let p0 = Matrix4::from_diagonal(&Vector4::new(
         0.0,
         prior(st.slope_speed[j]),
         prior(st.slope_loading[j]),
         prior(st.slope_excitation[j]),
     ));
+    let mut a = p0;
     let mut b = Vector4::zeros();
+    // The speed slope's prior mean: the similarity law's slope of the tests near `at`.
+    let (mut sw, mut ss) = (0.0, 0.0);
+    for smp in samples {
+        let (w, _) = kernel(st, smp.x(), at);
+        if smp.speed_slope[j].is_finite() {
+            sw += w;
+            ss += w * smp.speed_slope[j];
+        }
+    }
+    if sw > 0.0 {
+        b[1] = a[(1, 1)] * ss / sw;
+    }
     for smp in samples {
         let x = smp.x();
         let (w, _) = kernel(st, x, at);
@@ -213,19 +241,17 @@ fn fit_component(
     let inv = a.try_inverse()?;
     let coef = inv * b;
     let v = inv[(0, 0)];
-    (coef[0].is_finite() && v.is_finite() && v >= 0.0).then_some((coef[0], v))
+    // inv = inv (P0 + X'WX) inv: the intercept's variance splits into the prior's part and
+    // the tests'.
+    let vp = (inv * p0 * inv)[(0, 0)].clamp(0.0, v.max(0.0));
+    (coef[0].is_finite() && v.is_finite() && v >= 0.0).then_some((coef[0], v, vp))
 }
 
-/// A local fit: per component, `(intercept, its variance)`.
-type Fit = [(f64, f64); 2];
+/// A local fit: per component, `(intercept, its variance, the slope prior's part)`.
+type Fit = [(f64, f64, f64); 2];
 
 /// Both components' local fits at `at`, with the noise variances `noise` (`S~_jj`).
-fn fit(
-    samples: &[Sample],
-    st: &Settings,
-    at: [f64; 3],
-    noise: [f64; 2],
-) -> Option<[(f64, f64); 2]> {
+fn fit(samples: &[Sample], st: &Settings, at: [f64; 3], noise: [f64; 2]) -> Option<Fit> {
     Some([
         fit_component(samples, st, at, 0, noise[0])?,
         fit_component(samples, st, at, 1, noise[1])?,
@@ -272,7 +298,7 @@ pub fn shape(samples: &[Sample], st: &Settings) -> Option<Shape> {
     let mut out: Option<Shape> = None;
     for pass in 0..SHAPE_PASSES {
         let prior = if pass == 0 { &loose } else { st };
-        let fits: Vec<[(f64, f64); 2]> = points
+        let fits: Vec<Fit> = points
             .iter()
             .map(|&x| fit(samples, prior, x, noise))
             .collect::<Option<_>>()?;
@@ -386,6 +412,7 @@ pub fn predict(samples: &[Sample], st: &Settings, shape: &Shape, at: &Point) -> 
         },
         support,
         nearest,
+        prior_share: [f[0], f[1]].map(|c| if c.1 > 0.0 { c.2 / c.1 } else { 0.0 }),
     })
 }
 

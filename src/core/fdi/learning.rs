@@ -212,6 +212,7 @@ mod tests {
                 speed_log_mps: 7.0,
                 displacement_declared_t: 7000.0,
                 excitation_scale: 1.0,
+                speed_slope: [0.0; 2],
             },
         }
     }

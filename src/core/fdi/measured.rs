@@ -131,14 +131,19 @@ pub(super) fn measure_entry(
     z_rate: Option<f64>,
 ) -> (Basis, Measured, Entry) {
     let (basis, m) = c.measure(settings, &source.raw);
+    // Against the vessel's reference a speed-log bias also moves the reference's predicted
+    // offset, by its slope in speed: the similarity law's (the slope prior's mean, `envelope`).
+    let mut directions = source.directions;
+    if matches!(basis, Basis::Vessel(_)) {
+        directions[0][0] -= source.raw.speed_slope[0];
+        directions[0][1] -= source.raw.speed_slope[1];
+    }
     let entry = Entry {
         method,
         z: m.whitened(),
         offset_var: m.offset_var,
         epoch,
-        directions: source
-            .directions
-            .map(|d| m.cov.whiten(d).unwrap_or([0.0; 2])),
+        directions: directions.map(|d| m.cov.whiten(d).unwrap_or([0.0; 2])),
         z_rate,
         source: Some(source),
     };

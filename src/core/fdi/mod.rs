@@ -430,6 +430,7 @@ impl Fdi {
                 displacement_sigma: r.displacement_sigma,
                 speed_log_mps: r.speed_log_mps,
                 dd_du_t_per_mps: g,
+                speed_slope: r.speed_slope,
             }),
             parameters,
             servo_check: servo,

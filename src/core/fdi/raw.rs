@@ -16,6 +16,9 @@ const DU_MPS: f64 = 0.05;
 /// Relative step of `b` for the displacement's direction (`sensitivity`).
 const DB_REL: f64 = 0.01;
 
+/// Speed step of the similarity law's central difference for the offset's slope [m/s].
+const DU_SIMILAR_MPS: f64 = 0.25;
+
 /// The sea index of a test's features: its wave yaw [deg], if it has one.
 pub fn sea_index(features: &Features) -> Option<f64> {
     features
@@ -105,7 +108,30 @@ impl Fdi {
             })
             .filter(|v| v.iter().all(|x| x.is_finite()) && v[1].abs() > 0.0)
             .unwrap_or([0.0, 1.0]);
+        // How the residual moves when the ship itself goes faster (`sensitivity::scale_speed`),
+        // per m/s: the networks read the same ship's features at the other speed.
+        let mut similar = |u: f64| -> Option<[f64; 2]> {
+            let f = sensitivity::scale_speed(features, u)?;
+            let e = est.estimate(method, &f, scratch).ok()?;
+            Some([e.speed_mps - u, e.displacement_t / d_nom_t])
+        };
+        let speed_slope = match (
+            similar(u_log + DU_SIMILAR_MPS),
+            similar((u_log - DU_SIMILAR_MPS).max(0.5 * u_log)),
+        ) {
+            (Some(hi), Some(lo)) => {
+                let du = u_log + DU_SIMILAR_MPS - (u_log - DU_SIMILAR_MPS).max(0.5 * u_log);
+                let v = [(hi[0] - lo[0]) / du, (hi[1] - lo[1]) / du];
+                if v.iter().all(|x| x.is_finite()) {
+                    v
+                } else {
+                    [0.0; 2]
+                }
+            }
+            _ => [0.0; 2],
+        };
         let raw = Raw {
+            speed_slope,
             speed_mps: estimate.speed_mps - u_log - mu,
             displacement: (estimate.displacement_t - d_nom_t - md) / d_nom_t,
             speed_sigma_mps: su,

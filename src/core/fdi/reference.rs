@@ -62,7 +62,8 @@
 //!   small `nu` (a covariance from 8 tests is sometimes much too small). `T'` is the chi-square (2 dof) statistic of the same tail
 //!   probability: the whitened residual is scaled by `sqrt(T' / T)` (`Measured::whitened`),
 //!   so the decision's chi-square limits hold test by test; `T' -> T` as the vessel's tests
-//!   are learned. The floors, being known, add degrees of freedom along the residual:
+//!   are learned. The floors, being known, add degrees of freedom along the residual, and
+//!   so does the slope prior's part of the offset's error (a stated model: `envelope`):
 //!   `nu_eff = nu / (the learned part's share of the residual's variance in its own
 //!   direction)` (the conservative root of Satterthwaite's approximation, as in
 //!   `changepoint`), with `nu` the shape's dof; at a point farther than one bandwidth from every learned test, the learned
@@ -236,6 +237,9 @@ pub struct Raw {
     pub displacement_declared_t: f64,
     /// The excitation's scale against its design (`Features::excitation_scale`).
     pub excitation_scale: f64,
+    /// How `(e_u, e_D)` move per m/s of the ship's own speed by the similarity law
+    /// (`crate::core::fdi::sensitivity::scale_speed`) [(m/s, fraction) per m/s].
+    pub speed_slope: [f64; 2],
 }
 
 impl Raw {
@@ -246,6 +250,7 @@ impl Raw {
             speed_mps: self.speed_log_mps,
             displacement_t: self.displacement_declared_t,
             excitation_scale: self.excitation_scale,
+            speed_slope: self.speed_slope,
         }
     }
 }
@@ -315,15 +320,21 @@ impl Commissioning {
                 let Some(p) = envelope::predict(&self.samples, &s.envelope, &shape, &at) else {
                     return (commissioning, wide);
                 };
-                // The scatter and the offset's error rest on the learned tests (away from them,
-                // on the slope prior, which is no better known than the tests that span it);
-                // the floors are known.
-                let learned = shape
+                // The scatter and the offset's error rest on the learned tests, except the
+                // offset error's part that is the slope prior's: a stated model of how far the
+                // similarity law may miss away from the learned points, known like the floors.
+                let scatter = shape
                     .cov
-                    .scaled(raw.speed_sigma_mps, raw.displacement_sigma)
-                    .plus(p.cov);
+                    .scaled(raw.speed_sigma_mps, raw.displacement_sigma);
+                let d = p.prior_share.map(|x| (1.0 - x).clamp(0.0, 1.0).sqrt());
+                let offset_learned = Cov2 {
+                    xx: p.cov.xx * d[0] * d[0],
+                    xy: p.cov.xy * d[0] * d[1],
+                    yy: p.cov.yy * d[1] * d[1],
+                };
+                let learned = scatter.plus(offset_learned);
                 let floors = Cov2::diag(s.floor_speed_mps, s.floor_displacement);
-                let cov = learned.plus(floors);
+                let cov = scatter.plus(p.cov).plus(floors);
                 let m = Measured {
                     r: [e[0] - p.offset[0], e[1] - p.offset[1]],
                     cov,

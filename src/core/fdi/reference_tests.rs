@@ -24,6 +24,7 @@ fn raw_at(e_u: f64, e_d: f64, u: f64, d: f64) -> Raw {
         speed_log_mps: u,
         displacement_declared_t: d,
         excitation_scale: 1.0,
+        speed_slope: [0.0; 2],
     }
 }
 

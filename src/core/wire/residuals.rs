@@ -76,6 +76,10 @@ pub struct RawResiduals {
     pub speed_log_mps: f64,
     /// `dD_est / du_log` through the displacement network [t per m/s].
     pub dd_du_t_per_mps: f64,
+    /// How `(e_u [m/s], e_D)` move per m/s of the ship's own speed by the similarity law
+    /// (the features at another speed, read by the networks; docs/fdi.md).
+    #[serde(default)]
+    pub speed_slope: [f64; 2],
 }
 
 /// Parameter residuals against the reference in force.

@@ -72,8 +72,9 @@ pub struct TestOutcome {
     /// The method's normalised speed and displacement residuals (NaN without).
     pub z: [f64; 2],
     /// The raw residuals against the design (`residuals.raw`: `e_u` [m/s], `e_D`, `s_u`
-    /// [m/s], `s_D`, `u_log` [m/s], `dD/du_log` [t per m/s]; NaN without).
-    pub raw: [f64; 6],
+    /// [m/s], `s_D`, `u_log` [m/s], `dD/du_log` [t per m/s], the similarity law's speed slope of
+    /// `e_u` and `e_D` [per m/s]; NaN without).
+    pub raw: [f64; 8],
     /// The test's place in the schedule.
     pub phase: Phase,
     /// Whether the scenario's fault was present during the test.
@@ -165,7 +166,7 @@ pub(super) fn outcome_of(r: &Report) -> TestOutcome {
             .as_ref()
             .map_or(nan, |s| s.z_rate * s.z_rate),
         z: p.map_or([nan; 2], |p| [p.z_speed, p.z_displacement]),
-        raw: res.raw.as_ref().map_or([nan; 6], |r| {
+        raw: res.raw.as_ref().map_or([nan; 8], |r| {
             [
                 r.speed_mps,
                 r.displacement,
@@ -173,6 +174,8 @@ pub(super) fn outcome_of(r: &Report) -> TestOutcome {
                 r.displacement_sigma,
                 r.speed_log_mps,
                 r.dd_du_t_per_mps,
+                r.speed_slope[0],
+                r.speed_slope[1],
             ]
         }),
         phase: Phase::Test,
