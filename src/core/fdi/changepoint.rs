@@ -15,7 +15,9 @@
 //!   `F = diag(floors^2)` the physical floors (`fdi.floor-*`);
 //! - `Psi` the operating point's share: when the segments' mean speed or declared loading
 //!   differ by `(du, dl)`, the offset may move by the slope prior's `(tau_u du, tau_l dl)`
-//!   (`crate::core::fdi::envelope`): a change of operating point is no change of health.
+//!   (`crate::core::fdi::envelope`) about the similarity law's move: `d` is taken less the
+//!   sample's mean similarity slope times `du` (`Sample::speed_slope`, the slope prior's
+//!   mean): a change of operating point is no change of health.
 //!
 //! Without floors and `Psi`, `T_k` is Hotelling's two-sample statistic: `T^2 (p = 2, nu) =
 //! nu (alpha^(-2 / (nu - 1)) - 1)` at tail probability `alpha`, heavy at small `nu` (a scatter
@@ -80,6 +82,9 @@ pub fn change_point(
         let sp = a.scatter().plus(b.scatter());
         let f = 1.0 / k as f64 + 1.0 / (n - k) as f64;
         let (du, dl, dg) = (xb[0] - xa[0], xb[1] - xa[1], xb[2] - xa[2]);
+        // The similarity law's move between the segments' speeds (the slope prior's mean).
+        let slope = total.slope.map(|v| v / total.n.max(1.0));
+        let d = [mb[0] - ma[0] - slope[0] * du, mb[1] - ma[1] - slope[1] * du];
         let psi = |j: usize| {
             (env.slope_speed[j] * du).powi(2)
                 + (env.slope_loading[j] * dl).powi(2)
@@ -107,7 +112,7 @@ pub fn change_point(
                 xy: 0.0,
                 yy: psi(1),
             });
-        let Some(z) = c.whiten([mb[0] - ma[0], mb[1] - ma[1]]) else {
+        let Some(z) = c.whiten(d) else {
             continue;
         };
         let t = z[0] * z[0] + z[1] * z[1];
@@ -118,13 +123,15 @@ pub fn change_point(
     best
 }
 
-/// Sums over a run of samples: count, `e`, `e e'` (xx, xy, yy), `(u, ln D)`.
+/// Sums over a run of samples: count, `e`, `e e'` (xx, xy, yy), `(u, ln D, ln s)`, the
+/// similarity slopes.
 #[derive(Debug, Clone, Copy, Default)]
 struct Sums {
     n: f64,
     e: [f64; 2],
     ee: [f64; 3],
     x: [f64; 3],
+    slope: [f64; 2],
 }
 
 impl Sums {
@@ -141,6 +148,13 @@ impl Sums {
                 let x = s.point().x();
                 [self.x[0] + x[0], self.x[1] + x[1], self.x[2] + x[2]]
             },
+            slope: {
+                let finite = |v: f64| if v.is_finite() { v } else { 0.0 };
+                [
+                    self.slope[0] + finite(s.speed_slope[0]),
+                    self.slope[1] + finite(s.speed_slope[1]),
+                ]
+            },
         }
     }
 
@@ -154,6 +168,7 @@ impl Sums {
                 self.ee[2] - o.ee[2],
             ],
             x: [self.x[0] - o.x[0], self.x[1] - o.x[1], self.x[2] - o.x[2]],
+            slope: [self.slope[0] - o.slope[0], self.slope[1] - o.slope[1]],
         }
     }
 
@@ -237,6 +252,32 @@ mod tests {
         // Too few tests: no verdict.
         assert!(change_point(&shifted[..5], &env(), [0.05, 0.004], alpha).is_none());
         assert_eq!(looks(8), 5 + 6 + 7);
+    }
+
+    /// A speed change of 1.5 m/s mid-sample whose offset moves 0.75 of D, 17 slope-prior sds
+    /// of `e_D` (0.5 per m/s; a smaller move stays under the limit of 8 tests whose speed
+    /// residual's scatter is barely over its floor): a change when the tests' similarity
+    /// slope is 0, none when it says the ship moves so.
+    #[test]
+    fn a_speed_change_along_the_similarity_slope_is_no_change_of_health() {
+        let alpha = 2.7e-4 / looks(8) as f64;
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let run = |rng: &mut ChaCha8Rng, slope: f64| -> Vec<Sample> {
+            (0..8)
+                .map(|i| {
+                    let (u, de) = if i >= 4 { (8.5, 0.75) } else { (7.0, 0.0) };
+                    Sample {
+                        speed_slope: [0.0, slope],
+                        ..sample(rng, [0.0, de], u)
+                    }
+                })
+                .collect()
+        };
+        let flat = run(&mut rng, 0.0);
+        let (k, _) = change_point(&flat, &env(), [0.05, 0.004], alpha).unwrap();
+        assert_eq!(k, 4);
+        let along = run(&mut rng, 0.5);
+        assert!(change_point(&along, &env(), [0.05, 0.004], alpha).is_none());
     }
 
     #[test]

@@ -216,12 +216,15 @@ fn schedule(
 ) -> Schedule {
     let window = sc.window_tests.unwrap_or(0);
     match (sc.group, sc.onset) {
-        (ScenarioSet::Commissioning, _) => Schedule {
-            commissioning,
-            total: commissioning + AFTER_COMMISSIONING_TESTS,
-            change_at: None,
-            inject_at: onset.unwrap_or(1).saturating_sub(1).min(commissioning),
-        },
+        (ScenarioSet::Commissioning, _) => {
+            let at = onset.unwrap_or(1).saturating_sub(1).min(commissioning);
+            Schedule {
+                commissioning,
+                total: commissioning + AFTER_COMMISSIONING_TESTS,
+                change_at: sc.change.map(|_| at),
+                inject_at: at,
+            }
+        }
         (_, Onset::AfterChange(n)) => Schedule {
             commissioning,
             total: commissioning + n + after.max(window),

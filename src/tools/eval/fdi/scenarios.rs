@@ -364,6 +364,20 @@ pub fn commissioning_scenarios() -> Vec<FdiScenario> {
             None,
             None,
         ),
+        // A healthy ship whose speed changes during commissioning: no change of health.
+        FdiScenario {
+            change: Some(Change {
+                speed_mps: &[1.0, 1.5],
+                loading: None,
+            }),
+            ..c(
+                "commissioning: healthy, speed +-1..1.5 m/s at test k",
+                None,
+                None,
+                None,
+                None,
+            )
+        },
     ]
 }
 
