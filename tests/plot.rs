@@ -454,6 +454,7 @@ fn a_state_file_plots_the_learned_reference_with_one_point_per_learned_test() {
         displacement_declared_t: 7000.0,
         excitation_scale: 1.0,
         speed_slope: [0.0; 2],
+        loading_slope: [0.0; 2],
     };
     let wobble = [0.0, 0.03, -0.03, 0.02, -0.02, 0.01, -0.01, 0.015];
     for w in wobble {

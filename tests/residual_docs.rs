@@ -40,6 +40,7 @@ fn full() -> Residuals {
             speed_log_mps: 7.0,
             dd_du_t_per_mps: 900.0,
             speed_slope: [-0.2, 0.01],
+            loading_slope: [0.3, -0.05],
         }),
         parameters: Some(p),
         servo_check: Some(ServoCheck {

@@ -15,9 +15,10 @@
 //!   `F = diag(floors^2)` the physical floors (`fdi.floor-*`);
 //! - `Psi` the operating point's share: when the segments' mean speed or declared loading
 //!   differ by `(du, dl)`, the offset may move by the slope prior's `(tau_u du, tau_l dl)`
-//!   (`crate::core::fdi::envelope`) about the similarity law's move: `d` is taken less the
-//!   sample's mean similarity slope times `du` (`Sample::speed_slope`, the slope prior's
-//!   mean): a change of operating point is no change of health.
+//!   (`crate::core::fdi::envelope`) about the physical move: `d` is taken less the sample's
+//!   mean similarity slope times `du` and its mean loading slope times `dl`
+//!   (`Sample::speed_slope`, `Sample::loading_slope`, the slope priors' means): a change of
+//!   operating point is no change of health.
 //!
 //! Without floors and `Psi`, `T_k` is Hotelling's two-sample statistic: `T^2 (p = 2, nu) =
 //! nu (alpha^(-2 / (nu - 1)) - 1)` at tail probability `alpha`, heavy at small `nu` (a scatter
@@ -82,9 +83,14 @@ pub fn change_point(
         let sp = a.scatter().plus(b.scatter());
         let f = 1.0 / k as f64 + 1.0 / (n - k) as f64;
         let (du, dl, dg) = (xb[0] - xa[0], xb[1] - xa[1], xb[2] - xa[2]);
-        // The similarity law's move between the segments' speeds (the slope prior's mean).
+        // The physical move between the segments' points (the slope priors' means): the
+        // similarity law's in speed, `b` scaling by `1 / D` in declared loading.
         let slope = total.slope.map(|v| v / total.n.max(1.0));
-        let d = [mb[0] - ma[0] - slope[0] * du, mb[1] - ma[1] - slope[1] * du];
+        let lslope = total.lslope.map(|v| v / total.n.max(1.0));
+        let d = [
+            mb[0] - ma[0] - slope[0] * du - lslope[0] * dl,
+            mb[1] - ma[1] - slope[1] * du - lslope[1] * dl,
+        ];
         let psi = |j: usize| {
             (env.slope_speed[j] * du).powi(2)
                 + (env.slope_loading[j] * dl).powi(2)
@@ -132,6 +138,7 @@ struct Sums {
     ee: [f64; 3],
     x: [f64; 3],
     slope: [f64; 2],
+    lslope: [f64; 2],
 }
 
 impl Sums {
@@ -155,6 +162,13 @@ impl Sums {
                     self.slope[1] + finite(s.speed_slope[1]),
                 ]
             },
+            lslope: {
+                let finite = |v: f64| if v.is_finite() { v } else { 0.0 };
+                [
+                    self.lslope[0] + finite(s.loading_slope[0]),
+                    self.lslope[1] + finite(s.loading_slope[1]),
+                ]
+            },
         }
     }
 
@@ -169,6 +183,7 @@ impl Sums {
             ],
             x: [self.x[0] - o.x[0], self.x[1] - o.x[1], self.x[2] - o.x[2]],
             slope: [self.slope[0] - o.slope[0], self.slope[1] - o.slope[1]],
+            lslope: [self.lslope[0] - o.lslope[0], self.lslope[1] - o.lslope[1]],
         }
     }
 
@@ -220,6 +235,7 @@ mod tests {
             displacement_t: 7000.0,
             excitation_scale: 1.0,
             speed_slope: [0.0; 2],
+            loading_slope: [0.0; 2],
         }
     }
 
@@ -315,6 +331,7 @@ mod tests {
                             displacement_t: 7000.0,
                             excitation_scale: 1.0,
                             speed_slope: [0.0; 2],
+                            loading_slope: [0.0; 2],
                         }
                     })
                     .collect();

@@ -23,8 +23,8 @@ pub struct ReferenceConfig {
     /// Prior standard deviation of the offset's slope in speed about the similarity law's
     /// slope: `[e_u, e_D]` [m/s per m/s, fraction of D per m/s].
     pub slope_speed: [f64; 2],
-    /// Prior standard deviation of the offset's slope in declared loading: `[e_u, e_D]`
-    /// [m/s, fraction of D, per unit of ln D].
+    /// Prior standard deviation of the offset's slope in declared loading about the slope of
+    /// `b` scaling by `1 / D`: `[e_u, e_D]` [m/s, fraction of D, per unit of ln D].
     pub slope_loading: [f64; 2],
     /// Kernel width in the excitation's scale [ln s]: a test sized down to the loop it
     /// found (HBT's relay, CLFRT's tones) is another operating point; 0.1 is about 10 %.

@@ -317,6 +317,7 @@ fn monte_carlo(
             displacement_declared_t: 7000.0,
             excitation_scale: 1.0,
             speed_slope: [0.0; 2],
+            loading_slope: [0.0; 2],
         }
     };
     for _ in 0..vessels {

@@ -33,8 +33,10 @@
 //! reference conditions made local. The slopes carry a Gaussian prior with standard
 //! deviations `reference.slope-speed`, `-loading` and `-excitation` (per component): how
 //! fast a network's bias on a ship unlike its training model may change across the
-//! envelope beyond what physics predicts. The prior's mean is 0, except in speed: there it
-//! is the **similarity law's slope**, the kernel-weighted mean of the learned tests' own
+//! envelope beyond what physics predicts. The prior's mean is 0, except in declared loading,
+//! where it is the learned tests' own slope of `b` scaling by `1 / D` (`Sample::loading_slope`,
+//! `crate::core::fdi::sensitivity::scale_b`), and in speed: there it is the **similarity
+//! law's slope**, the kernel-weighted mean of the learned tests' own
 //! (`Sample::speed_slope`, `crate::core::fdi::sensitivity::scale_speed`): each test's
 //! features moved to a neighbouring speed as the same ship would play them there, read by
 //! the networks. On the first-order ship the networks were trained on it is near 0; on a
@@ -92,6 +94,10 @@ pub struct Sample {
     /// (`crate::core::fdi::sensitivity::scale_speed`): the speed slope's prior mean.
     #[serde(default)]
     pub speed_slope: [f64; 2],
+    /// How it moves per unit of `ln D` of a declared loading, `b` scaling by `1 / D`
+    /// (`crate::core::fdi::sensitivity::scale_b`): the loading slope's prior mean.
+    #[serde(default)]
+    pub loading_slope: [f64; 2],
 }
 
 fn as_designed() -> f64 {
@@ -215,17 +221,20 @@ fn fit_component(
     ));
     let mut a = p0;
     let mut b = Vector4::zeros();
-    // The speed slope's prior mean: the similarity law's slope of the tests near `at`.
-    let (mut sw, mut ss) = (0.0, 0.0);
+    // The slopes' prior means in speed and loading: the physical slopes (the similarity law,
+    // `b` scaling by `1 / D`) of the tests near `at`.
+    let (mut sw, mut ss, mut sl) = (0.0, 0.0, 0.0);
     for smp in samples {
         let (w, _) = kernel(st, smp.x(), at);
-        if smp.speed_slope[j].is_finite() {
+        if smp.speed_slope[j].is_finite() && smp.loading_slope[j].is_finite() {
             sw += w;
             ss += w * smp.speed_slope[j];
+            sl += w * smp.loading_slope[j];
         }
     }
     if sw > 0.0 {
         b[1] = a[(1, 1)] * ss / sw;
+        b[2] = a[(2, 2)] * sl / sw;
     }
     for smp in samples {
         let x = smp.x();

@@ -20,6 +20,7 @@ fn smp(e: [f64; 2], u: f64, d: f64) -> Sample {
         displacement_t: d,
         excitation_scale: 1.0,
         speed_slope: [0.0; 2],
+        loading_slope: [0.0; 2],
     }
 }
 
@@ -283,4 +284,24 @@ fn a_new_speed_is_predicted_along_the_similarity_slope() {
         let home = predict(&samples, &st(), &sh, &at(7.0, 7000.0)).unwrap();
         assert!(home.prior_share[1] < 1e-9, "{:?}", home.prior_share);
     }
+}
+
+/// The loading slope's prior mean is the tests' own (`b` scaling by `1 / D`): declared 10 %
+/// heavier (0.0953 in ln D), a ship whose tests say `e_D` moves by -0.5 per unit ln D is
+/// predicted 0.048 lower.
+#[test]
+fn a_declared_loading_is_predicted_along_the_loading_slope() {
+    let wob = [0.0, 0.01, -0.01, 0.02, -0.02, 0.005, -0.005, 0.0];
+    let samples: Vec<Sample> = wob
+        .iter()
+        .map(|w| Sample {
+            loading_slope: [0.0, -0.5],
+            ..smp([0.3 + w, -0.1 + w / 10.0], 7.0, 7000.0)
+        })
+        .collect();
+    let sh = shape(&samples, &st()).unwrap();
+    let mean_d = -0.1 + wob.iter().sum::<f64>() / 80.0;
+    let p = predict(&samples, &st(), &sh, &at(7.0, 7700.0)).unwrap();
+    let want = mean_d - 0.5 * (1.1f64).ln();
+    assert!((p.offset[1] - want).abs() < 1e-6, "{:?} {want}", p.offset);
 }

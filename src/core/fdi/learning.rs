@@ -213,6 +213,7 @@ mod tests {
                 displacement_declared_t: 7000.0,
                 excitation_scale: 1.0,
                 speed_slope: [0.0; 2],
+                loading_slope: [0.0; 2],
             },
         }
     }

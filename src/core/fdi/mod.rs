@@ -431,6 +431,7 @@ impl Fdi {
                 speed_log_mps: r.speed_log_mps,
                 dd_du_t_per_mps: g,
                 speed_slope: r.speed_slope,
+                loading_slope: r.loading_slope,
             }),
             parameters,
             servo_check: servo,

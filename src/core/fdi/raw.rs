@@ -19,6 +19,9 @@ const DB_REL: f64 = 0.01;
 /// Speed step of the similarity law's central difference for the offset's slope [m/s].
 const DU_SIMILAR_MPS: f64 = 0.25;
 
+/// Step in `ln D` of the declared loading's central difference for the offset's slope.
+const DL_SIMILAR: f64 = 0.05;
+
 /// The sea index of a test's features: its wave yaw [deg], if it has one.
 pub fn sea_index(features: &Features) -> Option<f64> {
     features
@@ -130,8 +133,28 @@ impl Fdi {
             }
             _ => [0.0; 2],
         };
+        // How it moves per unit of ln D when the ship is declared and is `D` heavier: `b`
+        // scales by `1 / D` (`sensitivity::scale_b`), the residual is taken against the new
+        // declared displacement.
+        let mut loaded = |dl: f64| -> Option<[f64; 2]> {
+            let f = sensitivity::scale_b(features, (-dl).exp())?;
+            let e = est.estimate(method, &f, scratch).ok()?;
+            Some([e.speed_mps, e.displacement_t / (d_nom_t * dl.exp())])
+        };
+        let loading_slope = match (loaded(DL_SIMILAR), loaded(-DL_SIMILAR)) {
+            (Some(hi), Some(lo)) => {
+                let v = [0, 1].map(|j| (hi[j] - lo[j]) / (2.0 * DL_SIMILAR));
+                if v.iter().all(|x| x.is_finite()) {
+                    v
+                } else {
+                    [0.0; 2]
+                }
+            }
+            _ => [0.0; 2],
+        };
         let raw = Raw {
             speed_slope,
+            loading_slope,
             speed_mps: estimate.speed_mps - u_log - mu,
             displacement: (estimate.displacement_t - d_nom_t - md) / d_nom_t,
             speed_sigma_mps: su,

@@ -240,6 +240,9 @@ pub struct Raw {
     /// How `(e_u, e_D)` move per m/s of the ship's own speed by the similarity law
     /// (`crate::core::fdi::sensitivity::scale_speed`) [(m/s, fraction) per m/s].
     pub speed_slope: [f64; 2],
+    /// How `(e_u, e_D)` move per unit of `ln D` of a declared change of loading, `b` scaling
+    /// by `1 / D` (`crate::core::fdi::sensitivity::scale_b`) [(m/s, fraction) per unit ln D].
+    pub loading_slope: [f64; 2],
 }
 
 impl Raw {
@@ -251,6 +254,7 @@ impl Raw {
             displacement_t: self.displacement_declared_t,
             excitation_scale: self.excitation_scale,
             speed_slope: self.speed_slope,
+            loading_slope: self.loading_slope,
         }
     }
 }

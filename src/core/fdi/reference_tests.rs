@@ -25,6 +25,7 @@ fn raw_at(e_u: f64, e_d: f64, u: f64, d: f64) -> Raw {
         displacement_declared_t: d,
         excitation_scale: 1.0,
         speed_slope: [0.0; 2],
+        loading_slope: [0.0; 2],
     }
 }
 

@@ -19,8 +19,8 @@ pub const MISMATCH_ADVICE: &str = "the ship's response is not the trained model'
 
 /// The version of the decision's model: a reference made under another is discarded (its
 /// covariance means something else; 4: the excitation's scale is a coordinate of the
-/// operating point, unknown in older samples; 5: each learned test carries its similarity
-/// slope, the speed slope prior's mean).
+/// operating point, unknown in older samples; 5: each learned test carries its physical
+/// slopes in speed and loading, the slope priors' means).
 const DECISION_MODEL: u32 = 5;
 
 /// The `model_mismatch` warning of a fit, if its chi-square is over `threshold`.

@@ -137,6 +137,7 @@ fn a_reference_is_kept_only_for_its_configuration_and_models() {
         displacement_declared_t: 7000.0,
         excitation_scale: 1.0,
         speed_slope: [0.0; 2],
+        loading_slope: [0.0; 2],
     };
     // No scatter: the floors alone resolve the faults, so commissioning ends at 6 tests.
     while fdi.commissioning[1].in_progress(&s) {

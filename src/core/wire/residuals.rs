@@ -80,6 +80,10 @@ pub struct RawResiduals {
     /// (the features at another speed, read by the networks; docs/fdi.md).
     #[serde(default)]
     pub speed_slope: [f64; 2],
+    /// How they move per unit of `ln D` of a declared change of loading, `b` scaling by
+    /// `1 / D` (docs/fdi.md).
+    #[serde(default)]
+    pub loading_slope: [f64; 2],
 }
 
 /// Parameter residuals against the reference in force.
