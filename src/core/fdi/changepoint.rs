@@ -129,6 +129,12 @@ pub fn change_point(
     best
 }
 
+/// `acc + v`, a component of `v` that is not finite counting as 0.
+fn plus_finite(acc: [f64; 2], v: [f64; 2]) -> [f64; 2] {
+    let finite = |x: f64| if x.is_finite() { x } else { 0.0 };
+    [acc[0] + finite(v[0]), acc[1] + finite(v[1])]
+}
+
 /// Sums over a run of samples: count, `e`, `e e'` (xx, xy, yy), `(u, ln D, ln s)`, the
 /// similarity slopes.
 #[derive(Debug, Clone, Copy, Default)]
@@ -155,20 +161,8 @@ impl Sums {
                 let x = s.point().x();
                 [self.x[0] + x[0], self.x[1] + x[1], self.x[2] + x[2]]
             },
-            slope: {
-                let finite = |v: f64| if v.is_finite() { v } else { 0.0 };
-                [
-                    self.slope[0] + finite(s.speed_slope[0]),
-                    self.slope[1] + finite(s.speed_slope[1]),
-                ]
-            },
-            lslope: {
-                let finite = |v: f64| if v.is_finite() { v } else { 0.0 };
-                [
-                    self.lslope[0] + finite(s.loading_slope[0]),
-                    self.lslope[1] + finite(s.loading_slope[1]),
-                ]
-            },
+            slope: plus_finite(self.slope, s.speed_slope),
+            lslope: plus_finite(self.lslope, s.loading_slope),
         }
     }
 
@@ -214,14 +208,7 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
     use rand_distr::{Distribution, StandardNormal};
 
-    fn env() -> Envelope {
-        Envelope {
-            bandwidth: [1.0, 0.1, 0.1],
-            slope_speed: [0.5, 0.03],
-            slope_loading: [4.0, 0.3],
-            slope_excitation: [3.0, 0.3],
-        }
-    }
+    use crate::core::fdi::envelope::tests::st as env;
 
     fn sample(rng: &mut ChaCha8Rng, shift: [f64; 2], u: f64) -> Sample {
         let n = |r: &mut ChaCha8Rng| -> f64 { StandardNormal.sample(r) };

@@ -427,4 +427,4 @@ pub fn predict(samples: &[Sample], st: &Settings, shape: &Shape, at: &Point) -> 
 
 #[cfg(test)]
 #[path = "envelope_tests.rs"]
-mod tests;
+pub(super) mod tests;

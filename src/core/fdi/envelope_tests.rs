@@ -3,7 +3,8 @@
 
 use super::*;
 
-fn st() -> Settings {
+/// The settings of the unit tests here and in `changepoint`.
+pub(in crate::core::fdi) fn st() -> Settings {
     Settings {
         bandwidth: [1.0, 0.1, 0.1],
         slope_speed: [0.5, 0.03],

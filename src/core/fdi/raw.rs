@@ -22,6 +22,22 @@ const DU_SIMILAR_MPS: f64 = 0.25;
 /// Step in `ln D` of the declared loading's central difference for the offset's slope.
 const DL_SIMILAR: f64 = 0.05;
 
+/// The central difference `(hi - lo) / step` of a residual pair, 0 where either end is
+/// missing or it is not finite.
+fn central(hi: Option<[f64; 2]>, lo: Option<[f64; 2]>, step: f64) -> [f64; 2] {
+    match (hi, lo) {
+        (Some(hi), Some(lo)) => {
+            let v = [(hi[0] - lo[0]) / step, (hi[1] - lo[1]) / step];
+            if v.iter().all(|x| x.is_finite()) {
+                v
+            } else {
+                [0.0; 2]
+            }
+        }
+        _ => [0.0; 2],
+    }
+}
+
 /// The sea index of a test's features: its wave yaw [deg], if it has one.
 pub fn sea_index(features: &Features) -> Option<f64> {
     features
@@ -118,21 +134,11 @@ impl Fdi {
             let e = est.estimate(method, &f, scratch).ok()?;
             Some([e.speed_mps - u, e.displacement_t / d_nom_t])
         };
-        let speed_slope = match (
-            similar(u_log + DU_SIMILAR_MPS),
-            similar((u_log - DU_SIMILAR_MPS).max(0.5 * u_log)),
-        ) {
-            (Some(hi), Some(lo)) => {
-                let du = u_log + DU_SIMILAR_MPS - (u_log - DU_SIMILAR_MPS).max(0.5 * u_log);
-                let v = [(hi[0] - lo[0]) / du, (hi[1] - lo[1]) / du];
-                if v.iter().all(|x| x.is_finite()) {
-                    v
-                } else {
-                    [0.0; 2]
-                }
-            }
-            _ => [0.0; 2],
-        };
+        let (u_hi, u_lo) = (
+            u_log + DU_SIMILAR_MPS,
+            (u_log - DU_SIMILAR_MPS).max(0.5 * u_log),
+        );
+        let speed_slope = central(similar(u_hi), similar(u_lo), u_hi - u_lo);
         // How it moves per unit of ln D when the ship is declared and is `D` heavier: `b`
         // scales by `1 / D` (`sensitivity::scale_b`), the residual is taken against the new
         // declared displacement.
@@ -141,17 +147,7 @@ impl Fdi {
             let e = est.estimate(method, &f, scratch).ok()?;
             Some([e.speed_mps, e.displacement_t / (d_nom_t * dl.exp())])
         };
-        let loading_slope = match (loaded(DL_SIMILAR), loaded(-DL_SIMILAR)) {
-            (Some(hi), Some(lo)) => {
-                let v = [0, 1].map(|j| (hi[j] - lo[j]) / (2.0 * DL_SIMILAR));
-                if v.iter().all(|x| x.is_finite()) {
-                    v
-                } else {
-                    [0.0; 2]
-                }
-            }
-            _ => [0.0; 2],
-        };
+        let loading_slope = central(loaded(DL_SIMILAR), loaded(-DL_SIMILAR), 2.0 * DL_SIMILAR);
         let raw = Raw {
             speed_slope,
             loading_slope,
