@@ -453,8 +453,9 @@ fn a_state_file_plots_the_learned_reference_with_one_point_per_learned_test() {
         speed_log_mps: u,
         displacement_declared_t: 7000.0,
         excitation_scale: 1.0,
-        speed_slope: [0.0; 2],
-        loading_slope: [0.0; 2],
+        ln_gain: Some(-5.0 + w / 10.0),
+        speed_slope: [0.0; 3],
+        loading_slope: [0.0; 3],
     };
     let wobble = [0.0, 0.03, -0.03, 0.02, -0.02, 0.01, -0.01, 0.015];
     for w in wobble {

@@ -17,8 +17,12 @@ fn full() -> Residuals {
         displacement_t: 10.0,
         displacement_sigma_t: 10.0,
         z_displacement: 1.0,
+        ln_gain: Some(-0.02),
+        ln_gain_sigma: Some(0.01),
+        z_ln_gain: Some(-2.0),
         correlation: -0.5,
         chi2: 2.0,
+        dof: 3,
     };
     let look = Look {
         statistic: 1.0,
@@ -39,8 +43,9 @@ fn full() -> Residuals {
             displacement_sigma: 0.002,
             speed_log_mps: 7.0,
             dd_du_t_per_mps: 900.0,
-            speed_slope: [-0.2, 0.01],
-            loading_slope: [0.3, -0.05],
+            ln_gain: Some(-6.2),
+            speed_slope: [-0.2, 0.01, 0.3],
+            loading_slope: [0.3, -0.05, -1.0],
         }),
         parameters: Some(p),
         servo_check: Some(ServoCheck {
@@ -70,6 +75,8 @@ fn full() -> Residuals {
             displacement_offset_t: Some(10.0),
             offset_speed_sigma_mps: Some(0.02),
             offset_displacement_sigma_t: Some(5.0),
+            ln_gain_offset: Some(-6.2),
+            offset_ln_gain_sigma: Some(0.01),
             support: Some(12.0),
             correlation: Some(-0.5),
             speed_log_mps: Some(7.0),

@@ -20,22 +20,22 @@
 //!   (`Sample::speed_slope`, `Sample::loading_slope`, the slope priors' means): a change of
 //!   operating point is no change of health.
 //!
-//! Without floors and `Psi`, `T_k` is Hotelling's two-sample statistic: `T^2 (p = 2, nu) =
-//! nu (alpha^(-2 / (nu - 1)) - 1)` at tail probability `alpha`, heavy at small `nu` (a scatter
+//! Without floors and `Psi`, `T_k` is Hotelling's two-sample statistic `T^2 (p = 3, nu)`
+//! (`stats::hotelling_isf`), heavy at small `nu` (a scatter
 //! matrix from 4 dof is sometimes far too small). The floors add known variance, so the sum
 //! has more degrees of freedom: Satterthwaite's approximation gives `nu (1 + f_j^2 / v_j)^2`
 //! (`v_j = S_p,jj / nu`), which a Monte Carlo of healthy samples (the ignored test
 //! `change_point_false_flags`) finds 5-7 times over budget where scatter and floors are of
 //! a size; its square root, `nu_eff = nu (1 + f_j^2 / v_j)` (the smaller of the two
 //! components), keeps every case measured within the budget. The limit is Hotelling's at
-//! `nu_eff` (the chi-square's, `2 ln(1 / alpha)`, when the floors dominate).
+//! `nu_eff` (the chi-square's when the floors dominate).
 //!
 //! The sample is declared inconsistent at the split with the largest `T_k` over its limit.
 //! Budget: one ship-day of the alarm budget per commissioning, `alpha_c = F / 365.25`
 //! (`fdi.false-alarms-per-year` = 0.1: 2.7e-4), spent evenly over the (look, split) pairs a
 //! commissioning can make (Bonferroni: `alpha_c / L`). Needs `n >= 6` (`nu = 4`).
 use super::envelope::{Sample, Settings as Envelope};
-use super::stats::Cov2;
+use super::stats::{dot, hotelling_isf, Cov, P};
 
 /// The fewest tests the test runs on.
 pub const MIN_TESTS: usize = 6;
@@ -48,20 +48,12 @@ pub fn looks(k_max: u32) -> usize {
         .max(1)
 }
 
-/// Hotelling's `T^2 (p = 2, nu)` at tail probability `alpha`.
-pub fn hotelling2_isf(alpha: f64, nu: f64) -> f64 {
-    if nu <= 1.0 {
-        return f64::INFINITY;
-    }
-    nu * (-2.0 / (nu - 1.0) * alpha.ln()).exp_m1()
-}
-
 /// The split with the largest statistic over its limit: `(k, T_k)` (the change at test
 /// `k + 1`), or `None`. `alpha` is each (look, split)'s tail probability.
 pub fn change_point(
     samples: &[Sample],
     env: &Envelope,
-    floors: [f64; 2],
+    floors: [f64; P],
     alpha: f64,
 ) -> Option<(usize, f64)> {
     let n = samples.len();
@@ -87,14 +79,12 @@ pub fn change_point(
         // similarity law's in speed, `b` scaling by `1 / D` in declared loading.
         let slope = total.slope.map(|v| v / total.n.max(1.0));
         let lslope = total.lslope.map(|v| v / total.n.max(1.0));
-        let d = [
-            mb[0] - ma[0] - slope[0] * du - lslope[0] * dl,
-            mb[1] - ma[1] - slope[1] * du - lslope[1] * dl,
-        ];
+        let d: [f64; P] = std::array::from_fn(|j| mb[j] - ma[j] - slope[j] * du - lslope[j] * dl);
         let psi = |j: usize| {
-            (env.slope_speed[j] * du).powi(2)
-                + (env.slope_loading[j] * dl).powi(2)
-                + (env.slope_excitation[j] * dg).powi(2)
+            let i = j.min(1);
+            (env.slope_speed[i] * du).powi(2)
+                + (env.slope_loading[i] * dl).powi(2)
+                + (env.slope_excitation[i] * dg).powi(2)
         };
         let per = sp.times(1.0 / nu);
         let nu_eff = |v: f64, f: f64| {
@@ -104,24 +94,19 @@ pub fn change_point(
                 f64::INFINITY
             }
         };
-        let dof = nu_eff(per.xx, floors[0]).min(nu_eff(per.yy, floors[1]));
-        let limit = if dof.is_finite() {
-            hotelling2_isf(alpha, dof)
-        } else {
-            2.0 * (1.0 / alpha).ln()
-        };
+        let v = per.variances();
+        let dof = (0..P)
+            .map(|j| nu_eff(v[j], floors[j]))
+            .fold(f64::INFINITY, f64::min);
+        let limit = hotelling_isf(alpha, P, dof);
         let c = per
-            .plus(Cov2::diag(floors[0], floors[1]))
+            .plus(Cov::diag(floors))
             .times(f)
-            .plus(Cov2 {
-                xx: psi(0),
-                xy: 0.0,
-                yy: psi(1),
-            });
+            .plus(Cov::diag(std::array::from_fn(|j| psi(j).sqrt())));
         let Some(z) = c.whiten(d) else {
             continue;
         };
-        let t = z[0] * z[0] + z[1] * z[1];
+        let t = dot(z, z);
         if t > limit && best.is_none_or(|(_, bt)| t > bt) {
             best = Some((k, t));
         }
@@ -129,75 +114,62 @@ pub fn change_point(
     best
 }
 
-/// `acc + v`, a component of `v` that is not finite counting as 0.
-fn plus_finite(acc: [f64; 2], v: [f64; 2]) -> [f64; 2] {
-    let finite = |x: f64| if x.is_finite() { x } else { 0.0 };
-    [acc[0] + finite(v[0]), acc[1] + finite(v[1])]
-}
-
-/// Sums over a run of samples: count, `e`, `e e'` (xx, xy, yy), `(u, ln D, ln s)`, the
-/// similarity slopes.
+/// Sums over a run of samples: count, `e`, `e e'`, `(u, ln D, ln s)`, the similarity
+/// slopes (a component that is not finite counting as 0).
 #[derive(Debug, Clone, Copy, Default)]
 struct Sums {
     n: f64,
-    e: [f64; 2],
-    ee: [f64; 3],
+    e: [f64; P],
+    ee: [[f64; P]; P],
     x: [f64; 3],
-    slope: [f64; 2],
-    lslope: [f64; 2],
+    slope: [f64; P],
+    lslope: [f64; P],
 }
 
 impl Sums {
     fn plus(self, s: &Sample) -> Self {
+        let finite = |x: f64| if x.is_finite() { x } else { 0.0 };
+        let x = s.point().x();
         Self {
             n: self.n + 1.0,
-            e: [self.e[0] + s.e[0], self.e[1] + s.e[1]],
-            ee: [
-                self.ee[0] + s.e[0] * s.e[0],
-                self.ee[1] + s.e[0] * s.e[1],
-                self.ee[2] + s.e[1] * s.e[1],
-            ],
-            x: {
-                let x = s.point().x();
-                [self.x[0] + x[0], self.x[1] + x[1], self.x[2] + x[2]]
-            },
-            slope: plus_finite(self.slope, s.speed_slope),
-            lslope: plus_finite(self.lslope, s.loading_slope),
+            e: std::array::from_fn(|i| self.e[i] + s.e[i]),
+            ee: std::array::from_fn(|i| std::array::from_fn(|j| self.ee[i][j] + s.e[i] * s.e[j])),
+            x: std::array::from_fn(|i| self.x[i] + x[i]),
+            slope: std::array::from_fn(|i| self.slope[i] + finite(s.speed_slope[i])),
+            lslope: std::array::from_fn(|i| self.lslope[i] + finite(s.loading_slope[i])),
         }
     }
 
     fn minus(self, o: &Self) -> Self {
         Self {
             n: self.n - o.n,
-            e: [self.e[0] - o.e[0], self.e[1] - o.e[1]],
-            ee: [
-                self.ee[0] - o.ee[0],
-                self.ee[1] - o.ee[1],
-                self.ee[2] - o.ee[2],
-            ],
-            x: [self.x[0] - o.x[0], self.x[1] - o.x[1], self.x[2] - o.x[2]],
-            slope: [self.slope[0] - o.slope[0], self.slope[1] - o.slope[1]],
-            lslope: [self.lslope[0] - o.lslope[0], self.lslope[1] - o.lslope[1]],
+            e: std::array::from_fn(|i| self.e[i] - o.e[i]),
+            ee: std::array::from_fn(|i| std::array::from_fn(|j| self.ee[i][j] - o.ee[i][j])),
+            x: std::array::from_fn(|i| self.x[i] - o.x[i]),
+            slope: std::array::from_fn(|i| self.slope[i] - o.slope[i]),
+            lslope: std::array::from_fn(|i| self.lslope[i] - o.lslope[i]),
         }
     }
 
     /// Mean residual and mean operating point.
-    fn means(&self) -> ([f64; 2], [f64; 3]) {
+    fn means(&self) -> ([f64; P], [f64; 3]) {
         let n = self.n.max(1.0);
-        (
-            [self.e[0] / n, self.e[1] / n],
-            [self.x[0] / n, self.x[1] / n, self.x[2] / n],
-        )
+        (self.e.map(|v| v / n), self.x.map(|v| v / n))
     }
 
     /// The scatter about the mean, `sum (e - m)(e - m)'`.
-    fn scatter(&self) -> Cov2 {
+    fn scatter(&self) -> Cov {
         let (m, _) = self.means();
-        Cov2 {
-            xx: (self.ee[0] - self.n * m[0] * m[0]).max(0.0),
-            xy: self.ee[1] - self.n * m[0] * m[1],
-            yy: (self.ee[2] - self.n * m[1] * m[1]).max(0.0),
-        }
+        Cov(std::array::from_fn(|i| {
+            std::array::from_fn(|j| {
+                let v = self.ee[i][j] - self.n * m[i] * m[j];
+                if i == j {
+                    v.max(0.0)
+                } else {
+                    v
+                }
+            })
+        }))
     }
 }
 
@@ -210,19 +182,24 @@ mod tests {
 
     use crate::core::fdi::envelope::tests::st as env;
 
+    const FLOORS: [f64; 3] = [0.05, 0.004, 0.004];
+
+    /// A test of a second-order-like hull: `e_b` with the displacement's scatter, a
+    /// displacement change `x` moving `e_D` by `x` and `e_b` by `-x`.
     fn sample(rng: &mut ChaCha8Rng, shift: [f64; 2], u: f64) -> Sample {
         let n = |r: &mut ChaCha8Rng| -> f64 { StandardNormal.sample(r) };
         Sample {
             e: [
                 0.8 + 0.08 * n(rng) + shift[0],
                 -0.1 + 0.004 * n(rng) + shift[1],
+                -5.0 + 0.004 * n(rng) - shift[1],
             ],
-            s: [0.05, 0.002],
+            s: [0.05, 0.002, 0.002],
             speed_mps: u,
             displacement_t: 7000.0,
             excitation_scale: 1.0,
-            speed_slope: [0.0; 2],
-            loading_slope: [0.0; 2],
+            speed_slope: [0.0; 3],
+            loading_slope: [0.0; 3],
         }
     }
 
@@ -234,7 +211,7 @@ mod tests {
         let shifted: Vec<Sample> = (0..8)
             .map(|i| sample(&mut rng, if i >= 3 { [0.0, 0.12] } else { [0.0; 2] }, 7.0))
             .collect();
-        let (k, t) = change_point(&shifted, &env(), [0.05, 0.004], alpha).unwrap();
+        let (k, t) = change_point(&shifted, &env(), FLOORS, alpha).unwrap();
         assert_eq!(k, 3);
         assert!(t > 300.0, "{t}");
         // A healthy sample, and the same at a change of speed of 1.5 m/s mid-sample with
@@ -242,7 +219,7 @@ mod tests {
         let mut flagged = 0;
         for _ in 0..2000 {
             let ok: Vec<Sample> = (0..8).map(|_| sample(&mut rng, [0.0; 2], 7.0)).collect();
-            flagged += usize::from(change_point(&ok, &env(), [0.05, 0.004], alpha).is_some());
+            flagged += usize::from(change_point(&ok, &env(), FLOORS, alpha).is_some());
         }
         assert_eq!(flagged, 0);
         let moved: Vec<Sample> = (0..8)
@@ -251,9 +228,9 @@ mod tests {
                 sample(&mut rng, [de, 0.0], u)
             })
             .collect();
-        assert!(change_point(&moved, &env(), [0.05, 0.004], alpha).is_none());
+        assert!(change_point(&moved, &env(), FLOORS, alpha).is_none());
         // Too few tests: no verdict.
-        assert!(change_point(&shifted[..5], &env(), [0.05, 0.004], alpha).is_none());
+        assert!(change_point(&shifted[..5], &env(), FLOORS, alpha).is_none());
         assert_eq!(looks(8), 5 + 6 + 7);
     }
 
@@ -270,28 +247,28 @@ mod tests {
                 .map(|i| {
                     let (u, de) = if i >= 4 { (8.5, 0.75) } else { (7.0, 0.0) };
                     Sample {
-                        speed_slope: [0.0, slope],
+                        speed_slope: [0.0, slope, -slope],
                         ..sample(rng, [0.0, de], u)
                     }
                 })
                 .collect()
         };
         let flat = run(&mut rng, 0.0);
-        let (k, _) = change_point(&flat, &env(), [0.05, 0.004], alpha).unwrap();
+        let (k, _) = change_point(&flat, &env(), FLOORS, alpha).unwrap();
         assert_eq!(k, 4);
         let along = run(&mut rng, 0.5);
-        assert!(change_point(&along, &env(), [0.05, 0.004], alpha).is_none());
+        assert!(change_point(&along, &env(), FLOORS, alpha).is_none());
     }
 
     #[test]
     fn the_hotelling_limit_matches_tables_and_tends_to_the_chi_square() {
         // T^2(2, nu) = 2 nu / (nu - 1) F(2, nu - 1); F(2, 5) at 5 % is 5.786 (tables):
         // nu = 6 gives 13.89.
-        assert!((hotelling2_isf(0.05, 6.0) - 2.4 * 5.786).abs() < 0.01);
+        assert!((hotelling_isf(0.05, 2, 6.0) - 2.4 * 5.786).abs() < 0.01);
         // nu -> infinity: chi2_2 at 1e-4 = 2 ln 1e4 = 18.42.
         let chi2 = 2.0 * 1e4f64.ln();
-        assert!((hotelling2_isf(1e-4, 1e7) - chi2).abs() < 1e-3);
-        assert!(hotelling2_isf(1e-4, 50.0) > chi2 && hotelling2_isf(1e-4, 6.0) > 10.0 * chi2);
+        assert!((hotelling_isf(1e-4, 2, 1e7) - chi2).abs() < 1e-3);
+        assert!(hotelling_isf(1e-4, 2, 50.0) > chi2 && hotelling_isf(1e-4, 2, 6.0) > 10.0 * chi2);
     }
 
     /// False "inconsistent" on healthy samples by Monte Carlo: scatter at and above the
@@ -311,19 +288,24 @@ mod tests {
                     .map(|_| {
                         let a = n(&mut rng);
                         let b = n(&mut rng);
+                        let c = n(&mut rng);
                         Sample {
-                            e: [su * a, sd * (-0.9 * a + 0.436 * b)],
-                            s: [0.05, 0.002],
+                            e: [
+                                su * a,
+                                sd * (-0.9 * a + 0.436 * b),
+                                sd * (0.5 * b + 0.866 * c),
+                            ],
+                            s: [0.05, 0.002, 0.002],
                             speed_mps: 7.0,
                             displacement_t: 7000.0,
                             excitation_scale: 1.0,
-                            speed_slope: [0.0; 2],
-                            loading_slope: [0.0; 2],
+                            speed_slope: [0.0; 3],
+                            loading_slope: [0.0; 3],
                         }
                     })
                     .collect();
-                let any = (MIN_TESTS..=8)
-                    .any(|m| change_point(&v[..m], &env(), [0.05, 0.004], alpha).is_some());
+                let any =
+                    (MIN_TESTS..=8).any(|m| change_point(&v[..m], &env(), FLOORS, alpha).is_some());
                 flagged += usize::from(any);
             }
             println!(

@@ -75,7 +75,7 @@
 
 use super::isolation;
 use super::reference::Raw;
-use super::stats::{chi2_isf_even, normal_isf};
+use super::stats::{chi2_isf, dot, normal_isf, P};
 use crate::core::wire::residuals::{Look, TrackState};
 use crate::core::wire::{Cause, Method};
 use serde::{Deserialize, Serialize};
@@ -99,10 +99,11 @@ pub struct Limits {
     pub window: usize,
     /// `alpha_n`: each look's false-alarm probability.
     pub alpha_look: f64,
-    /// `h_n` for one method in the window, both.
-    pub param: [f64; 2],
+    /// `h_n` by the look's degrees of freedom (index; 0 unused): `P` per method in the
+    /// window, 2 for a test measured without `e_b`.
+    pub param: [f64; 2 * P + 1],
     /// The alert limits, likewise.
-    pub param_alert: [f64; 2],
+    pub param_alert: [f64; 2 * P + 1],
     /// `k_n` for one named cause, one method in the window, both (1 dof per method).
     pub cause: [f64; 2],
     /// The alert limits, likewise.
@@ -129,10 +130,10 @@ impl Limits {
         Self {
             window: n,
             alpha_look,
-            param: [chi2_isf_even(alpha_look, 2), chi2_isf_even(alpha_look, 4)],
-            param_alert: [chi2_isf_even(alert, 2), chi2_isf_even(alert, 4)],
-            cause: [chi2_1(alpha_look), chi2_isf_even(alpha_look, 2)],
-            cause_alert: [chi2_1(alert), chi2_isf_even(alert, 2)],
+            param: std::array::from_fn(|d| chi2_isf(alpha_look, d.max(1) as f64)),
+            param_alert: std::array::from_fn(|d| chi2_isf(alert, d.max(1) as f64)),
+            cause: [chi2_1(alpha_look), chi2_isf(alpha_look, 2.0)],
+            cause_alert: [chi2_1(alert), chi2_isf(alert, 2.0)],
             servo: normal_isf(alpha_look),
             servo_alert: normal_isf(alert),
             alpha_test,
@@ -146,7 +147,10 @@ pub struct Entry {
     /// Its method.
     pub method: Method,
     /// The whitened parameter residual (`None`: none measured).
-    pub z: Option<[f64; 2]>,
+    pub z: Option<[f64; P]>,
+    /// Its measured components (2: no `e_b`).
+    #[serde(default = "all_components")]
+    pub dim: usize,
     /// The reference offset error's share `c` of the residual's variance (`None`: wide
     /// design limits).
     pub offset_var: Option<f64>,
@@ -154,7 +158,7 @@ pub struct Entry {
     /// tests from the window).
     pub epoch: u32,
     /// The whitened directions of the parameter causes (speed log, displacement).
-    pub directions: [[f64; 2]; 2],
+    pub directions: [[f64; P]; 2],
     /// The servo check's score (`None`: no servo check).
     pub z_rate: Option<f64>,
     /// What it was measured from, to measure it again against a newer reference of its
@@ -169,8 +173,12 @@ pub struct Entry {
 pub struct Source {
     /// Its raw residuals against the design.
     pub raw: Raw,
-    /// The causes' directions in `(e_u, e_D)`.
-    pub directions: [[f64; 2]; 2],
+    /// The causes' directions in `(e_u, e_D, e_b)`.
+    pub directions: [[f64; P]; 2],
+}
+
+fn all_components() -> usize {
+    P
 }
 
 /// Which tests of the window a look covers, and its statistic.
@@ -299,14 +307,14 @@ impl Sequential {
             let Some(t) = param_statistics(&self.window, n) else {
                 continue;
             };
-            let m = t.methods.clamp(1, 2);
+            let dof = t.dof.clamp(1, 2 * P);
             let free = Scored {
                 look: Look {
                     statistic: t.free,
                     window: n,
-                    dof: 2 * m,
-                    threshold: limits.param[m - 1],
-                    alert_threshold: limits.param_alert[m - 1],
+                    dof,
+                    threshold: limits.param[dof],
+                    alert_threshold: limits.param_alert[dof],
                     cause: None,
                 },
                 n,
@@ -381,18 +389,20 @@ pub struct MethodSums {
     /// The method.
     pub method: Method,
     /// Sum of its whitened residuals.
-    pub sum: [f64; 2],
+    pub sum: [f64; P],
     /// Sum of its tests' unit cause directions (speed log, displacement).
-    pub directions: [[f64; 2]; 2],
+    pub directions: [[f64; P]; 2],
     /// Per cause, the sum of its tests' whitened directions as they are (per unit of the
     /// cause: m/s of log bias, the displacement's step).
-    pub along_sum: [[f64; 2]; 2],
+    pub along_sum: [[f64; P]; 2],
     /// Per cause, `sum_k v_k . z_k`.
     pub projection: [f64; 2],
     /// Per cause, `sum_k |v_k|^2`.
     pub norm2: [f64; 2],
     /// Its tests in the look.
     pub tests: usize,
+    /// The most components among them.
+    pub dim: usize,
     /// Its reference offset error's share `c` (the largest among its tests in the look).
     pub offset_var: f64,
 }
@@ -406,8 +416,7 @@ impl MethodSums {
 
     /// The sum's component along cause `j`'s unit mean direction, `u_mj . s_m`.
     pub fn along(&self, j: usize) -> f64 {
-        let u = isolation::unit(self.directions[j]);
-        u[0] * self.sum[0] + u[1] * self.sum[1]
+        dot(isolation::unit(self.directions[j]), self.sum)
     }
 }
 
@@ -424,12 +433,12 @@ pub fn method_sums(window: &VecDeque<Entry>, n: usize) -> Vec<MethodSums> {
         };
         let d = e.directions.map(isolation::unit);
         let v = e.directions;
-        let projection = v.map(|v| v[0] * z[0] + v[1] * z[1]);
-        let norm2 = v.map(|v| v[0] * v[0] + v[1] * v[1]);
+        let projection = v.map(|v| dot(v, z));
+        let norm2 = v.map(|v| dot(v, v));
         match out.iter_mut().find(|o| o.method == e.method) {
             Some(o) => {
                 o.offset_var = o.offset_var.max(c);
-                for i in 0..2 {
+                for i in 0..P {
                     o.sum[i] += z[i];
                     for (acc, di) in o.directions.iter_mut().zip(&d) {
                         acc[i] += di[i];
@@ -437,10 +446,13 @@ pub fn method_sums(window: &VecDeque<Entry>, n: usize) -> Vec<MethodSums> {
                     for (acc, vi) in o.along_sum.iter_mut().zip(&v) {
                         acc[i] += vi[i];
                     }
-                    o.projection[i] += projection[i];
-                    o.norm2[i] += norm2[i];
+                }
+                for j in 0..2 {
+                    o.projection[j] += projection[j];
+                    o.norm2[j] += norm2[j];
                 }
                 o.tests += 1;
+                o.dim = o.dim.max(e.dim);
             }
             None => out.push(MethodSums {
                 method: e.method,
@@ -450,6 +462,7 @@ pub fn method_sums(window: &VecDeque<Entry>, n: usize) -> Vec<MethodSums> {
                 projection,
                 norm2,
                 tests: 1,
+                dim: e.dim,
                 offset_var: c,
             }),
         }
@@ -469,8 +482,10 @@ pub const COMMON_SIZE: [bool; 2] = [true, false];
 /// The parameter statistics of the newest `n` entries.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ParamStatistics {
-    /// `T_n`, the free shift's (2 dof per method).
+    /// `T_n`, the free shift's.
     pub free: f64,
+    /// Its degrees of freedom: each method's components (`P`, or 2 without `e_b`).
+    pub dof: usize,
     /// `T_n,c` per cause of `isolation::PARAMETER_CAUSES`: the evidence along the cause's
     /// directions (see `COMMON_SIZE`).
     pub along: [f64; 2],
@@ -487,17 +502,18 @@ pub fn param_statistics(window: &VecDeque<Entry>, n: usize) -> Option<ParamStati
     if sums.is_empty() {
         return None;
     }
-    let (mut free, mut along) = (0.0, [0.0; 2]);
+    let (mut free, mut along, mut dof) = (0.0, [0.0; 2], 0);
     // A cause of one size: `sum_k v_k . z_k` and its variance over every method.
     let (mut proj, mut var) = ([0.0; 2], [0.0; 2]);
     for m in &sums {
         let (s, c, scale) = (m.sum, m.offset_var, m.scale());
-        free += (s[0] * s[0] + s[1] * s[1]) / scale;
+        free += dot(s, s) / scale;
+        dof += m.dim;
         for j in 0..2 {
             if COMMON_SIZE[j] {
                 let w = m.along_sum[j];
                 proj[j] += m.projection[j];
-                var[j] += (1.0 - c) * m.norm2[j] + c * (w[0] * w[0] + w[1] * w[1]);
+                var[j] += (1.0 - c) * m.norm2[j] + c * dot(w, w);
             } else {
                 along[j] += m.along(j).powi(2) / scale;
             }
@@ -514,6 +530,7 @@ pub fn param_statistics(window: &VecDeque<Entry>, n: usize) -> Option<ParamStati
     }
     (free.is_finite() && along.iter().all(|a| a.is_finite())).then_some(ParamStatistics {
         free,
+        dof,
         along,
         along_dof,
         methods: sums.len(),

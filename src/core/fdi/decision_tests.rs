@@ -9,13 +9,15 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 
+/// An entry measured in `(e_u, e_D)` only (2 dof, the figures of the module doc).
 pub(crate) fn entry(method: Method, z: [f64; 2], c: Option<f64>) -> Entry {
     Entry {
         method,
-        z: Some(z),
+        z: Some([z[0], z[1], 0.0]),
+        dim: 2,
         offset_var: c,
         epoch: 0,
-        directions: [[-1.0, 0.3], [0.0, 1.0]],
+        directions: [[-1.0, 0.3, 0.0], [0.0, 1.0, 0.0]],
         z_rate: None,
         source: None,
     }
@@ -31,33 +33,43 @@ fn the_limits_follow_from_the_budget_by_hand() {
     assert!((l.alpha_look - a).abs() < 1e-18);
     // chi2 with 2 dof is exponential: h = -2 ln(alpha).
     assert!(
-        (l.param[0] - (-2.0 * a.ln())).abs() < 1e-9,
+        (l.param[2] - (-2.0 * a.ln())).abs() < 1e-9,
         "{}",
-        l.param[0]
+        l.param[2]
     );
     // chi2 with 4 dof: e^{-h/2} (1 + h/2) = alpha.
-    let h4 = l.param[1];
+    let h4 = l.param[4];
     assert!(((-h4 / 2.0).exp() * (1.0 + h4 / 2.0) / a - 1.0).abs() < 1e-9);
+    // chi2 with 3 dof: 2 Q(sqrt h) + sqrt(2 h / pi) e^{-h/2} = alpha.
+    let h3 = l.param[3];
+    let q3 = 2.0 * crate::core::fdi::stats::normal_sf(h3.sqrt())
+        + (2.0 * h3 / std::f64::consts::PI).sqrt() * (-h3 / 2.0).exp();
+    assert!((q3 / a - 1.0).abs() < 1e-6, "{q3} {a}");
+    assert!(l.param[2] < l.param[3] && l.param[3] < l.param[4] && l.param[6] > l.param[4]);
     // chi2 with 1 dof: the square of a normal score whose two tails hold alpha.
     let k1 = l.cause[0];
     let tails = 2.0 * crate::core::fdi::stats::normal_sf(k1.sqrt());
     assert!((tails / a - 1.0).abs() < 1e-6, "{tails} {a}");
     // One cause with both methods: 2 dof, the free shift's limit for one method.
-    assert_eq!(l.cause[1], l.param[0]);
+    assert_eq!(l.cause[1], l.param[2]);
     // The figures the docs quote.
     assert!(
-        (l.param[0] - 28.2).abs() < 0.05 && (l.param[1] - 34.0).abs() < 0.05,
+        (l.param[2] - 28.2).abs() < 0.05 && (l.param[4] - 34.0).abs() < 0.05,
+        "{l:?}"
+    );
+    assert!(
+        (l.param[3] - 31.3).abs() < 0.05 && (l.param[6] - 38.9).abs() < 0.05,
         "{l:?}"
     );
     assert!((l.cause[0] - 24.5).abs() < 0.05, "{l:?}");
     assert!((l.servo - 4.81).abs() < 0.01, "{}", l.servo);
     assert!(
-        (l.param_alert[0] - 14.4).abs() < 0.05 && (l.cause_alert[0] - 11.4).abs() < 0.05,
+        (l.param_alert[2] - 14.4).abs() < 0.05 && (l.cause_alert[0] - 11.4).abs() < 0.05,
         "{l:?}"
     );
     // A bigger budget lowers every limit.
     let loose = Limits::new(10.0, 3720.0, 4);
-    assert!(loose.param[0] < l.param[0] && loose.servo < l.servo);
+    assert!(loose.param[3] < l.param[3] && loose.servo < l.servo);
 }
 
 #[test]
@@ -144,7 +156,7 @@ fn a_shift_along_a_cause_alarms_with_one_degree_of_freedom_per_method() {
     let st = s.update(&l, entry(Method::Clfrt, [0.0, 3.6], Some(0.0)));
     let p = st.param.unwrap();
     assert!((p.look.statistic - 25.92).abs() < 1e-9, "{p:?}");
-    assert!(p.look.statistic < l.param[0] && p.look.statistic > l.cause[0]);
+    assert!(p.look.statistic < l.param[2] && p.look.statistic > l.cause[0]);
     assert_eq!(st.state, TrackState::Alarm);
     assert_eq!(st.isolation, vec![Cause::DisplacementOrRudderEffectiveness]);
     // The statistics by hand: along the log direction (-1, 0.3) / |.| the sum (0, 7.2)
@@ -254,7 +266,7 @@ fn isolation_tells_the_speed_log_from_the_displacement_by_direction() {
     // A speed-log bias: every method's residual along its own log direction.
     let mut s = Sequential::default();
     let mut e = entry(Method::Clfrt, [-5.0, 1.5], Some(0.0));
-    e.directions = [[-1.0, 0.3], [0.0, 1.0]];
+    e.directions = [[-1.0, 0.3, 0.0], [0.0, 1.0, 0.0]];
     let st = s.update(&l, e);
     assert_eq!(st.state, TrackState::Alarm);
     assert_eq!(st.isolation, vec![Cause::SpeedLog]);
@@ -301,14 +313,18 @@ fn monte_carlo(
     let settings = reference::Settings::new(&fdi, &reference, &l);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let (mut alarms, mut decided) = (0, 0);
-    // True scatter: correlated -0.9, as on a second-order hull.
+    // True scatter: speed and displacement correlated -0.9, as on a second-order hull; the
+    // gain 0.5 with the displacement.
     let (su, sd, rho) = (0.2, 0.01, -0.9);
     let draw = |rng: &mut ChaCha8Rng| {
         let a: f64 = rng.sample(StandardNormal);
         let b: f64 = rng.sample(StandardNormal);
+        let c: f64 = rng.sample(StandardNormal);
         let u = su * a;
         let d = sd * (rho * a + (1.0f64 - rho * rho).sqrt() * b);
+        let g = 0.005 * (0.5 * b + 0.75f64.sqrt() * c);
         Raw {
+            ln_gain: Some(-5.0 + g),
             speed_mps: 1.0 + u,
             displacement: -0.2 + d,
             speed_sigma_mps: 0.05,
@@ -316,8 +332,8 @@ fn monte_carlo(
             speed_log_mps: 7.0,
             displacement_declared_t: 7000.0,
             excitation_scale: 1.0,
-            speed_slope: [0.0; 2],
-            loading_slope: [0.0; 2],
+            speed_slope: [0.0; 3],
+            loading_slope: [0.0; 3],
         }
     };
     for _ in 0..vessels {
@@ -358,13 +374,14 @@ fn monte_carlo(
                 Entry {
                     method,
                     z,
+                    dim: meas.dim,
                     offset_var: meas.offset_var,
                     epoch: 0,
-                    directions: [[-1.0, 0.0], [0.0, 1.0]],
+                    directions: [[-1.0, 0.0, 0.0], [0.0, 1.0, -1.0]],
                     z_rate: Some(rng.sample::<f64, _>(StandardNormal).max(0.0)),
                     source: Some(Source {
                         raw,
-                        directions: [[-1.0, 0.0], [0.0, 1.0]],
+                        directions: [[-1.0, 0.0, 0.0], [0.0, 1.0, -1.0]],
                     }),
                 },
             );
@@ -374,8 +391,8 @@ fn monte_carlo(
             }
             // Learned as the daemon learns (`learning`): under the single-test limit, at once
             // when the decision is quiet, else once it leaves the window with no alarm.
-            let q = z.map_or(f64::INFINITY, |z| z[0] * z[0] + z[1] * z[1]);
-            let held = (learn && q <= l.param[0]).then_some(Held {
+            let q = z.map_or(f64::INFINITY, |z| crate::core::fdi::stats::dot(z, z));
+            let held = (learn && q <= l.param[meas.dim]).then_some(Held {
                 method: m,
                 generation: 0,
                 raw,

@@ -15,9 +15,10 @@
 //!   function of a linear ship: on a nonlinear hull the read-back is biased, by as much as
 //!   0.4 m/s of HBT's speed for a relay at 0.83 of its design (KVLCC2, 9.5 m/s), and a
 //!   ship near the sizing's threshold plays one scale or the other from test to test;
-//! - `eps ~ N(0, S_sea S~ S_sea)`: the test-to-test scatter, its *shape* `S~` (a 2 x 2
+//! - `eps ~ N(0, S_sea S~ S_sea)`: the test-to-test scatter, its *shape* `S~` (a 3 x 3
 //!   covariance in units of the design spreads) the same over the envelope, carried to a
-//!   test's sea by that test's design spreads `S_sea = diag(s_u, s_D)`.
+//!   test's sea by that test's design spreads `S_sea = diag(s_u, s_D, s_D)` (`e_b`, the ln
+//!   of the test's own high-frequency gain, is a relative quantity like `e_D`).
 //!
 //! Near a point `x*`, `m(x) ~ a_0 + a_u (u - u*) + a_l (l - l*) + a_g (g - g*)` per
 //! component. Each
@@ -31,7 +32,8 @@
 //! (`reference.bandwidth-speed-mps`, `-loading`, `-excitation`): a soft bin, the method
 //! of bins of wind-turbine power curves (IEC 61400-12) made continuous, and ISO 19030's
 //! reference conditions made local. The slopes carry a Gaussian prior with standard
-//! deviations `reference.slope-speed`, `-loading` and `-excitation` (per component): how
+//! deviations `reference.slope-speed`, `-loading` and `-excitation` (per component, `e_b`
+//! taking the displacement's: both are fractions of the ship's own value): how
 //! fast a network's bias on a ship unlike its training model may change across the
 //! envelope beyond what physics predicts. The prior's mean is 0, except in declared loading,
 //! where it is the learned tests' own slope of `b` scaling by `1 / D` (`Sample::loading_slope`,
@@ -62,7 +64,7 @@
 //! fitted halfway to the first's, the unit test
 //! `a_second_point_is_fitted_at_its_own_offset_when_the_offset_moved_far`).
 
-use super::stats::Cov2;
+use super::stats::{Cov, P};
 use nalgebra::{Matrix4, Vector4};
 use serde::{Deserialize, Serialize};
 
@@ -79,10 +81,10 @@ const LOOSE: f64 = 1000.0;
 /// One learned healthy test.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Sample {
-    /// Raw residual `(e_u [m/s], e_D [fraction of D_nom])`.
-    pub e: [f64; 2],
-    /// Design spreads at its sea `(s_u [m/s], s_D [fraction])`.
-    pub s: [f64; 2],
+    /// Raw residual `(e_u [m/s], e_D [fraction of D_nom], e_b [ln])`.
+    pub e: [f64; P],
+    /// Design spreads at its sea `(s_u [m/s], s_D [fraction], s_D)`.
+    pub s: [f64; P],
     /// Speed log [m/s].
     pub speed_mps: f64,
     /// Declared displacement [t].
@@ -93,11 +95,11 @@ pub struct Sample {
     /// How its residual moves per m/s of the ship's own speed by the similarity law
     /// (`crate::core::fdi::sensitivity::scale_speed`): the speed slope's prior mean.
     #[serde(default)]
-    pub speed_slope: [f64; 2],
+    pub speed_slope: [f64; P],
     /// How it moves per unit of `ln D` of a declared loading, `b` scaling by `1 / D`
     /// (`crate::core::fdi::sensitivity::scale_b`): the loading slope's prior mean.
     #[serde(default)]
-    pub loading_slope: [f64; 2],
+    pub loading_slope: [f64; P],
 }
 
 fn as_designed() -> f64 {
@@ -174,7 +176,7 @@ impl Settings {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct Shape {
     /// `S~`.
-    pub cov: Cov2,
+    pub cov: Cov,
     /// Its effective degrees of freedom `nu`.
     pub dof: f64,
 }
@@ -182,17 +184,17 @@ pub struct Shape {
 /// The predicted healthy offset at one operating point.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Prediction {
-    /// `m(x*)`: `(e_u [m/s], e_D [fraction])`.
-    pub offset: [f64; 2],
+    /// `m(x*)`: `(e_u [m/s], e_D [fraction], e_b [ln])`.
+    pub offset: [f64; P],
     /// Its error's covariance (physical units; the shape taken as known).
-    pub cov: Cov2,
+    pub cov: Cov,
     /// The kernel weight the learned tests lend this point (tests' worth).
     pub support: f64,
     /// Distance to the nearest learned test, in bandwidths.
     pub nearest: f64,
     /// The slope prior's share of each component's variance in `cov` (0 where the tests
     /// span the point).
-    pub prior_share: [f64; 2],
+    pub prior_share: [f64; P],
 }
 
 /// The kernel weight and squared distance between two operating points.
@@ -212,12 +214,12 @@ fn fit_component(
     j: usize,
     noise: f64,
 ) -> Option<(f64, f64, f64)> {
-    let prior = |sd: f64| 1.0 / sd.max(1e-12).powi(2);
+    let prior = |sd: [f64; 2]| 1.0 / sd[j.min(1)].max(1e-12).powi(2);
     let p0 = Matrix4::from_diagonal(&Vector4::new(
         0.0,
-        prior(st.slope_speed[j]),
-        prior(st.slope_loading[j]),
-        prior(st.slope_excitation[j]),
+        prior(st.slope_speed),
+        prior(st.slope_loading),
+        prior(st.slope_excitation),
     ));
     let mut a = p0;
     let mut b = Vector4::zeros();
@@ -257,14 +259,34 @@ fn fit_component(
 }
 
 /// A local fit: per component, `(intercept, its variance, the slope prior's part)`.
-type Fit = [(f64, f64, f64); 2];
+type Fit = [(f64, f64, f64); P];
 
-/// Both components' local fits at `at`, with the noise variances `noise` (`S~_jj`).
-fn fit(samples: &[Sample], st: &Settings, at: [f64; 3], noise: [f64; 2]) -> Option<Fit> {
-    Some([
-        fit_component(samples, st, at, 0, noise[0])?,
-        fit_component(samples, st, at, 1, noise[1])?,
-    ])
+/// Every component's local fit at `at`, with the noise variances `noise` (`S~_jj`).
+fn fit(samples: &[Sample], st: &Settings, at: [f64; 3], noise: [f64; P]) -> Option<Fit> {
+    let mut out = [(0.0, 0.0, 0.0); P];
+    for (j, o) in out.iter_mut().enumerate() {
+        *o = fit_component(samples, st, at, j, noise[j])?;
+    }
+    Some(out)
+}
+
+/// A test's residual about a fit, in design-spread units, and its mean leverage on it.
+fn normalised(s: &Sample, f: &Fit, noise: [f64; P]) -> ([f64; P], f64) {
+    let r = std::array::from_fn(|j| (s.e[j] - f[j].0) / s.s[j]);
+    let h = (0..P)
+        .map(|j| f[j].1 / (s.s[j] * s.s[j] * noise[j].max(MIN_SHAPE_VAR)))
+        .sum::<f64>()
+        / P as f64;
+    (r, h)
+}
+
+/// `sum w r r'` accumulated.
+fn add_outer(acc: &mut [[f64; P]; P], r: [f64; P], w: f64) {
+    for i in 0..P {
+        for j in 0..P {
+            acc[i][j] += w * r[i] * r[j];
+        }
+    }
 }
 
 /// The shape of the scatter of `samples` (at least 2 of them) about their local fit.
@@ -275,15 +297,15 @@ pub fn shape(samples: &[Sample], st: &Settings) -> Option<Shape> {
     }
     // Pass 0: the raw normalised scatter about its mean (an over-estimate when the offset
     // moves over the samples) as the noise weights.
-    let norm: Vec<[f64; 2]> = samples
+    let norm: Vec<[f64; P]> = samples
         .iter()
-        .map(|s| [s.e[0] / s.s[0], s.e[1] / s.s[1]])
+        .map(|s| std::array::from_fn(|j| s.e[j] / s.s[j]))
         .collect();
-    let mean = |i: usize| norm.iter().map(|v| v[i]).sum::<f64>() / n as f64;
-    let (m0, m1) = (mean(0), mean(1));
-    let var =
-        |i: usize, m: f64| norm.iter().map(|v| (v[i] - m).powi(2)).sum::<f64>() / (n - 1) as f64;
-    let mut noise = [var(0, m0), var(1, m1)];
+    let mut noise = [0.0; P];
+    for (j, v) in noise.iter_mut().enumerate() {
+        let m = norm.iter().map(|x| x[j]).sum::<f64>() / n as f64;
+        *v = norm.iter().map(|x| (x[j] - m).powi(2)).sum::<f64>() / (n - 1) as f64;
+    }
     // The fit at each distinct operating point, once (a commissioning sample is often at
     // one point: one fit for all).
     let mut points: Vec<[f64; 3]> = Vec::new();
@@ -311,32 +333,28 @@ pub fn shape(samples: &[Sample], st: &Settings) -> Option<Shape> {
             .iter()
             .map(|&x| fit(samples, prior, x, noise))
             .collect::<Option<_>>()?;
-        let (mut xx, mut xy, mut yy, mut lev) = (0.0, 0.0, 0.0, 0.0);
+        let (mut acc, mut lev) = ([[0.0; P]; P], 0.0);
         for (s, &i) in samples.iter().zip(&index) {
-            let f = fits[i];
-            let r = [(s.e[0] - f[0].0) / s.s[0], (s.e[1] - f[1].0) / s.s[1]];
-            xx += r[0] * r[0];
-            xy += r[0] * r[1];
-            yy += r[1] * r[1];
             // The leverage of the test on its own fit, the components' mean.
-            let h0 = f[0].1 / (s.s[0] * s.s[0] * noise[0].max(MIN_SHAPE_VAR));
-            let h1 = f[1].1 / (s.s[1] * s.s[1] * noise[1].max(MIN_SHAPE_VAR));
-            lev += 0.5 * (h0 + h1);
+            let (r, h) = normalised(s, &fits[i], noise);
+            add_outer(&mut acc, r, 1.0);
+            lev += h;
         }
         let dof = (n as f64 - lev).max(1.0);
-        let cov = Cov2 {
-            xx: xx / dof,
-            xy: xy / dof,
-            yy: yy / dof,
-        };
-        if ![cov.xx, cov.xy, cov.yy].iter().all(|v| v.is_finite()) {
+        let cov = Cov(acc).times(1.0 / dof);
+        if !cov.is_finite() {
             return None;
         }
         let settled = out.is_some_and(|o: Shape| {
             let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
-            close(o.cov.xx, cov.xx) && close(o.cov.xy, cov.xy) && close(o.cov.yy, cov.yy)
+            o.cov
+                .0
+                .iter()
+                .flatten()
+                .zip(cov.0.iter().flatten())
+                .all(|(a, b)| close(*a, *b))
         });
-        noise = [cov.xx, cov.yy];
+        noise = cov.variances();
         out = Some(Shape { cov, dof });
         if settled {
             break;
@@ -359,10 +377,10 @@ pub fn shape(samples: &[Sample], st: &Settings) -> Option<Shape> {
 /// box's edge scatters less there than inside it), the tests at that point speak for it,
 /// with the few dof they are worth.
 pub fn local_shape(samples: &[Sample], st: &Settings, global: &Shape, at: &Point) -> Shape {
-    let noise = [global.cov.xx, global.cov.yy];
+    let noise = global.cov.variances();
     let at = at.x();
     let mut fits: Vec<([f64; 3], Fit)> = Vec::new();
-    let (mut xx, mut xy, mut yy, mut den, mut den2) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    let (mut acc, mut den, mut den2) = ([[0.0; P]; P], 0.0, 0.0);
     for s in samples {
         let x = s.x();
         let f = match fits.iter().find(|(p, _)| *p == x) {
@@ -375,26 +393,18 @@ pub fn local_shape(samples: &[Sample], st: &Settings, global: &Shape, at: &Point
                 f
             }
         };
-        let r = [(s.e[0] - f[0].0) / s.s[0], (s.e[1] - f[1].0) / s.s[1]];
-        let h0 = f[0].1 / (s.s[0] * s.s[0] * noise[0].max(MIN_SHAPE_VAR));
-        let h1 = f[1].1 / (s.s[1] * s.s[1] * noise[1].max(MIN_SHAPE_VAR));
-        let keep = (1.0 - 0.5 * (h0 + h1)).clamp(0.0, 1.0);
+        let (r, h) = normalised(s, &f, noise);
+        let keep = (1.0 - h).clamp(0.0, 1.0);
         let (w, _) = kernel(st, x, at);
-        xx += w * r[0] * r[0];
-        xy += w * r[0] * r[1];
-        yy += w * r[1] * r[1];
+        add_outer(&mut acc, r, w);
         den += w * keep;
         den2 += (w * keep).powi(2);
     }
     if den <= 0.0 || den2 <= 0.0 {
         return *global;
     }
-    let cov = Cov2 {
-        xx: xx / den,
-        xy: xy / den,
-        yy: yy / den,
-    };
-    if ![cov.xx, cov.xy, cov.yy].iter().all(|v| v.is_finite()) || cov.xx <= 0.0 || cov.yy <= 0.0 {
+    let cov = Cov(acc).times(1.0 / den);
+    if !cov.is_finite() || cov.variances().iter().any(|v| *v <= 0.0) {
         return *global;
     }
     Shape {
@@ -406,22 +416,29 @@ pub fn local_shape(samples: &[Sample], st: &Settings, global: &Shape, at: &Point
 /// The predicted offset at the operating point `at`.
 pub fn predict(samples: &[Sample], st: &Settings, shape: &Shape, at: &Point) -> Option<Prediction> {
     let at = at.x();
-    let f = fit(samples, st, at, [shape.cov.xx, shape.cov.yy])?;
-    let rho = shape.cov.correlation();
+    let f = fit(samples, st, at, shape.cov.variances())?;
     let (support, nearest) = samples.iter().fold((0.0, f64::INFINITY), |(w, d), s| {
         let (wi, d2) = kernel(st, s.x(), at);
         (w + wi, d.min(d2.sqrt()))
     });
+    // The components' errors: the tests' part correlates as their scatter does; the slope
+    // prior's part is each component's own (the priors are independent).
+    let data = f.map(|c| (c.1 - c.2).max(0.0));
+    let cov = Cov(std::array::from_fn(|i| {
+        std::array::from_fn(|j| {
+            if i == j {
+                f[i].1
+            } else {
+                shape.cov.correlation(i, j) * (data[i] * data[j]).sqrt()
+            }
+        })
+    }));
     Some(Prediction {
-        offset: [f[0].0, f[1].0],
-        cov: Cov2 {
-            xx: f[0].1,
-            xy: rho * (f[0].1 * f[1].1).sqrt(),
-            yy: f[1].1,
-        },
+        offset: f.map(|c| c.0),
+        cov,
         support,
         nearest,
-        prior_share: [f[0], f[1]].map(|c| if c.1 > 0.0 { c.2 / c.1 } else { 0.0 }),
+        prior_share: f.map(|c| if c.1 > 0.0 { c.2 / c.1 } else { 0.0 }),
     })
 }
 

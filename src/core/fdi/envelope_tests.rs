@@ -13,15 +13,16 @@ pub(in crate::core::fdi) fn st() -> Settings {
     }
 }
 
+/// A test whose `e_b` moves against its `e_D` (as `b` with `1 / D`).
 fn smp(e: [f64; 2], u: f64, d: f64) -> Sample {
     Sample {
-        e,
-        s: [0.1, 0.01],
+        e: [e[0], e[1], -5.0 - 0.8 * e[1]],
+        s: [0.1, 0.01, 0.01],
         speed_mps: u,
         displacement_t: d,
         excitation_scale: 1.0,
-        speed_slope: [0.0; 2],
-        loading_slope: [0.0; 2],
+        speed_slope: [0.0; 3],
+        loading_slope: [0.0; 3],
     }
 }
 
@@ -61,15 +62,15 @@ fn at_one_point_the_fit_is_the_sample_mean_and_the_shape_its_covariance() {
         / 0.001;
     let syy = data.iter().map(|x| (x.1 - mu.1).powi(2)).sum::<f64>() / 4.0 / 1e-4;
     assert!((sh.dof - 4.0).abs() < 1e-9, "{}", sh.dof);
-    assert!((sh.cov.xx - sxx).abs() < 1e-9 * sxx);
-    assert!((sh.cov.xy - sxy).abs() < 1e-9 * sxy.abs());
-    assert!((sh.cov.yy - syy).abs() < 1e-9 * syy);
+    assert!((sh.cov.at(0, 0) - sxx).abs() < 1e-9 * sxx);
+    assert!((sh.cov.at(0, 1) - sxy).abs() < 1e-9 * sxy.abs());
+    assert!((sh.cov.at(1, 1) - syy).abs() < 1e-9 * syy);
     let p = predict(&samples, &st(), &sh, &at(7.0, 7000.0)).unwrap();
     assert!((p.offset[0] - mu.0).abs() < 1e-12);
     assert!((p.offset[1] - mu.1).abs() < 1e-12);
     // The mean's variance: S / n in physical units.
-    assert!((p.cov.xx - sxx * 0.01 / n).abs() < 1e-9 * p.cov.xx);
-    assert!((p.cov.yy - syy * 1e-4 / n).abs() < 1e-9 * p.cov.yy);
+    assert!((p.cov.at(0, 0) - sxx * 0.01 / n).abs() < 1e-9 * p.cov.at(0, 0));
+    assert!((p.cov.at(1, 1) - syy * 1e-4 / n).abs() < 1e-9 * p.cov.at(1, 1));
     assert!((p.support - 5.0).abs() < 1e-12 && p.nearest == 0.0);
 }
 
@@ -91,7 +92,7 @@ fn a_second_point_is_fitted_at_its_own_offset_when_the_offset_moved_far() {
     assert!((p.offset[1] - 0.1365).abs() < 0.001, "{:?}", p.offset);
     // The shape in design units (s_D = 0.01): the scatter's (0.1)^2 order, not the
     // move's (23^2).
-    assert!(sh.cov.yy < 0.1, "{:?}", sh.cov);
+    assert!(sh.cov.at(1, 1) < 0.1, "{:?}", sh.cov);
 }
 
 #[test]
@@ -112,12 +113,15 @@ fn away_from_the_learned_point_the_interval_grows_by_the_kernel_and_the_slope_pr
     // By hand: all data at one distance d = 1.5 bandwidths, weight w = 1 / (1 + d^2);
     // intercept variance = 1 / W + du^2 tau^2 with W = n w / sigma^2.
     let w = 1.0 / (1.0 + du * du);
-    for (j, (var, tau)) in [(sh.cov.xx * 0.01, 0.5), (sh.cov.yy * 1e-4, 0.03)]
-        .iter()
-        .enumerate()
+    for (j, (var, tau)) in [
+        (sh.cov.at(0, 0) * 0.01, 0.5),
+        (sh.cov.at(1, 1) * 1e-4, 0.03),
+    ]
+    .iter()
+    .enumerate()
     {
         let want = var / (5.0 * w) + du * du * tau * tau;
-        let got = [p.cov.xx, p.cov.yy][j];
+        let got = [p.cov.at(0, 0), p.cov.at(1, 1)][j];
         assert!((got - want).abs() < 1e-9 * want, "{j}: {got} vs {want}");
     }
     // The offset is still the sample's (the prior slope is 0).
@@ -143,11 +147,11 @@ fn an_excitation_sized_down_is_another_operating_point() {
     // By hand: every test at g = ln 0.83 from the point, d = |g| / b_g.
     let g = 0.83f64.ln();
     let w = 1.0 / (1.0 + (g / 0.1).powi(2));
-    let want = sh.cov.xx * 0.01 / (5.0 * w) + (g * 3.0).powi(2);
+    let want = sh.cov.at(0, 0) * 0.01 / (5.0 * w) + (g * 3.0).powi(2);
     assert!(
-        (p.cov.xx - want).abs() < 1e-9 * want,
+        (p.cov.at(0, 0) - want).abs() < 1e-9 * want,
         "{} vs {want}",
-        p.cov.xx
+        p.cov.at(0, 0)
     );
     assert!((p.offset[0] - 2.0).abs() < 1e-9, "{:?}", p.offset);
     // Tests at 0.83 read 0.4 m/s lower (the read-back's bias on a nonlinear hull).
@@ -158,12 +162,12 @@ fn an_excitation_sized_down_is_another_operating_point() {
     }
     let sh = shape(&samples, &st()).unwrap();
     // The shape is the scatter about each scale's offset, not the gap between them.
-    assert!(sh.cov.xx < 0.2, "{:?}", sh.cov);
+    assert!(sh.cov.at(0, 0) < 0.2, "{:?}", sh.cov);
     let lo = predict(&samples, &st(), &sh, &scaled).unwrap();
     let hi = predict(&samples, &st(), &sh, &at(9.5, 7000.0)).unwrap();
     assert!((lo.offset[0] - 1.6).abs() < 0.02, "{:?}", lo.offset);
     assert!((hi.offset[0] - 2.0).abs() < 0.02, "{:?}", hi.offset);
-    assert!(lo.cov.xx.sqrt() < 0.02, "{}", lo.cov.xx.sqrt());
+    assert!(lo.cov.at(0, 0).sqrt() < 0.02, "{}", lo.cov.at(0, 0).sqrt());
 }
 
 /// The local shape: the global one where every test is; where a second point scatters
@@ -178,10 +182,10 @@ fn the_local_shape_is_the_scatter_of_the_tests_near_the_point() {
     let sh = shape(&samples, &st()).unwrap();
     let here = local_shape(&samples, &st(), &sh, &at(7.0, 7000.0));
     assert!(
-        (here.cov.xx / sh.cov.xx - 1.0).abs() < 1e-9,
+        (here.cov.at(0, 0) / sh.cov.at(0, 0) - 1.0).abs() < 1e-9,
         "{here:?} vs {sh:?}"
     );
-    assert!((here.cov.yy / sh.cov.yy - 1.0).abs() < 1e-9);
+    assert!((here.cov.at(1, 1) / sh.cov.at(1, 1) - 1.0).abs() < 1e-9);
     assert!(
         (here.dof - sh.dof).abs() < 1e-9,
         "{} vs {}",
@@ -190,7 +194,7 @@ fn the_local_shape_is_the_scatter_of_the_tests_near_the_point() {
     );
     // Far away, with nothing near, the same shape (every weight alike).
     let far = local_shape(&samples, &st(), &sh, &at(12.0, 7000.0));
-    assert!((far.cov.xx / sh.cov.xx - 1.0).abs() < 1e-9);
+    assert!((far.cov.at(0, 0) / sh.cov.at(0, 0) - 1.0).abs() < 1e-9);
     // Eight tests at 4 m/s (3 bandwidths away) with ten times the scatter.
     for w in wob {
         samples.push(smp([0.5 + 10.0 * w, -0.1 + w], 4.0, 7000.0));
@@ -204,15 +208,18 @@ fn the_local_shape_is_the_scatter_of_the_tests_near_the_point() {
     let want_there = (var(10.0) + 0.1 * var(1.0)) / (1.1 * 7.0);
     let want_here = (var(1.0) + 0.1 * var(10.0)) / (1.1 * 7.0);
     assert!(
-        (there.cov.xx / want_there - 1.0).abs() < 0.05,
+        (there.cov.at(0, 0) / want_there - 1.0).abs() < 0.05,
         "{there:?} vs {want_there}"
     );
     assert!(
-        (here.cov.xx / want_here - 1.0).abs() < 0.05,
+        (here.cov.at(0, 0) / want_here - 1.0).abs() < 0.05,
         "{here:?} vs {want_here}"
     );
     // Each point keeps most of its own scatter (9 times apart, by the sums above).
-    assert!(there.cov.xx > 5.0 * here.cov.xx, "{there:?} {here:?}");
+    assert!(
+        there.cov.at(0, 0) > 5.0 * here.cov.at(0, 0),
+        "{there:?} {here:?}"
+    );
 }
 
 #[test]
@@ -230,7 +237,7 @@ fn two_learned_speeds_give_the_slope_between_them() {
     assert!((p.offset[1] + 0.2).abs() < 0.002);
     // Between two learned points the interval is far narrower than the prior's alone
     // (0.75 m/s x 0.5 = 0.375 m/s).
-    assert!(p.cov.xx.sqrt() < 0.05, "{}", p.cov.xx.sqrt());
+    assert!(p.cov.at(0, 0).sqrt() < 0.05, "{}", p.cov.at(0, 0).sqrt());
 }
 
 /// The slope prior's mean is the similarity law's slope of the tests near the point: a ship
@@ -241,7 +248,7 @@ fn two_learned_speeds_give_the_slope_between_them() {
 #[test]
 fn a_new_speed_is_predicted_along_the_similarity_slope() {
     let wob = [0.0, 0.01, -0.01, 0.02, -0.02, 0.005, -0.005, 0.0];
-    let with = |slope: [f64; 2]| -> Vec<Sample> {
+    let with = |slope: [f64; 3]| -> Vec<Sample> {
         wob.iter()
             .map(|w| Sample {
                 speed_slope: slope,
@@ -252,8 +259,8 @@ fn a_new_speed_is_predicted_along_the_similarity_slope() {
     let mean_d = -0.1 + wob.iter().sum::<f64>() / 80.0;
     let mean_u = 0.3 + wob.iter().sum::<f64>() / 8.0;
     for (slope, want_u, want_d) in [
-        ([0.0, 0.0], mean_u, mean_d),
-        ([-0.9, 0.2], mean_u - 0.9, mean_d + 0.2),
+        ([0.0, 0.0, 0.0], mean_u, mean_d),
+        ([-0.9, 0.2, 0.0], mean_u - 0.9, mean_d + 0.2),
     ] {
         let samples = with(slope);
         let sh = shape(&samples, &st()).unwrap();
@@ -271,9 +278,9 @@ fn a_new_speed_is_predicted_along_the_similarity_slope() {
         // The interval is the prior's whatever its mean: 1 m/s of a 0.03 per m/s slope sd,
         // beside which the mean's error (a scatter of 0.0013 over 8 tests) is nothing.
         assert!(
-            p.cov.yy > 0.03f64.powi(2) && p.cov.yy < 1.01 * 0.03f64.powi(2),
+            p.cov.at(1, 1) > 0.03f64.powi(2) && p.cov.at(1, 1) < 1.01 * 0.03f64.powi(2),
             "{}",
-            p.cov.yy
+            p.cov.at(1, 1)
         );
         // That interval is nearly all the slope prior's (known: `reference`), and none of it
         // at the learned point itself.
@@ -296,7 +303,7 @@ fn a_declared_loading_is_predicted_along_the_loading_slope() {
     let samples: Vec<Sample> = wob
         .iter()
         .map(|w| Sample {
-            loading_slope: [0.0, -0.5],
+            loading_slope: [0.0, -0.5, 0.0],
             ..smp([0.3 + w, -0.1 + w / 10.0], 7.0, 7000.0)
         })
         .collect();

@@ -28,6 +28,7 @@
 //! check measures directly.
 
 use super::decision::{method_sums, Entry};
+use super::stats::{dot, P};
 use crate::core::wire::Cause;
 use std::collections::VecDeque;
 
@@ -43,7 +44,7 @@ pub fn costs(window: &VecDeque<Entry>, n: usize) -> [f64; 2] {
         let (s, scale) = (p.sum, p.scale());
         for (c, cost) in j.iter_mut().enumerate() {
             let along = p.along(c);
-            let off = (s[0] * s[0] + s[1] * s[1] - along * along).max(0.0);
+            let off = (dot(s, s) - along * along).max(0.0);
             *cost += off / scale;
         }
     }
@@ -61,11 +62,11 @@ pub fn name(window: &VecDeque<Entry>, n: usize) -> Vec<Cause> {
 }
 
 /// `v / |v|` (0 stays 0).
-pub fn unit(v: [f64; 2]) -> [f64; 2] {
-    let n = (v[0] * v[0] + v[1] * v[1]).sqrt();
+pub fn unit(v: [f64; P]) -> [f64; P] {
+    let n = dot(v, v).sqrt();
     if n > 0.0 && n.is_finite() {
-        [v[0] / n, v[1] / n]
+        v.map(|x| x / n)
     } else {
-        [0.0, 0.0]
+        [0.0; P]
     }
 }

@@ -30,6 +30,7 @@
 use super::decision::{Sequential, Step};
 use super::measured::measure_entry;
 use super::reference::{Added, Basis, Raw, Settings};
+use super::stats::{dot, P};
 use super::{method_index, Fdi};
 use crate::core::wire::residuals::TrackState;
 use serde::{Deserialize, Serialize};
@@ -129,22 +130,22 @@ impl Fdi {
         i: usize,
         raw: Option<Raw>,
         basis: Option<&Basis>,
-        z: Option<[f64; 2]>,
+        z: Option<([f64; P], usize)>,
         step: Option<&Step>,
         settings: &Settings,
     ) -> Added {
         let mut added = Added::Nothing;
         let mut held = None;
-        if let (true, Some(r), Some(b), Some(z)) = (self.cfg.enabled, raw, basis, z) {
-            let q = z[0] * z[0] + z[1] * z[1];
+        if let (true, Some(r), Some(b), Some((z, dim))) = (self.cfg.enabled, raw, basis, z) {
+            let q = dot(z, z);
             match b {
-                Basis::Commissioning { .. } if q <= self.limits.param_alert[0] => {
+                Basis::Commissioning { .. } if q <= self.limits.param_alert[dim] => {
                     added = self.commissioning[i].add(settings, &r);
                     if added == Added::Completed {
                         self.generation[i] += 1;
                     }
                 }
-                Basis::Vessel(_) if q <= self.limits.param[0] => {
+                Basis::Vessel(_) if q <= self.limits.param[dim] => {
                     held = Some(Held {
                         method: i,
                         generation: self.generation[i],
@@ -212,8 +213,9 @@ mod tests {
                 speed_log_mps: 7.0,
                 displacement_declared_t: 7000.0,
                 excitation_scale: 1.0,
-                speed_slope: [0.0; 2],
-                loading_slope: [0.0; 2],
+                ln_gain: Some(-5.0),
+                speed_slope: [0.0; 3],
+                loading_slope: [0.0; 3],
             },
         }
     }

@@ -5,11 +5,8 @@
 use super::decision::{Entry, Source};
 use super::envelope::Prediction;
 use super::reference::{Commissioning, Settings};
-use super::stats::Cov2;
+use super::stats::{chi2_isf, dot, hotelling_sf, Cov, P};
 use crate::core::wire::Method;
-
-/// The residual vector's dimension (speed, displacement).
-const P: f64 = 2.0;
 
 /// Which reference a test was measured against.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -35,10 +32,11 @@ pub enum Basis {
 /// A test's residual against a reference.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Measured {
-    /// `(r_u [m/s], r_D [fraction])`.
-    pub r: [f64; 2],
-    /// Its covariance for a healthy ship (the offset's error included).
-    pub cov: Cov2,
+    /// `(r_u [m/s], r_D [fraction], r_b [ln])`; the components from `dim` on are 0.
+    pub r: [f64; P],
+    /// Its covariance for a healthy ship (the offset's error included); from `dim` on,
+    /// independent unit variances.
+    pub cov: Cov,
     /// The offset error's share of `cov`, shared by every later test against this reference
     /// (`Some(0)` for the design's); `None` on wide design limits (the residual there is the
     /// model's bias on this ship, the same at every test: no average over tests shrinks it).
@@ -48,18 +46,20 @@ pub struct Measured {
     pub dof: f64,
     /// The part of `cov` that rests on the learned tests (the scatter and the offset's
     /// error; the rest, the floors, is known).
-    pub learned: Cov2,
+    pub learned: Cov,
+    /// The components measured: 2 (`e_u`, `e_D`: against the design, or a test without
+    /// `e_b`) or `P`.
+    pub dim: usize,
 }
 
 impl Measured {
     /// The whitened residual, calibrated: `z = L^-1 r` (`L L' = cov`) scaled so that
-    /// `|z|^2` has the chi-square's tail where `r' cov^-1 r` has Hotelling's (see the module
-    /// doc); `None` unless `cov` is positive definite.
-    pub fn whitened(&self) -> Option<[f64; 2]> {
+    /// `|z|^2` has the chi-square's tail (`dim` dof) where `r' cov^-1 r` has Hotelling's (see
+    /// the module doc); `None` unless `cov` is positive definite.
+    pub fn whitened(&self) -> Option<[f64; P]> {
         let z = self.cov.whiten(self.r)?;
-        let t = z[0] * z[0] + z[1] * z[1];
-        let k = calibration(t, self.effective_dof());
-        Some([z[0] * k, z[1] * k])
+        let k = calibration(dot(z, z), self.effective_dof(), self.dim);
+        Some(z.map(|v| v * k))
     }
 
     /// The degrees of freedom along the residual: `nu T / (y' A y)`, `y = Sigma^-1 r`, `A`
@@ -70,18 +70,11 @@ impl Measured {
         if !self.dof.is_finite() {
             return f64::INFINITY;
         }
-        let Cov2 { xx, xy, yy } = self.cov;
-        let det = xx * yy - xy * xy;
-        if det.is_nan() || det <= 0.0 {
+        let Some(y) = self.cov.solve(self.r) else {
             return self.dof;
-        }
-        let y = [
-            (yy * self.r[0] - xy * self.r[1]) / det,
-            (xx * self.r[1] - xy * self.r[0]) / det,
-        ];
-        let t = self.r[0] * y[0] + self.r[1] * y[1];
-        let a = self.learned;
-        let ya = y[0] * y[0] * a.xx + 2.0 * y[0] * y[1] * a.xy + y[1] * y[1] * a.yy;
+        };
+        let t = dot(self.r, y);
+        let ya = self.learned.form(y, y);
         if ya > 0.0 && t > 0.0 {
             (self.dof * t / ya).max(self.dof)
         } else {
@@ -90,22 +83,27 @@ impl Measured {
     }
 }
 
-/// The factor `sqrt(T' / T)` that maps Hotelling's `T^2(2, nu)` statistic `t` onto the
-/// chi-square (2 dof) of the same tail probability: `P(T^2 > t) = (1 + t / nu)^(-(nu - 1) /
-/// 2)`, so `T' = (nu - 1) ln(1 + t / nu)`.
-pub fn calibration(t: f64, nu: f64) -> f64 {
+/// The factor `sqrt(T' / T)` that maps Hotelling's `T^2(p, nu)` statistic `t` onto the
+/// chi-square (`p` dof) of the same tail probability (`stats::hotelling_sf`; at `p = 2`,
+/// `T' = (nu - 1) ln(1 + t / nu)`). `nu` below `p + 1.5` is taken as `p + 1.5`.
+pub fn calibration(t: f64, nu: f64, p: usize) -> f64 {
     if !nu.is_finite() || t.is_nan() || t <= 0.0 {
         return 1.0;
     }
-    let nu = nu.max(P + 1.5);
-    ((nu - 1.0) * (t / nu).ln_1p() / t).sqrt()
+    let nu = nu.max(p as f64 + 1.5);
+    let tail = hotelling_sf(t, p, nu);
+    if tail.is_nan() || tail <= 0.0 {
+        // Beyond any tail a float holds: the chi-square's own far limit.
+        return (chi2_isf(f64::MIN_POSITIVE, p as f64) / t).sqrt().min(1.0);
+    }
+    (chi2_isf(tail, p as f64) / t).sqrt().min(1.0)
 }
 
 /// The Hotelling factor `nu / (nu - p - 1)` for a shape with `nu` effective dof (see the
 /// module doc); `nu <= p + 1.5` is taken as `p + 1.5` (a factor of `nu / 0.5`).
 pub fn kappa(nu: f64) -> f64 {
-    let nu = nu.max(P + 1.5);
-    nu / (nu - P - 1.0)
+    let nu = nu.max(P as f64 + 1.5);
+    nu / (nu - P as f64 - 1.0)
 }
 
 impl Basis {
@@ -135,15 +133,20 @@ pub(super) fn measure_entry(
     // offset, by its slope in speed: the similarity law's (the slope prior's mean, `envelope`).
     let mut directions = source.directions;
     if matches!(basis, Basis::Vessel(_)) {
-        directions[0][0] -= source.raw.speed_slope[0];
-        directions[0][1] -= source.raw.speed_slope[1];
+        for (d, s) in directions[0].iter_mut().zip(source.raw.speed_slope) {
+            *d -= s;
+        }
     }
+    // The components not measured take no part.
+    let directions =
+        directions.map(|v| std::array::from_fn(|j| if j < m.dim { v[j] } else { 0.0 }));
     let entry = Entry {
         method,
         z: m.whitened(),
+        dim: m.dim,
         offset_var: m.offset_var,
         epoch,
-        directions: directions.map(|d| m.cov.whiten(d).unwrap_or([0.0; 2])),
+        directions: directions.map(|d| m.cov.whiten(d).unwrap_or([0.0; P])),
         z_rate,
         source: Some(source),
     };

@@ -63,7 +63,6 @@ use raw::{lerp, sea_fraction};
 use reference::{Added, Basis, Commissioning, Measured, Phase};
 pub use report::{Fingerprint, MISMATCH_ADVICE};
 use serde::{Deserialize, Serialize};
-use stats::Cov2;
 
 /// What the FDI adds to a completed test's report.
 #[derive(Debug, Clone, PartialEq)]
@@ -346,7 +345,7 @@ impl Fdi {
         let settings = self.settings();
         let source = raw.map(|(r, g, d_dir)| Source {
             raw: r,
-            directions: [[-1.0, g / d_nom_t], d_dir],
+            directions: [[-1.0, g / d_nom_t, 0.0], d_dir],
         });
         let servo = self.servo_check(features);
         let z_rate = servo.map(|s| s.z_rate);
@@ -371,9 +370,10 @@ impl Fdi {
         let entry = measured_basis.map(|(_, _, e)| e).unwrap_or(Entry {
             method,
             z: None,
+            dim: 2,
             offset_var: None,
             epoch,
-            directions: [[0.0; 2]; 2],
+            directions: [[0.0; stats::P]; 2],
             z_rate,
             source: None,
         });
@@ -385,7 +385,7 @@ impl Fdi {
             i,
             raw.map(|(r, _, _)| r),
             basis.as_ref(),
-            z,
+            z.zip(measured.map(|m| m.dim)),
             step.as_ref(),
             &settings,
         );
@@ -430,6 +430,7 @@ impl Fdi {
                 displacement_sigma: r.displacement_sigma,
                 speed_log_mps: r.speed_log_mps,
                 dd_du_t_per_mps: g,
+                ln_gain: r.ln_gain,
                 speed_slope: r.speed_slope,
                 loading_slope: r.loading_slope,
             }),
@@ -516,28 +517,34 @@ impl Fdi {
             learned: r.map(|r| r.learned),
             speed_offset_mps: p.map(|p| p.offset[0]),
             displacement_offset_t: p.map(|p| p.offset[1] * d_nom_t),
-            offset_speed_sigma_mps: p.map(|p| p.cov.xx.sqrt()),
-            offset_displacement_sigma_t: p.map(|p| p.cov.yy.sqrt() * d_nom_t),
+            ln_gain_offset: p.map(|p| p.offset[2]),
+            offset_speed_sigma_mps: p.map(|p| p.cov.at(0, 0).sqrt()),
+            offset_displacement_sigma_t: p.map(|p| p.cov.at(1, 1).sqrt() * d_nom_t),
+            offset_ln_gain_sigma: p.map(|p| p.cov.at(2, 2).sqrt()),
             support: p.map(|p| p.support),
-            correlation: r.map(|r| r.covariance.correlation()),
+            correlation: r.map(|r| r.covariance.correlation(0, 1)),
             speed_log_mps: r.map(|r| r.speed_log_mps),
         }
     }
 }
 
 /// The report's parameter residuals of a measured test (`z` its whitened residual).
-fn parameter_report(m: &Measured, z: [f64; 2], d_nom_t: f64) -> ParameterResiduals {
-    let Cov2 { xx, yy, .. } = m.cov;
-    let (su, sd) = (xx.sqrt(), yy.sqrt());
+fn parameter_report(m: &Measured, z: [f64; stats::P], d_nom_t: f64) -> ParameterResiduals {
+    let sd = m.cov.variances().map(f64::sqrt);
+    let with_gain = m.dim > 2;
     ParameterResiduals {
         speed_mps: m.r[0],
-        speed_sigma_mps: su,
-        z_speed: m.r[0] / su,
+        speed_sigma_mps: sd[0],
+        z_speed: m.r[0] / sd[0],
         displacement_t: m.r[1] * d_nom_t,
-        displacement_sigma_t: sd * d_nom_t,
-        z_displacement: m.r[1] / sd,
-        correlation: m.cov.correlation(),
-        chi2: z[0] * z[0] + z[1] * z[1],
+        displacement_sigma_t: sd[1] * d_nom_t,
+        z_displacement: m.r[1] / sd[1],
+        ln_gain: with_gain.then_some(m.r[2]),
+        ln_gain_sigma: with_gain.then_some(sd[2]),
+        z_ln_gain: with_gain.then_some(m.r[2] / sd[2]),
+        correlation: m.cov.correlation(0, 1),
+        chi2: stats::dot(z, z),
+        dof: m.dim,
     }
 }
 

@@ -4,6 +4,7 @@
 //! the servo check (docs/fdi.md, "Residuals").
 
 use super::reference::Raw;
+use super::stats::P;
 use super::{sensitivity, Fdi};
 use crate::core::estimator::model::{Target, Uncertainty};
 use crate::core::estimator::{Estimator, EstimatorScratch};
@@ -22,20 +23,25 @@ const DU_SIMILAR_MPS: f64 = 0.25;
 /// Step in `ln D` of the declared loading's central difference for the offset's slope.
 const DL_SIMILAR: f64 = 0.05;
 
-/// The central difference `(hi - lo) / step` of a residual pair, 0 where either end is
-/// missing or it is not finite.
-fn central(hi: Option<[f64; 2]>, lo: Option<[f64; 2]>, step: f64) -> [f64; 2] {
+/// The central difference `(hi - lo) / step` of a residual, per component 0 where either end
+/// is missing or it is not finite.
+fn central(hi: Option<[f64; P]>, lo: Option<[f64; P]>, step: f64) -> [f64; P] {
     match (hi, lo) {
-        (Some(hi), Some(lo)) => {
-            let v = [(hi[0] - lo[0]) / step, (hi[1] - lo[1]) / step];
-            if v.iter().all(|x| x.is_finite()) {
+        (Some(hi), Some(lo)) => std::array::from_fn(|j| {
+            let v = (hi[j] - lo[j]) / step;
+            if v.is_finite() {
                 v
             } else {
-                [0.0; 2]
+                0.0
             }
-        }
-        _ => [0.0; 2],
+        }),
+        _ => [0.0; P],
     }
+}
+
+/// `e_b` of `features`, NaN without.
+fn gain_of(features: &Features) -> f64 {
+    sensitivity::ln_gain(features).unwrap_or(f64::NAN)
 }
 
 /// The sea index of a test's features: its wave yaw [deg], if it has one.
@@ -98,7 +104,7 @@ impl Fdi {
         est: &Estimator,
         scratch: &mut EstimatorScratch,
         frac: f64,
-    ) -> Option<(Raw, f64, [f64; 2])> {
+    ) -> Option<(Raw, f64, [f64; P])> {
         let u_log = features.speed_log_mps().filter(|u| u.is_finite())?;
         let (mu, su) = spread(
             &est.model(method, Target::Speed).file.uncertainty,
@@ -115,24 +121,33 @@ impl Fdi {
                 .ok()
         };
         let g = (at(u_log + DU_MPS)? - at(u_log - DU_MPS)?) / (2.0 * DU_MPS);
-        // The displacement's direction through the networks: the same test on a ship with
-        // b 1 % smaller (`sensitivity`); (0, 1) when the features cannot say.
+        let ln_gain = sensitivity::ln_gain(features);
+        // The displacement's direction through the networks and the gain: the same test on
+        // a ship with b 1 % smaller (`sensitivity`); (0, 1, 0.01) when the features cannot
+        // say.
         let d_dir = sensitivity::scale_b(features, 1.0 - DB_REL)
-            .and_then(|f| est.estimate(method, &f, scratch).ok())
-            .map(|e| {
+            .and_then(|f| Some((est.estimate(method, &f, scratch).ok()?, gain_of(&f))))
+            .map(|(e, g)| {
                 [
                     e.speed_mps - estimate.speed_mps,
                     (e.displacement_t - estimate.displacement_t) / d_nom_t,
+                    g - ln_gain.unwrap_or(f64::NAN),
                 ]
             })
-            .filter(|v| v.iter().all(|x| x.is_finite()) && v[1].abs() > 0.0)
-            .unwrap_or([0.0, 1.0]);
+            .filter(|v| v[..2].iter().all(|x| x.is_finite()) && v[1].abs() > 0.0)
+            .map(|mut v| {
+                if !v[2].is_finite() {
+                    v[2] = 0.0;
+                }
+                v
+            })
+            .unwrap_or([0.0, 1.0, DB_REL]);
         // How the residual moves when the ship itself goes faster (`sensitivity::scale_speed`),
         // per m/s: the networks read the same ship's features at the other speed.
-        let mut similar = |u: f64| -> Option<[f64; 2]> {
+        let mut similar = |u: f64| -> Option<[f64; P]> {
             let f = sensitivity::scale_speed(features, u)?;
             let e = est.estimate(method, &f, scratch).ok()?;
-            Some([e.speed_mps - u, e.displacement_t / d_nom_t])
+            Some([e.speed_mps - u, e.displacement_t / d_nom_t, gain_of(&f)])
         };
         let (u_hi, u_lo) = (
             u_log + DU_SIMILAR_MPS,
@@ -142,10 +157,14 @@ impl Fdi {
         // How it moves per unit of ln D when the ship is declared and is `D` heavier: `b`
         // scales by `1 / D` (`sensitivity::scale_b`), the residual is taken against the new
         // declared displacement.
-        let mut loaded = |dl: f64| -> Option<[f64; 2]> {
+        let mut loaded = |dl: f64| -> Option<[f64; P]> {
             let f = sensitivity::scale_b(features, (-dl).exp())?;
             let e = est.estimate(method, &f, scratch).ok()?;
-            Some([e.speed_mps, e.displacement_t / (d_nom_t * dl.exp())])
+            Some([
+                e.speed_mps,
+                e.displacement_t / (d_nom_t * dl.exp()),
+                gain_of(&f),
+            ])
         };
         let loading_slope = central(loaded(DL_SIMILAR), loaded(-DL_SIMILAR), 2.0 * DL_SIMILAR);
         let raw = Raw {
@@ -158,6 +177,7 @@ impl Fdi {
             speed_log_mps: u_log,
             displacement_declared_t: d_nom_t,
             excitation_scale: features.excitation_scale(),
+            ln_gain,
         };
         let ok = [raw.speed_mps, raw.displacement, g]
             .iter()

@@ -98,7 +98,7 @@ use super::config::{FdiConfig, ReferenceConfig};
 use super::decision::Limits;
 use super::envelope::{self, Sample, Shape};
 pub use super::measured::{calibration, kappa, Basis, Measured};
-use super::stats::Cov2;
+use super::stats::{Cov, P};
 use serde::{Deserialize, Serialize};
 
 /// The one-sided normal quantile of the power commissioning resolves its faults with (95 %).
@@ -167,7 +167,7 @@ impl Settings {
             memory: r.memory_tests as usize,
             resolve_speed_mps: r.resolve_speed_mps,
             resolve_displacement: r.resolve_displacement,
-            single_limit: limits.param[0],
+            single_limit: limits.param[P],
             change_alpha: fdi.false_alarms_per_year / 365.25 / looks,
         }
     }
@@ -203,9 +203,11 @@ pub struct Reference {
     pub speed_offset_mps: f64,
     /// Offset of `e_D` there [fraction of D_nom].
     pub displacement_offset: f64,
-    /// The scatter's covariance at the learned tests' mean design spreads [(m/s)^2, m/s x
-    /// fraction, fraction^2].
-    pub covariance: Cov2,
+    /// Level of `e_b`, the ln of the high-frequency gain, there [ln 1/s^2].
+    pub ln_gain: f64,
+    /// The scatter's covariance at the learned tests' mean design spreads (rows `e_u` [m/s],
+    /// `e_D` [fraction], `e_b` [ln]).
+    pub covariance: Cov,
     /// Its effective degrees of freedom.
     pub dof: f64,
     /// Mean design spread of the speed over the learned tests [m/s].
@@ -237,19 +239,51 @@ pub struct Raw {
     pub displacement_declared_t: f64,
     /// The excitation's scale against its design (`Features::excitation_scale`).
     pub excitation_scale: f64,
-    /// How `(e_u, e_D)` move per m/s of the ship's own speed by the similarity law
-    /// (`crate::core::fdi::sensitivity::scale_speed`) [(m/s, fraction) per m/s].
-    pub speed_slope: [f64; 2],
-    /// How `(e_u, e_D)` move per unit of `ln D` of a declared change of loading, `b` scaling
-    /// by `1 / D` (`crate::core::fdi::sensitivity::scale_b`) [(m/s, fraction) per unit ln D].
-    pub loading_slope: [f64; 2],
+    /// `e_b`: the ln of the test's own high-frequency gain
+    /// (`crate::core::fdi::sensitivity::ln_gain`; `None`: the features do not say).
+    #[serde(default)]
+    pub ln_gain: Option<f64>,
+    /// How `(e_u, e_D, e_b)` move per m/s of the ship's own speed by the similarity law
+    /// (`crate::core::fdi::sensitivity::scale_speed`) [(m/s, fraction, ln) per m/s].
+    pub speed_slope: [f64; P],
+    /// How they move per unit of `ln D` of a declared change of loading, `b` scaling by
+    /// `1 / D` (`crate::core::fdi::sensitivity::scale_b`) [(m/s, fraction, ln) per unit ln D].
+    pub loading_slope: [f64; P],
 }
 
 impl Raw {
+    /// `(e_u, e_D, e_b)`, `e_b` NaN when the test has none.
+    pub fn e(&self) -> [f64; P] {
+        [
+            self.speed_mps,
+            self.displacement,
+            self.ln_gain.unwrap_or(f64::NAN),
+        ]
+    }
+
+    /// The design spreads: `e_b`'s is the displacement's (`b` scales with `1 / D`: the
+    /// same relative units; the shape learns the ratio).
+    pub fn s(&self) -> [f64; P] {
+        [
+            self.speed_sigma_mps,
+            self.displacement_sigma,
+            self.displacement_sigma,
+        ]
+    }
+
+    /// The residual's dimension: 3 with `e_b`, else 2.
+    pub fn dim(&self) -> usize {
+        if self.ln_gain.is_some_and(f64::is_finite) {
+            P
+        } else {
+            2
+        }
+    }
+
     fn sample(&self) -> Sample {
         Sample {
-            e: [self.speed_mps, self.displacement],
-            s: [self.speed_sigma_mps, self.displacement_sigma],
+            e: self.e(),
+            s: self.s(),
             speed_mps: self.speed_log_mps,
             displacement_t: self.displacement_declared_t,
             excitation_scale: self.excitation_scale,
@@ -285,24 +319,29 @@ impl Commissioning {
 
     /// The basis and residual of `raw`.
     pub fn measure(&self, s: &Settings, raw: &Raw) -> (Basis, Measured) {
-        let e = [raw.speed_mps, raw.displacement];
+        // Design and wide limits know nothing of `e_b` (a hull's gain is its own): the
+        // first two components only.
+        let e2 = [raw.speed_mps, raw.displacement, 0.0];
         let wide = Measured {
-            r: e,
-            cov: Cov2::diag(
+            r: e2,
+            cov: Cov::diag([
                 raw.speed_sigma_mps.max(s.wide_speed_mps),
                 raw.displacement_sigma.max(s.wide_displacement),
-            ),
+                1.0,
+            ]),
             offset_var: None,
             dof: f64::INFINITY,
-            learned: Cov2::default(),
+            learned: Cov::default(),
+            dim: 2,
         };
         if s.tests == 0 {
             let m = Measured {
-                r: e,
-                cov: Cov2::diag(raw.speed_sigma_mps, raw.displacement_sigma),
+                r: e2,
+                cov: Cov::diag([raw.speed_sigma_mps, raw.displacement_sigma, 1.0]),
                 offset_var: Some(0.0),
                 dof: f64::INFINITY,
-                learned: Cov2::default(),
+                learned: Cov::default(),
+                dim: 2,
             };
             return (Basis::Design, m);
         }
@@ -327,22 +366,22 @@ impl Commissioning {
                 // The scatter and the offset's error rest on the learned tests, except the
                 // offset error's part that is the slope prior's: a stated model of how far the
                 // similarity law may miss away from the learned points, known like the floors.
-                let scatter = shape
-                    .cov
-                    .scaled(raw.speed_sigma_mps, raw.displacement_sigma);
+                let scatter = shape.cov.scaled(raw.s());
                 let d = p.prior_share.map(|x| (1.0 - x).clamp(0.0, 1.0).sqrt());
-                let offset_learned = Cov2 {
-                    xx: p.cov.xx * d[0] * d[0],
-                    xy: p.cov.xy * d[0] * d[1],
-                    yy: p.cov.yy * d[1] * d[1],
-                };
-                let learned = scatter.plus(offset_learned);
-                let floors = Cov2::diag(s.floor_speed_mps, s.floor_displacement);
-                let cov = scatter.plus(p.cov).plus(floors);
+                let dim = raw.dim();
+                let learned = scatter.plus(p.cov.scaled(d)).leading(dim, 0.0);
+                let floors = Cov::diag([
+                    s.floor_speed_mps,
+                    s.floor_displacement,
+                    s.floor_displacement,
+                ]);
+                let cov = scatter.plus(p.cov).plus(floors).leading(dim, 1.0);
+                let e = raw.e();
+                let r = std::array::from_fn(|j| if j < dim { e[j] - p.offset[j] } else { 0.0 });
                 let m = Measured {
-                    r: [e[0] - p.offset[0], e[1] - p.offset[1]],
+                    r,
                     cov,
-                    offset_var: Some(p.cov.max_ratio(cov)),
+                    offset_var: Some(p.cov.leading(dim, 0.0).max_ratio(cov)),
                     // At a point not yet visited the scatter is known only as well as the
                     // tests near it vouch for it: the shape was learned elsewhere, and a
                     // hull's scatter can differ there.
@@ -352,6 +391,7 @@ impl Commissioning {
                         shape.dof.min(p.support - 1.0)
                     },
                     learned,
+                    dim,
                 };
                 (Basis::Vessel(p), m)
             }
@@ -377,7 +417,11 @@ impl Commissioning {
                 if let Some((k, t)) = changepoint::change_point(
                     &self.samples,
                     &s.envelope,
-                    [s.floor_speed_mps, s.floor_displacement],
+                    [
+                        s.floor_speed_mps,
+                        s.floor_displacement,
+                        s.floor_displacement,
+                    ],
                     s.change_alpha,
                 ) {
                     let at = k as u32 + 1;
@@ -449,8 +493,9 @@ impl Commissioning {
             };
             (t.sqrt() + RESOLVE_POWER_Z) * sd
         };
-        s.resolve_speed_mps >= multiple(0, sh.cov.xx, s.floor_speed_mps)
-            && s.resolve_displacement >= multiple(1, sh.cov.yy, s.floor_displacement)
+        let v = sh.cov.variances();
+        s.resolve_speed_mps >= multiple(0, v[0], s.floor_speed_mps)
+            && s.resolve_displacement >= multiple(1, v[1], s.floor_displacement)
     }
 
     /// Updates the summary from the learned tests.
@@ -470,20 +515,24 @@ impl Commissioning {
         };
         let s_u = mean(&|x| x.s[0]);
         let s_d = mean(&|x| x.s[1]);
+        let s_b = mean(&|x| x.s[2]);
         let u = mean(&|x| x.speed_mps);
         let at = envelope::Point {
             speed_mps: u,
             displacement_t: mean(&|x| x.displacement_t.ln()).exp(),
             excitation_scale: mean(&|x| x.excitation_scale.ln()).exp(),
         };
-        let off = envelope::predict(&self.samples, &s.envelope, &sh, &at)
-            .map_or([mean(&|x| x.e[0]), mean(&|x| x.e[1])], |p| p.offset);
+        let off = envelope::predict(&self.samples, &s.envelope, &sh, &at).map_or(
+            [mean(&|x| x.e[0]), mean(&|x| x.e[1]), mean(&|x| x.e[2])],
+            |p| p.offset,
+        );
         self.reference = Some(Reference {
             tests: self.tests,
             learned: self.samples.len() as u32,
             speed_offset_mps: off[0],
             displacement_offset: off[1],
-            covariance: sh.cov.scaled(s_u, s_d),
+            ln_gain: off[2],
+            covariance: sh.cov.scaled([s_u, s_d, s_b]),
             dof: sh.dof,
             speed_design_sigma_mps: s_u,
             displacement_design_sigma: s_d,
@@ -512,12 +561,13 @@ impl Commissioning {
                 };
                 let p = envelope::predict(&self.samples, &s.envelope, &sh, &at)?;
                 let sd = |var: f64, pv: f64, floor: f64| (k * (var + pv) + floor * floor).sqrt();
+                let (v, pv) = (r.covariance.variances(), p.cov.variances());
                 Some((
                     u,
-                    p.offset,
+                    [p.offset[0], p.offset[1]],
                     [
-                        sd(r.covariance.xx, p.cov.xx, s.floor_speed_mps),
-                        sd(r.covariance.yy, p.cov.yy, s.floor_displacement),
+                        sd(v[0], pv[0], s.floor_speed_mps),
+                        sd(v[1], pv[1], s.floor_displacement),
                     ],
                 ))
             })

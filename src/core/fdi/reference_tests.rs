@@ -1,6 +1,7 @@
 use super::*;
 use crate::core::fdi::config::{FdiConfig, ReferenceConfig};
 use crate::core::fdi::decision::Limits;
+use crate::core::fdi::stats::dot;
 
 fn settings(k: u32) -> Settings {
     let fdi = FdiConfig {
@@ -24,8 +25,11 @@ fn raw_at(e_u: f64, e_d: f64, u: f64, d: f64) -> Raw {
         speed_log_mps: u,
         displacement_declared_t: d,
         excitation_scale: 1.0,
-        speed_slope: [0.0; 2],
-        loading_slope: [0.0; 2],
+        // A gain whose scatter is its own (not a linear function of the others'), about the
+        // displacement's size.
+        ln_gain: Some(-5.0 + 0.002 * (37.0 * e_u + 91.0 * e_d).sin()),
+        speed_slope: [0.0; 3],
+        loading_slope: [0.0; 3],
     }
 }
 
@@ -76,12 +80,12 @@ fn the_reference_is_the_sample_mean_and_covariance() {
     let syy = cov(&|x| (x.1 - mu.1).powi(2));
     assert!((r.speed_offset_mps - mu.0).abs() < 1e-12);
     assert!((r.displacement_offset - mu.1).abs() < 1e-12);
-    assert!((r.covariance.xx - sxx).abs() < 1e-9 * sxx);
-    assert!((r.covariance.xy - sxy).abs() < 1e-9 * sxy.abs());
-    assert!((r.covariance.yy - syy).abs() < 1e-9 * syy);
+    assert!((r.covariance.at(0, 0) - sxx).abs() < 1e-9 * sxx);
+    assert!((r.covariance.at(0, 1) - sxy).abs() < 1e-9 * sxy.abs());
+    assert!((r.covariance.at(1, 1) - syy).abs() < 1e-9 * syy);
     assert!((r.dof - 4.0).abs() < 1e-9);
     assert!(
-        r.covariance.correlation() < -0.5,
+        r.covariance.correlation(0, 1) < -0.5,
         "the sample is anti-correlated"
     );
     assert_eq!(
@@ -104,32 +108,27 @@ fn the_test_covariance_carries_the_sea_the_offset_error_the_k_factor_and_the_flo
     assert!((m.r[0] - (1.3 - r.speed_offset_mps)).abs() < 1e-12);
     // The mean's error S / 5 on top of S, and the floors; Hotelling's tail with nu = 4 is
     // the calibration's business (`Measured::whitened`), kappa only sizes commissioning.
-    assert_eq!(kappa(4.0), 4.0);
-    assert_eq!(kappa(7.0), 1.75);
+    assert_eq!(kappa(5.0), 5.0);
+    assert_eq!(kappa(8.0), 2.0);
     let want = |v: f64, f: f64| v * 1.2 + f * f;
-    assert!((m.cov.xx - want(r.covariance.xx, 0.05)).abs() < 1e-9 * m.cov.xx);
-    assert!((m.cov.xy - 1.2 * r.covariance.xy).abs() < 1e-9 * m.cov.xy.abs());
-    assert!((m.cov.yy - want(r.covariance.yy, 0.004)).abs() < 1e-9 * m.cov.yy);
+    let rc = |i, j| r.covariance.at(i, j);
+    assert!((m.cov.at(0, 0) - want(rc(0, 0), 0.05)).abs() < 1e-9 * m.cov.at(0, 0));
+    assert!((m.cov.at(0, 1) - 1.2 * rc(0, 1)).abs() < 1e-9 * m.cov.at(0, 1).abs());
+    assert!((m.cov.at(1, 1) - want(rc(1, 1), 0.004)).abs() < 1e-9 * m.cov.at(1, 1));
+    assert!((m.cov.at(2, 2) - want(rc(2, 2), 0.004)).abs() < 1e-9 * m.cov.at(2, 2));
     // The floors add degrees of freedom along the residual: nu / (the learned share).
     let learned = r.covariance.times(1.2);
-    assert_eq!(m.dof, 4.0);
-    for (a, b) in [
-        (m.learned.xx, learned.xx),
-        (m.learned.xy, learned.xy),
-        (m.learned.yy, learned.yy),
-    ] {
+    assert_eq!((m.dof, m.dim), (4.0, 3));
+    for (a, b) in m.learned.0.iter().flatten().zip(learned.0.iter().flatten()) {
         assert!((a - b).abs() < 1e-12 * b.abs(), "{a} vs {b}");
     }
-    let y = {
-        let c = m.cov;
-        let det = c.xx * c.yy - c.xy * c.xy;
-        [
-            (c.yy * m.r[0] - c.xy * m.r[1]) / det,
-            (c.xx * m.r[1] - c.xy * m.r[0]) / det,
-        ]
-    };
-    let t = m.r[0] * y[0] + m.r[1] * y[1];
-    let ya = y[0] * y[0] * learned.xx + 2.0 * y[0] * y[1] * learned.xy + y[1] * y[1] * learned.yy;
+    // By the explicit inverse (nalgebra's LU).
+    let inv = nalgebra::Matrix3::from_fn(|i, j| m.cov.at(i, j))
+        .try_inverse()
+        .unwrap();
+    let y: [f64; 3] = (inv * nalgebra::Vector3::from(m.r)).into();
+    let t = dot(m.r, y);
+    let ya = learned.form(y, y);
     assert!((m.effective_dof() - 4.0 * t / ya).abs() < 1e-9 * m.effective_dof());
     assert!(m.effective_dof() > 4.0);
     // The shared share: the mean's error over the whole, largest where the floors weigh
@@ -149,9 +148,10 @@ fn the_test_covariance_carries_the_sea_the_offset_error_the_k_factor_and_the_flo
     let (_, m3) = c0.measure(&settings(5), &rough);
     let r0 = c0.reference.unwrap();
     // The scatter is carried (x9, x3), the offset's error is not (it is the sample's).
-    assert!((m3.cov.xx - m0.cov.xx - 8.0 * r0.covariance.xx).abs() < 1e-9 * m3.cov.xx);
-    assert!((m3.cov.xy - m0.cov.xy - 2.0 * r0.covariance.xy).abs() < 1e-9 * m3.cov.xy.abs());
-    assert!((m3.cov.yy - m0.cov.yy).abs() < 1e-12 * m0.cov.yy);
+    let (a, b, c) = (m3.cov, m0.cov, r0.covariance);
+    assert!((a.at(0, 0) - b.at(0, 0) - 8.0 * c.at(0, 0)).abs() < 1e-9 * a.at(0, 0));
+    assert!((a.at(0, 1) - b.at(0, 1) - 2.0 * c.at(0, 1)).abs() < 1e-9 * a.at(0, 1).abs());
+    assert!((a.at(1, 1) - b.at(1, 1)).abs() < 1e-12 * b.at(1, 1));
 }
 
 #[test]
@@ -163,7 +163,10 @@ fn commissioning_is_wide_and_ends_as_soon_as_the_sample_resolves_its_faults() {
     };
     let mut c = Commissioning::default();
     let (_, m) = c.measure(&s, &raw(1.0, -0.2));
-    assert_eq!((m.cov, m.offset_var), (Cov2::diag(1.0, 0.1), None));
+    assert_eq!(
+        (m.cov, m.offset_var, m.dim),
+        (Cov::diag([1.0, 0.1, 1.0]), None, 2)
+    );
     // A scatter of 0.015 m/s and 0.1 %, well under the floors: six tests resolve 0.5 m/s
     // and 10 % (the least the change-point test needs).
     let tight = [0.0, 0.02, -0.02, 0.01, -0.01, 0.0, 0.015, -0.015];
@@ -221,13 +224,13 @@ fn a_new_operating_point_is_predicted_wider_then_learned() {
     let (b, m) = c.measure(&s, &raw_at(0.25, -0.2, 8.5, 7000.0));
     assert_eq!(b.name(), "predicted");
     assert!(
-        m.cov.xx > 10.0 * at_home.cov.xx,
+        m.cov.at(0, 0) > 10.0 * at_home.cov.at(0, 0),
         "{} vs {}",
-        m.cov.xx,
-        at_home.cov.xx
+        m.cov.at(0, 0),
+        at_home.cov.at(0, 0)
     );
     let z = m.cov.whiten(m.r).unwrap();
-    assert!(z[0] * z[0] + z[1] * z[1] < 9.0, "{z:?}");
+    assert!(dot(z, z) < 9.0, "{z:?}");
     assert!(m.offset_var.unwrap() > 0.9);
     // Learned: four tests there and the point is the vessel's own.
     for w in [0.0, 0.02, -0.02, 0.01] {
@@ -240,16 +243,16 @@ fn a_new_operating_point_is_predicted_wider_then_learned() {
     assert_eq!(b.name(), "commissioned");
     assert!(m.r[0].abs() < 0.1, "{:?}", m.r);
     assert!(
-        m.cov.xx < 4.0 * at_home.cov.xx,
+        m.cov.at(0, 0) < 4.0 * at_home.cov.at(0, 0),
         "{} vs {}",
-        m.cov.xx,
-        at_home.cov.xx
+        m.cov.at(0, 0),
+        at_home.cov.at(0, 0)
     );
     // A +12 % displacement there now crosses the displacement look's single-test limit (24.5)
     // on its own.
     let (_, f) = c.measure(&s, &raw_at(0.25, -0.08, 8.5, 7000.0));
     let z = f.cov.whiten(f.r).unwrap();
-    assert!(z[0] * z[0] + z[1] * z[1] > 27.0, "{z:?}");
+    assert!(dot(z, z) > 27.0, "{z:?}");
     // The declared loading is an operating point too: 20 % lighter is predicted.
     let (b, _) = c.measure(&s, &raw_at(0.25, -0.2, 8.5, 5600.0));
     assert_eq!(b.name(), "predicted");
@@ -281,7 +284,7 @@ fn without_commissioning_the_design_reference_serves() {
     assert_eq!(b, Basis::Design);
     assert_eq!(
         (m.r, m.cov, m.offset_var),
-        ([1.0, -0.2], Cov2::diag(0.05, 0.002), Some(0.0))
+        ([1.0, -0.2, 0.0], Cov::diag([0.05, 0.002, 1.0]), Some(0.0))
     );
 }
 
@@ -289,17 +292,22 @@ fn without_commissioning_the_design_reference_serves() {
 fn the_calibration_maps_hotellings_tail_onto_the_chi_squares() {
     // T^2(2, 6) at 5 % is 13.89 (2 x 6 / 5 x F(2, 5) = 2.4 x 5.786); chi2_2 at 5 % is 5.991.
     let t = 2.4 * 5.786;
-    let k = calibration(t, 6.0);
+    let k = calibration(t, 6.0, 2);
     assert!((k * k * t - 5.991).abs() < 0.01, "{}", k * k * t);
+    // p = 3: T^2(3, 10) at 5 % is 3.75 x F(3, 8) = 3.75 x 4.0662; chi2_3 at 5 % is 7.8147.
+    let t3 = 3.75 * 4.0662;
+    let k3 = calibration(t3, 10.0, 3);
+    assert!((k3 * k3 * t3 - 7.8147).abs() < 0.01, "{}", k3 * k3 * t3);
     // Known covariance: unchanged; many dof: nearly so.
-    assert_eq!(calibration(30.0, f64::INFINITY), 1.0);
-    assert!((calibration(30.0, 1e6) - 1.0).abs() < 1e-4);
+    assert_eq!(calibration(30.0, f64::INFINITY, 3), 1.0);
+    assert!((calibration(30.0, 1e6, 3) - 1.0).abs() < 1e-4);
     let m = Measured {
-        r: [0.3, 0.0],
-        cov: Cov2::diag(0.1, 0.01),
+        r: [0.3, 0.0, 0.0],
+        cov: Cov::diag([0.1, 0.01, 1.0]),
         offset_var: Some(0.0),
         dof: 6.0,
-        learned: Cov2::diag(0.1, 0.01),
+        learned: Cov::diag([0.1, 0.01, 0.0]),
+        dim: 2,
     };
     let z = m.whitened().unwrap();
     assert!((z[0] * z[0] - 5.0 * (1.0 + 9.0 / 6.0f64).ln()).abs() < 1e-12);

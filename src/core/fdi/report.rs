@@ -21,7 +21,7 @@ pub const MISMATCH_ADVICE: &str = "the ship's response is not the trained model'
 /// covariance means something else; 4: the excitation's scale is a coordinate of the
 /// operating point, unknown in older samples; 5: each learned test carries its physical
 /// slopes in speed and loading, the slope priors' means).
-const DECISION_MODEL: u32 = 5;
+const DECISION_MODEL: u32 = 6;
 
 /// The `model_mismatch` warning of a fit, if its chi-square is over `threshold`.
 pub fn mismatch(fit: &ModelFit, threshold: f64) -> Option<ModelMismatch> {
@@ -62,8 +62,12 @@ pub fn baseline(
             displacement_t: rd,
             displacement_sigma_t: sd,
             z_displacement: rd / sd,
+            ln_gain: None,
+            ln_gain_sigma: None,
+            z_ln_gain: None,
             correlation: 0.0,
             chi2: (ru / su).powi(2) + (rd / sd).powi(2),
+            dof: 2,
         };
         // The log's direction: D from b grows as u_log^2.
         let g = 2.0 * d_est / u_log;
@@ -76,7 +80,7 @@ pub fn baseline(
             isolation: Vec::new(),
         };
     };
-    let fault = p.chi2 > limits.param[0];
+    let fault = p.chi2 > limits.param[2];
     let isolation = if fault {
         // Distance of z to each cause's line, as `isolation` does for one test.
         let z = [p.z_speed, p.z_displacement];

@@ -41,6 +41,45 @@
 
 use crate::core::wire::Features;
 
+/// The ln of the test's own estimate of the ship's high-frequency gain `b` [ln 1/s^2]: the
+/// response where the ship is nearest its inertia, `psi / delta -> b / (jw)^2`, read straight
+/// from the features (no network):
+///
+/// - **CLFRT**: the highest tone, `ln(|G(jw)| w^2)` (on the first-order model
+///   `b / sqrt(1 + (a / w)^2)`: the tones sit well above `a`);
+/// - **HBT**: the relay cycle's response gain and phase through the first-order model at
+///   the cycle, `|G| = b / (w sqrt(w^2 + a^2))`, `tan(lag) = w / a`:
+///   `ln(|G| w^2 / sin(lag))`.
+///
+/// `b` scales with `1 / D` (rudder force over inertia) and with `u^2` (the similarity law):
+/// on a hull whose networks cannot read its displacement it still moves with it (KVLCC2's
+/// highest tone moves 5 % for 10 % of D, 16 times its scatter in a moderate sea). `None`
+/// when the features do not say (an HBT test without its response, a lag outside the
+/// model's range).
+pub fn ln_gain(features: &Features) -> Option<f64> {
+    let v = match features {
+        Features::Clfrt(c) => {
+            let t = c
+                .tones
+                .iter()
+                .filter(|t| t.omega_rad_s > 0.0 && t.gain > 0.0)
+                .max_by(|a, b| a.omega_rad_s.total_cmp(&b.omega_rad_s))?;
+            (t.gain * t.omega_rad_s * t.omega_rad_s).ln()
+        }
+        Features::Hbt(h) => {
+            let w = h.omega_u_rad_s;
+            let g = h.response_gain?;
+            let lag = -h.response_phase_rad? - std::f64::consts::FRAC_PI_2;
+            if !(lag > 0.0 && lag < std::f64::consts::FRAC_PI_2 && w > 0.0 && g > 0.0) {
+                return None;
+            }
+            (g * w * w / lag.sin()).ln()
+        }
+        Features::None => return None,
+    };
+    v.is_finite().then_some(v)
+}
+
 /// The features of the same test on a ship whose `b` is `k` times larger (`k` near 1), or
 /// `None` when the features do not say enough (an HBT test without its response phase, or
 /// one whose phase is outside the first-order model's range).

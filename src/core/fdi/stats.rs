@@ -1,4 +1,4 @@
-//! The distributions the decision's limits come from, and 2 x 2 covariance algebra.
+//! The distributions the decision's limits come from, and `P x P` covariance algebra.
 //!
 //! - Chi-square with an even number of degrees of freedom `2k` (the parameter channel has 2
 //!   per method in the window): `P(X > x) = e^{-x/2} sum_{j<k} (x/2)^j / j!`, exact.
@@ -7,9 +7,13 @@
 //!   relative error about 1e-16, far below anything a limit needs).
 //! - Quantiles by bisection on the tails (monotone; 200 halvings reach the f64 grain).
 //!
-//! A covariance `[[xx, xy], [xy, yy]]` of the two parameter residuals (speed [m/s],
-//! displacement [fraction]) whitens a residual by its Cholesky factor: `z = L^-1 r` with
-//! `L L' = Sigma`, so `|z|^2 = r' Sigma^-1 r` and, for a healthy ship, `z` is standard normal.
+//! - Chi-square with any number of degrees of freedom, and Hotelling's `T^2`, from the
+//!   regularised incomplete gamma and beta functions of `statrs` (checked against the exact
+//!   even-dof sum and the closed form at `p = 2`).
+//!
+//! A covariance of the `P` parameter residuals (speed [m/s], displacement [fraction], ln
+//! gain) whitens a residual by its Cholesky factor: `z = L^-1 r` with `L L' = Sigma`, so
+//! `|z|^2 = r' Sigma^-1 r` and, for a healthy ship, `z` is standard normal.
 
 use serde::{Deserialize, Serialize};
 
@@ -109,99 +113,189 @@ fn bisect(tail: impl Fn(f64) -> f64, p: f64, mut lo: f64, mut hi: f64) -> f64 {
     0.5 * (lo + hi)
 }
 
-/// A symmetric 2 x 2 covariance `[[xx, xy], [xy, yy]]`.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
-pub struct Cov2 {
-    /// Variance of the first component.
-    pub xx: f64,
-    /// Covariance.
-    pub xy: f64,
-    /// Variance of the second component.
-    pub yy: f64,
+/// The parameter residual's dimension: speed [m/s], displacement [fraction of D], the ln of
+/// the test's high-frequency gain `b^` (`crate::core::fdi::sensitivity::ln_gain`).
+pub const P: usize = 3;
+
+/// `P(chi2_dof > x)` for any `dof > 0` (the regularised upper incomplete gamma function,
+/// `statrs`).
+pub fn chi2_sf(x: f64, dof: f64) -> f64 {
+    if x.is_nan() || x <= 0.0 {
+        return 1.0;
+    }
+    if x.is_infinite() {
+        return 0.0;
+    }
+    statrs::function::gamma::gamma_ur(0.5 * dof, 0.5 * x)
 }
 
-impl Cov2 {
-    /// A diagonal covariance of standard deviations `sx`, `sy`.
-    pub fn diag(sx: f64, sy: f64) -> Self {
-        Self {
-            xx: sx * sx,
-            xy: 0.0,
-            yy: sy * sy,
-        }
+/// The `x` with `P(chi2_dof > x) = p`.
+pub fn chi2_isf(p: f64, dof: f64) -> f64 {
+    bisect(|x| chi2_sf(x, dof), p, 0.0, 10_000.0)
+}
+
+/// `P(T^2 > t)` for Hotelling's `T^2 (p, nu)` (a `p`-vector whitened by a covariance with
+/// `nu` degrees of freedom): `T^2 nu^-1 (nu - p + 1) / p ~ F(p, nu - p + 1)`, whose tail is
+/// the regularised incomplete beta function `I_{nu / (nu + t)}((nu - p + 1) / 2, p / 2)`.
+/// For `p = 2` that is `(1 + t / nu)^(-(nu - 1) / 2)`.
+pub fn hotelling_sf(t: f64, p: usize, nu: f64) -> f64 {
+    let d2 = nu - p as f64 + 1.0;
+    if t.is_nan() || t <= 0.0 {
+        return 1.0;
+    }
+    if !nu.is_finite() {
+        return chi2_sf(t, p as f64);
+    }
+    if d2 <= 0.0 {
+        return 1.0;
+    }
+    statrs::function::beta::beta_reg(0.5 * d2, 0.5 * p as f64, nu / (nu + t))
+}
+
+/// The `t` with `P(T^2 (p, nu) > t) = alpha` (infinite when `nu <= p - 1`).
+pub fn hotelling_isf(alpha: f64, p: usize, nu: f64) -> f64 {
+    if nu <= p as f64 - 1.0 {
+        return f64::INFINITY;
+    }
+    if !nu.is_finite() {
+        return chi2_isf(alpha, p as f64);
+    }
+    bisect(|t| hotelling_sf(t, p, nu), alpha, 0.0, 1e12)
+}
+
+/// A symmetric `P x P` covariance of the parameter residual (its rows: speed [m/s],
+/// displacement [fraction], ln gain).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[serde(transparent)]
+pub struct Cov(pub [[f64; P]; P]);
+
+impl Cov {
+    /// A diagonal covariance of standard deviations `s`.
+    pub fn diag(s: [f64; P]) -> Self {
+        Self(std::array::from_fn(|i| {
+            std::array::from_fn(|j| if i == j { s[i] * s[i] } else { 0.0 })
+        }))
     }
 
-    /// `D Sigma D` for `D = diag(dx, dy)`.
-    pub fn scaled(self, dx: f64, dy: f64) -> Self {
-        Self {
-            xx: self.xx * dx * dx,
-            xy: self.xy * dx * dy,
-            yy: self.yy * dy * dy,
-        }
+    /// Element `(i, j)`.
+    pub fn at(&self, i: usize, j: usize) -> f64 {
+        self.0[i][j]
+    }
+
+    /// The variances.
+    pub fn variances(&self) -> [f64; P] {
+        std::array::from_fn(|i| self.0[i][i])
+    }
+
+    /// `D Sigma D` for `D = diag(d)`.
+    pub fn scaled(self, d: [f64; P]) -> Self {
+        Self(std::array::from_fn(|i| {
+            std::array::from_fn(|j| self.0[i][j] * d[i] * d[j])
+        }))
     }
 
     /// `k Sigma`.
     pub fn times(self, k: f64) -> Self {
-        Self {
-            xx: self.xx * k,
-            xy: self.xy * k,
-            yy: self.yy * k,
-        }
+        Self(self.0.map(|r| r.map(|v| v * k)))
     }
 
     /// `Sigma + other`.
     pub fn plus(self, o: Self) -> Self {
-        Self {
-            xx: self.xx + o.xx,
-            xy: self.xy + o.xy,
-            yy: self.yy + o.yy,
-        }
+        Self(std::array::from_fn(|i| {
+            std::array::from_fn(|j| self.0[i][j] + o.0[i][j])
+        }))
     }
 
-    /// The correlation (0 when a variance is 0).
-    pub fn correlation(self) -> f64 {
-        let d = (self.xx * self.yy).sqrt();
+    /// The correlation of components `i` and `j` (0 when a variance is 0).
+    pub fn correlation(self, i: usize, j: usize) -> f64 {
+        let d = (self.0[i][i] * self.0[j][j]).sqrt();
         if d > 0.0 {
-            self.xy / d
+            self.0[i][j] / d
         } else {
             0.0
         }
+    }
+
+    /// Every element finite.
+    pub fn is_finite(&self) -> bool {
+        self.0.iter().flatten().all(|v| v.is_finite())
+    }
+
+    /// The first `dim` components' covariance, the others independent with variance `fill`
+    /// (1 for a residual measured in fewer components, its missing ones 0; 0 for a part of
+    /// its covariance).
+    pub fn leading(self, dim: usize, fill: f64) -> Self {
+        Self(std::array::from_fn(|i| {
+            std::array::from_fn(|j| match (i < dim && j < dim, i == j) {
+                (true, _) => self.0[i][j],
+                (false, true) => fill,
+                (false, false) => 0.0,
+            })
+        }))
+    }
+
+    fn matrix(&self) -> nalgebra::SMatrix<f64, P, P> {
+        nalgebra::SMatrix::<f64, P, P>::from_fn(|i, j| self.0[i][j])
     }
 
     /// The largest `lambda` with `det(self - lambda other) = 0`: the largest share of
     /// `other`'s variance, in any direction, that `self` accounts for (0 when `other` is
     /// not positive definite).
     pub fn max_ratio(self, other: Self) -> f64 {
-        let det_b = other.xx * other.yy - other.xy * other.xy;
-        let det_a = self.xx * self.yy - self.xy * self.xy;
-        if det_b.is_nan() || det_b <= 0.0 {
+        let Some(l) = other.matrix().cholesky() else {
             return 0.0;
-        }
-        let q = self.xx * other.yy + self.yy * other.xx - 2.0 * self.xy * other.xy;
-        let disc = (q * q - 4.0 * det_b * det_a).max(0.0);
-        let l = (q + disc.sqrt()) / (2.0 * det_b);
-        if l.is_finite() {
-            l.max(0.0)
+        };
+        let Some(li) = l.l().try_inverse() else {
+            return 0.0;
+        };
+        let m = li * self.matrix() * li.transpose();
+        let m = (m + m.transpose()) * 0.5;
+        let top = m.symmetric_eigenvalues().max();
+        if top.is_finite() {
+            top.max(0.0)
         } else {
             0.0
         }
     }
 
     /// `L^-1 r` with `L` the lower Cholesky factor (`None` unless positive definite).
-    pub fn whiten(self, r: [f64; 2]) -> Option<[f64; 2]> {
-        if !(self.xx.is_finite() && self.xx > 0.0) {
+    pub fn whiten(self, r: [f64; P]) -> Option<[f64; P]> {
+        if !self.is_finite() {
             return None;
         }
-        let l11 = self.xx.sqrt();
-        let l21 = self.xy / l11;
-        let d = self.yy - l21 * l21;
-        if !(d.is_finite() && d > 0.0) {
-            return None;
-        }
-        let l22 = d.sqrt();
-        let z0 = r[0] / l11;
-        let z1 = (r[1] - l21 * z0) / l22;
-        (z0.is_finite() && z1.is_finite()).then_some([z0, z1])
+        let l = self.matrix().cholesky()?;
+        let z = l
+            .l()
+            .solve_lower_triangular(&nalgebra::SVector::<f64, P>::from(r))?;
+        let z: [f64; P] = z.into();
+        z.iter().all(|v| v.is_finite()).then_some(z)
     }
+
+    /// `Sigma^-1 r` (`None` unless positive definite).
+    pub fn solve(self, r: [f64; P]) -> Option<[f64; P]> {
+        if !self.is_finite() {
+            return None;
+        }
+        let y = self
+            .matrix()
+            .cholesky()?
+            .solve(&nalgebra::SVector::<f64, P>::from(r));
+        let y: [f64; P] = y.into();
+        y.iter().all(|v| v.is_finite()).then_some(y)
+    }
+
+    /// `a' Sigma b`.
+    pub fn form(&self, a: [f64; P], b: [f64; P]) -> f64 {
+        (0..P)
+            .flat_map(|i| (0..P).map(move |j| (i, j)))
+            .map(|(i, j)| a[i] * self.0[i][j] * b[j])
+            .sum()
+    }
+}
+
+/// `a . b`.
+pub fn dot(a: [f64; P], b: [f64; P]) -> f64 {
+    a.iter().zip(&b).map(|(x, y)| x * y).sum()
 }
 
 #[cfg(test)]
@@ -237,46 +331,67 @@ mod tests {
     }
 
     #[test]
+    fn general_chi2_and_hotelling_tails_match_exact_forms() {
+        // Even dof: the exact finite sum; odd: chi2_3 at 5 % is 7.8147 (tables), at 0.1 %
+        // 16.2662.
+        for (x, dof) in [(13.8155, 2usize), (18.4668, 4), (40.0, 6)] {
+            let (a, b) = (chi2_sf(x, dof as f64), chi2_sf_even(x, dof));
+            assert!((a / b - 1.0).abs() < 1e-9, "{x} {dof}: {a} vs {b}");
+        }
+        assert!((chi2_isf(0.05, 3.0) - 7.8147).abs() < 2e-4);
+        assert!((chi2_isf(1e-3, 3.0) - 16.2662).abs() < 2e-4);
+        // Hotelling p = 2: (1 + t / nu)^(-(nu - 1) / 2).
+        for (t, nu) in [(5.0f64, 6.0f64), (30.0, 4.5), (80.0, 40.0)] {
+            let want = (1.0 + t / nu).powf(-(nu - 1.0) / 2.0);
+            let got = hotelling_sf(t, 2, nu);
+            assert!((got / want - 1.0).abs() < 1e-9, "{t} {nu}: {got} vs {want}");
+        }
+        // p = 1: T^2 is a squared Student t: t_5 two-sided 1 % is 4.0321.
+        assert!((hotelling_isf(0.01, 1, 5.0) - 4.0321f64.powi(2)).abs() < 1e-3);
+        // p = 3, nu = 10: 3 nu / (nu - 2) F(3, 8); F(3, 8) at 5 % is 4.0662.
+        assert!((hotelling_isf(0.05, 3, 10.0) - 3.75 * 4.0662).abs() < 2e-3);
+        // To the chi-square as nu grows.
+        let c = chi2_isf(1e-4, 3.0);
+        assert!((hotelling_isf(1e-4, 3, 1e8) - c).abs() < 1e-3 * c);
+    }
+
+    fn cov(m: [[f64; 3]; 3]) -> Cov {
+        Cov(m)
+    }
+
+    #[test]
     fn max_ratio_is_the_largest_generalised_eigenvalue() {
-        // B = I: the eigenvalues of A itself, (5 +- sqrt(1 + 4)) / 2 for [[3, 1], [1, 2]].
-        let a = Cov2 {
-            xx: 3.0,
-            xy: 1.0,
-            yy: 2.0,
-        };
-        let id = Cov2::diag(1.0, 1.0);
+        // B = I: the eigenvalues of A itself; [[3, 1], [1, 2]] beside 1: (5 + sqrt 5) / 2.
+        let a = cov([[3.0, 1.0, 0.0], [1.0, 2.0, 0.0], [0.0, 0.0, 1.0]]);
+        let id = Cov::diag([1.0; 3]);
         assert!((a.max_ratio(id) - (5.0 + 5f64.sqrt()) / 2.0).abs() < 1e-12);
         // A = c B: c in every direction.
-        let b = Cov2 {
-            xx: 4.0,
-            xy: -1.0,
-            yy: 0.5,
-        };
+        let b = cov([[4.0, -1.0, 0.3], [-1.0, 0.5, 0.1], [0.3, 0.1, 2.0]]);
         assert!((b.times(0.3).max_ratio(b) - 0.3).abs() < 1e-12);
-        // A share of one direction only: diag(1, 0) against diag(4, 1) is 1/4.
-        assert!((Cov2::diag(1.0, 0.0).max_ratio(Cov2::diag(2.0, 1.0)) - 0.25).abs() < 1e-12);
+        // A share of one direction only: diag(1, 0, 0) against diag(4, 1, 1) is 1/4.
+        let one = Cov::diag([1.0, 0.0, 0.0]);
+        assert!((one.max_ratio(Cov::diag([2.0, 1.0, 1.0])) - 0.25).abs() < 1e-12);
     }
 
     #[test]
     fn whitening_gives_the_mahalanobis_distance() {
-        let s = Cov2 {
-            xx: 4.0,
-            xy: -1.8,
-            yy: 1.0,
-        };
-        let r = [1.0, 0.5];
+        let s = cov([[4.0, -1.8, 0.5], [-1.8, 1.0, -0.2], [0.5, -0.2, 0.7]]);
+        let r = [1.0, 0.5, -0.3];
         let z = s.whiten(r).unwrap();
-        // r' S^-1 r by the explicit inverse.
-        let det = s.xx * s.yy - s.xy * s.xy;
-        let m = (s.yy * r[0] * r[0] - 2.0 * s.xy * r[0] * r[1] + s.xx * r[1] * r[1]) / det;
-        assert!((z[0] * z[0] + z[1] * z[1] - m).abs() < 1e-12);
-        assert!((s.correlation() + 0.9).abs() < 1e-12);
-        assert!(Cov2 {
-            xx: 1.0,
-            xy: 1.0,
-            yy: 1.0
-        }
-        .whiten(r)
-        .is_none());
+        // r' S^-1 r by the explicit inverse (nalgebra's LU, not the Cholesky factor).
+        let m = nalgebra::Matrix3::from_fn(|i, j| s.0[i][j]);
+        let inv = m.try_inverse().unwrap();
+        let rv = nalgebra::Vector3::from(r);
+        let want = (rv.transpose() * inv * rv)[(0, 0)];
+        assert!((dot(z, z) - want).abs() < 1e-12);
+        let y = s.solve(r).unwrap();
+        assert!((dot(r, y) - want).abs() < 1e-12);
+        assert!((s.correlation(0, 1) + 0.9).abs() < 1e-12);
+        assert!(cov([[1.0, 1.0, 0.0], [1.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+            .whiten(r)
+            .is_none());
+        // The leading block: the third component independent, unit.
+        let l = s.leading(2, 1.0);
+        assert_eq!((l.at(2, 2), l.at(0, 2), l.at(1, 1)), (1.0, 0.0, 1.0));
     }
 }

@@ -136,8 +136,9 @@ fn a_reference_is_kept_only_for_its_configuration_and_models() {
         speed_log_mps: 7.0,
         displacement_declared_t: 7000.0,
         excitation_scale: 1.0,
-        speed_slope: [0.0; 2],
-        loading_slope: [0.0; 2],
+        ln_gain: Some(-5.0),
+        speed_slope: [0.0; 3],
+        loading_slope: [0.0; 3],
     };
     // No scatter: the floors alone resolve the faults, so commissioning ends at 6 tests.
     while fdi.commissioning[1].in_progress(&s) {

@@ -76,14 +76,18 @@ pub struct RawResiduals {
     pub speed_log_mps: f64,
     /// `dD_est / du_log` through the displacement network [t per m/s].
     pub dd_du_t_per_mps: f64,
-    /// How `(e_u [m/s], e_D)` move per m/s of the ship's own speed by the similarity law
+    /// `e_b = ln b^`: the ln of the test's own high-frequency gain, read from the features
+    /// (CLFRT's highest tone, HBT's cycle; docs/fdi.md) [ln 1/s^2].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ln_gain: Option<f64>,
+    /// How `(e_u [m/s], e_D, e_b)` move per m/s of the ship's own speed by the similarity law
     /// (the features at another speed, read by the networks; docs/fdi.md).
     #[serde(default)]
-    pub speed_slope: [f64; 2],
+    pub speed_slope: [f64; 3],
     /// How they move per unit of `ln D` of a declared change of loading, `b` scaling by
     /// `1 / D` (docs/fdi.md).
     #[serde(default)]
-    pub loading_slope: [f64; 2],
+    pub loading_slope: [f64; 3],
 }
 
 /// Parameter residuals against the reference in force.
@@ -101,10 +105,28 @@ pub struct ParameterResiduals {
     pub displacement_sigma_t: f64,
     /// `r_D / displacement_sigma_t`.
     pub z_displacement: f64,
-    /// The correlation of the two under the reference.
+    /// `r_b`: `e_b` against the vessel's reference [ln] (`None`: measured without it,
+    /// against the design or commissioning's wide limits).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ln_gain: Option<f64>,
+    /// Its standard deviation under the reference [ln].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ln_gain_sigma: Option<f64>,
+    /// `r_b / ln_gain_sigma`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub z_ln_gain: Option<f64>,
+    /// The correlation of the speed and displacement residuals under the reference.
     pub correlation: f64,
-    /// `r' Sigma^-1 r`: the test's own Mahalanobis chi-square (2 degrees of freedom).
+    /// `r' Sigma^-1 r`, calibrated: the test's own Mahalanobis chi-square (`dof` degrees of
+    /// freedom).
     pub chi2: f64,
+    /// Its degrees of freedom: 3 with `ln_gain`, else 2.
+    #[serde(default = "two")]
+    pub dof: usize,
+}
+
+fn two() -> usize {
+    2
 }
 
 /// The servo check: the rudder's measured rate against the healthy servo's.
@@ -187,6 +209,12 @@ pub struct ReferenceReport {
     /// The standard deviation of the displacement offset's prediction [t].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub offset_displacement_sigma_t: Option<f64>,
+    /// The reference's level of `ln b^` at this test's operating point.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ln_gain_offset: Option<f64>,
+    /// The standard deviation of its prediction.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub offset_ln_gain_sigma: Option<f64>,
     /// The learned tests' kernel weight at this operating point [tests].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub support: Option<f64>,

@@ -227,7 +227,7 @@ pub fn plot(
                 cfg.scheduler.interval_s + cfg.scheduler.steady_time_s,
                 cfg.fdi.window_tests,
             )
-            .param[0];
+            .param[crate::core::fdi::stats::P];
             charts::history(&mut svg, size, &title, &points, limit)?;
         }
         InputKind::Recording => {

@@ -231,8 +231,8 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
         f.window_tests,
         f.false_alarms_per_year,
         limits.alpha_test,
-        limits.param[0],
-        limits.param[1],
+        limits.param[crate::core::fdi::stats::P],
+        limits.param[2 * crate::core::fdi::stats::P],
         limits.cause[0],
         limits.cause[1],
         limits.servo

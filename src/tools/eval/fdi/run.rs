@@ -69,12 +69,12 @@ pub struct TestOutcome {
     pub fit_chi2: f64,
     /// The servo check's chi-square (NaN without one).
     pub q_actuator: f64,
-    /// The method's normalised speed and displacement residuals (NaN without).
-    pub z: [f64; 2],
+    /// The method's normalised speed, displacement and gain residuals (NaN without).
+    pub z: [f64; 3],
     /// The raw residuals against the design (`residuals.raw`: `e_u` [m/s], `e_D`, `s_u`
     /// [m/s], `s_D`, `u_log` [m/s], `dD/du_log` [t per m/s], the similarity law's speed slope of
-    /// `e_u` and `e_D` [per m/s]; NaN without).
-    pub raw: [f64; 8],
+    /// `e_u` and `e_D` [per m/s], `e_b` and its speed slope; NaN without).
+    pub raw: [f64; 10],
     /// The test's place in the schedule.
     pub phase: Phase,
     /// Whether the scenario's fault was present during the test.
@@ -165,8 +165,10 @@ pub(super) fn outcome_of(r: &Report) -> TestOutcome {
             .servo_check
             .as_ref()
             .map_or(nan, |s| s.z_rate * s.z_rate),
-        z: p.map_or([nan; 2], |p| [p.z_speed, p.z_displacement]),
-        raw: res.raw.as_ref().map_or([nan; 8], |r| {
+        z: p.map_or([nan; 3], |p| {
+            [p.z_speed, p.z_displacement, p.z_ln_gain.unwrap_or(nan)]
+        }),
+        raw: res.raw.as_ref().map_or([nan; 10], |r| {
             [
                 r.speed_mps,
                 r.displacement,
@@ -176,6 +178,8 @@ pub(super) fn outcome_of(r: &Report) -> TestOutcome {
                 r.dd_du_t_per_mps,
                 r.speed_slope[0],
                 r.speed_slope[1],
+                r.ln_gain.unwrap_or(nan),
+                r.speed_slope[2],
             ]
         }),
         phase: Phase::Test,

@@ -72,7 +72,7 @@ pub(super) fn classic_table(
         }
         {
             let all = || runs.iter().flat_map(|r| r.tests.iter());
-            let zs: Vec<[f64; 2]> = all().map(|t| t.z).filter(|z| z[0].is_finite()).collect();
+            let zs: Vec<[f64; 3]> = all().map(|t| t.z).filter(|z| z[0].is_finite()).collect();
             if !zs.is_empty() {
                 let n = zs.len() as f64;
                 let m = |i: usize| zs.iter().map(|z| z[i]).sum::<f64>() / n;
