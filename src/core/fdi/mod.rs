@@ -104,18 +104,20 @@ pub struct CommissioningStatus {
 }
 
 /// What a vessel's FDI remembers between tests: saved after every decision and restored
-/// after a restart, so an alarm stays an alarm.
+/// after a restart, so an alarm stays an alarm. The parts whose format an upgrade changes (the
+/// window, the references, the held tests) come back empty when they cannot be read: they
+/// are learned again, and the alarm state published beside them is kept (`Fdi::restore`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FdiState {
     /// The vessel's sequential test (its window, state and the causes named).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "or_default")]
     pub sequential: Sequential,
     /// The vessel's alarm state as last published.
     pub published: AlarmState,
     /// The last notification published.
     pub last_notification: Option<Notification>,
     /// Per method (CLFRT, HBT), the commissioning and the vessel's own reference.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "or_default")]
     pub commissioning: [Commissioning; 2],
     /// Per method, how many references it has had (a new one drops its older tests from
     /// the window).
@@ -125,8 +127,19 @@ pub struct FdiState {
     #[serde(default)]
     pub fingerprint: Fingerprint,
     /// The tests in the decision's window waiting to be learned.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "or_default")]
     pub pending: Pending,
+}
+
+/// A part of a saved state as it stands, or its default when it is in an older version's
+/// format (see [`FdiState`]).
+fn or_default<'de, D, T>(d: D) -> Result<T, D::Error>
+where
+    D: serde::Deserializer<'de>,
+    T: serde::de::DeserializeOwned + Default,
+{
+    let v = serde_json::Value::deserialize(d)?;
+    Ok(T::deserialize(v).unwrap_or_default())
 }
 
 /// The FDI of one vessel.
@@ -291,6 +304,11 @@ impl Fdi {
     /// configuration or other models is discarded: the returned message says why.
     pub fn restore(&mut self, s: FdiState) -> Option<String> {
         self.sequential = s.sequential;
+        // A window in an older format came back empty: the alarm published holds (it clears
+        // after N quiet tests, as any alarm).
+        if self.sequential == Sequential::default() && s.published == AlarmState::Alarm {
+            self.sequential.state = TrackState::Alarm;
+        }
         self.published = s.published;
         self.last_notification = s.last_notification;
         self.generation = s.generation;

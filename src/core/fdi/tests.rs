@@ -210,6 +210,7 @@ fn the_state_survives_a_round_trip_through_json() {
         method: vec!["visual".into(), "sound".into()],
         message: "Steering FDI (HBT): fault".into(),
     });
+    fdi.published = AlarmState::Alarm;
     let saved = fdi.state();
     let text = serde_json::to_string(&saved).unwrap();
     let mut fresh = Fdi::new(&cfg);
@@ -225,6 +226,23 @@ fn the_state_survives_a_round_trip_through_json() {
         .update(&l, entry(Method::Hbt, [0.0, 2.5], Some(0.125)));
     assert_eq!(a, b);
     assert_eq!(fdi.state(), fresh.state());
+    // A file of an older version, whose window and references are in another format (two
+    // residual components): read, those parts empty, the alarm kept.
+    let mut v = serde_json::to_value(&saved).unwrap();
+    v["sequential"]["window"] = serde_json::json!([{"method": "clfrt", "z": [1.0, 2.0],
+        "offset_var": 0.1, "epoch": 0, "directions": [[-1.0, 0.0], [0.0, 1.0]]}]);
+    v["commissioning"][0]["samples"] = serde_json::json!([{"e": [1.0, 2.0], "s": [1.0, 1.0],
+        "speed_mps": 7.0, "displacement_t": 7000.0}]);
+    let old: FdiState = serde_json::from_value(v).unwrap();
+    assert_eq!(old.sequential, Sequential::default());
+    assert_eq!(old.commissioning, <[Commissioning; 2]>::default());
+    let mut upgraded = Fdi::new(&cfg);
+    upgraded.restore(old);
+    assert_eq!(upgraded.alarm_state(), AlarmState::Alarm);
+    assert_eq!(
+        upgraded.last_notification(),
+        saved.last_notification.as_ref()
+    );
 }
 
 /// Without an estimate a test has no parameter residuals; with a servo check it is still
