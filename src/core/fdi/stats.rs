@@ -1,42 +1,19 @@
 //! The distributions the decision's limits come from, and `P x P` covariance algebra.
 //!
-//! - Chi-square with an even number of degrees of freedom `2k` (the parameter channel has 2
-//!   per method in the window): `P(X > x) = e^{-x/2} sum_{j<k} (x/2)^j / j!`, exact.
 //! - The standard normal's upper tail (the servo channel): `P(Z > z) = erfc(z / sqrt 2) / 2`,
 //!   with `erfc` from a Chebyshev expansion (Numerical Recipes, 3rd ed., `Erf::erfccheb`:
 //!   relative error about 1e-16, far below anything a limit needs).
 //! - Quantiles by bisection on the tails (monotone; 200 halvings reach the f64 grain).
-//!
 //! - Chi-square with any number of degrees of freedom, and Hotelling's `T^2`, from the
-//!   regularised incomplete gamma and beta functions of `statrs` (checked against the exact
-//!   even-dof sum and the closed form at `p = 2`).
+//!   regularised incomplete gamma and beta functions of `statrs` (checked in the tests
+//!   against the exact even-dof sum `P(X > x) = e^{-x/2} sum_{j<k} (x/2)^j / j!` and the
+//!   closed form at `p = 2`).
 //!
 //! A covariance of the `P` parameter residuals (speed [m/s], displacement [fraction], ln
 //! gain) whitens a residual by its Cholesky factor: `z = L^-1 r` with `L L' = Sigma`, so
 //! `|z|^2 = r' Sigma^-1 r` and, for a healthy ship, `z` is standard normal.
 
 use serde::{Deserialize, Serialize};
-
-/// `P(chi2_dof > x)` for an even `dof >= 2`.
-pub fn chi2_sf_even(x: f64, dof: usize) -> f64 {
-    if x <= 0.0 {
-        return 1.0;
-    }
-    let k = (dof / 2).max(1);
-    let h = x / 2.0;
-    let mut term = 1.0;
-    let mut sum = 1.0;
-    for j in 1..k {
-        term *= h / j as f64;
-        sum += term;
-    }
-    (-h).exp() * sum
-}
-
-/// The `x` with `P(chi2_dof > x) = p` (even `dof`).
-pub fn chi2_isf_even(p: f64, dof: usize) -> f64 {
-    bisect(|x| chi2_sf_even(x, dof), p, 0.0, 10_000.0)
-}
 
 /// `erfc(x)` (the Chebyshev expansion of the module doc for `x >= 0`, reflected below).
 pub fn erfc(x: f64) -> f64 {
@@ -301,6 +278,27 @@ pub fn dot(a: [f64; P], b: [f64; P]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `P(chi2_dof > x)` for an even `dof >= 2`.
+    fn chi2_sf_even(x: f64, dof: usize) -> f64 {
+        if x <= 0.0 {
+            return 1.0;
+        }
+        let k = (dof / 2).max(1);
+        let h = x / 2.0;
+        let mut term = 1.0;
+        let mut sum = 1.0;
+        for j in 1..k {
+            term *= h / j as f64;
+            sum += term;
+        }
+        (-h).exp() * sum
+    }
+
+    /// The `x` with `P(chi2_dof > x) = p` (even `dof`).
+    fn chi2_isf_even(p: f64, dof: usize) -> f64 {
+        bisect(|x| chi2_sf_even(x, dof), p, 0.0, 10_000.0)
+    }
 
     #[test]
     fn chi2_tails_match_known_values() {
