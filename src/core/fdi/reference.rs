@@ -98,6 +98,7 @@ use super::config::{FdiConfig, ReferenceConfig};
 use super::decision::Limits;
 use super::envelope::{self, Sample, Shape};
 pub use super::measured::{calibration, kappa, Basis, Measured};
+pub use super::raw::Raw;
 use super::stats::{Cov, P};
 use serde::{Deserialize, Serialize};
 
@@ -220,77 +221,6 @@ pub struct Reference {
     pub speed_range_mps: [f64; 2],
     /// Lightest and heaviest learned declared displacement [t].
     pub displacement_range_t: [f64; 2],
-}
-
-/// One test's raw residuals against the design (see the module doc).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Raw {
-    /// `e_u` [m/s].
-    pub speed_mps: f64,
-    /// `e_D` [fraction of D_nom].
-    pub displacement: f64,
-    /// Design spread of the speed at this test's sea [m/s].
-    pub speed_sigma_mps: f64,
-    /// Design spread of the displacement [fraction].
-    pub displacement_sigma: f64,
-    /// Speed log over the test [m/s].
-    pub speed_log_mps: f64,
-    /// The declared (nominal) displacement in force [t].
-    pub displacement_declared_t: f64,
-    /// The excitation's scale against its design (`Features::excitation_scale`).
-    pub excitation_scale: f64,
-    /// `e_b`: the ln of the test's own high-frequency gain
-    /// (`crate::core::fdi::sensitivity::ln_gain`; `None`: the features do not say).
-    #[serde(default)]
-    pub ln_gain: Option<f64>,
-    /// How `(e_u, e_D, e_b)` move per m/s of the ship's own speed by the similarity law
-    /// (`crate::core::fdi::sensitivity::scale_speed`) [(m/s, fraction, ln) per m/s].
-    pub speed_slope: [f64; P],
-    /// How they move per unit of `ln D` of a declared change of loading, `b` scaling by
-    /// `1 / D` (`crate::core::fdi::sensitivity::scale_b`) [(m/s, fraction, ln) per unit ln D].
-    pub loading_slope: [f64; P],
-}
-
-impl Raw {
-    /// `(e_u, e_D, e_b)`, `e_b` NaN when the test has none.
-    pub fn e(&self) -> [f64; P] {
-        [
-            self.speed_mps,
-            self.displacement,
-            self.ln_gain.unwrap_or(f64::NAN),
-        ]
-    }
-
-    /// The design spreads: `e_b`'s is the displacement's (`b` scales with `1 / D`: the
-    /// same relative units; the shape learns the ratio).
-    pub fn s(&self) -> [f64; P] {
-        [
-            self.speed_sigma_mps,
-            self.displacement_sigma,
-            self.displacement_sigma,
-        ]
-    }
-
-    /// The residual's dimension: 3 with `e_b`, else 2.
-    pub fn dim(&self) -> usize {
-        if self.ln_gain.is_some_and(f64::is_finite) {
-            P
-        } else {
-            2
-        }
-    }
-
-    fn sample(&self) -> Sample {
-        Sample {
-            e: self.e(),
-            s: self.s(),
-            speed_mps: self.speed_log_mps,
-            displacement_t: self.displacement_declared_t,
-            excitation_scale: self.excitation_scale,
-            speed_slope: self.speed_slope,
-            loading_slope: self.loading_slope,
-        }
-    }
 }
 
 /// What adding a test did.

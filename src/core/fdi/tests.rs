@@ -229,10 +229,15 @@ fn the_state_survives_a_round_trip_through_json() {
     // A file of an older version, whose window and references are in another format (two
     // residual components): read, those parts empty, the alarm kept.
     let mut v = serde_json::to_value(&saved).unwrap();
-    v["sequential"]["window"] = serde_json::json!([{"method": "clfrt", "z": [1.0, 2.0],
-        "offset_var": 0.1, "epoch": 0, "directions": [[-1.0, 0.0], [0.0, 1.0]]}]);
-    v["commissioning"][0]["samples"] = serde_json::json!([{"e": [1.0, 2.0], "s": [1.0, 1.0],
-        "speed_mps": 7.0, "displacement_t": 7000.0}]);
+    v["sequential"]["window"] = serde_json::from_str(
+        r#"[{"method": "clfrt", "z": [1.0, 2.0], "offset_var": 0.1, "epoch": 0,
+            "directions": [[-1.0, 0.0], [0.0, 1.0]]}]"#,
+    )
+    .unwrap();
+    v["commissioning"][0]["samples"] = serde_json::from_str(
+        r#"[{"e": [1.0, 2.0], "s": [1.0, 1.0], "speed_mps": 7.0, "displacement_t": 7000.0}]"#,
+    )
+    .unwrap();
     let old: FdiState = serde_json::from_value(v).unwrap();
     assert_eq!(old.sequential, Sequential::default());
     assert_eq!(old.commissioning, <[Commissioning; 2]>::default());
