@@ -62,16 +62,6 @@ pub fn change_point(
     floors: [f64; P],
     alpha: f64,
 ) -> Option<(usize, f64)> {
-    change_point_looks(samples, env, floors, alpha, [true, true])
-}
-
-fn change_point_looks(
-    samples: &[Sample],
-    env: &Envelope,
-    floors: [f64; P],
-    alpha: f64,
-    use_looks: [bool; 2],
-) -> Option<(usize, f64)> {
     let n = samples.len();
     if n < MIN_TESTS {
         return None;
@@ -127,8 +117,6 @@ fn change_point_looks(
         let cb = c.at(2, 2);
         let gain = (cb > 0.0 && d[2].is_finite())
             .then(|| (d[2] * d[2] / cb, hotelling_isf(0.5 * alpha, 1, nu)));
-        let pair = pair.filter(|_| use_looks[0]);
-        let gain = gain.filter(|_| use_looks[1]);
         for (t, limit) in [pair, gain].into_iter().flatten() {
             let ratio = t / limit;
             if t.is_finite() && t > limit && best.is_none_or(|(_, _, br)| ratio > br) {

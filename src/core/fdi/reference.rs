@@ -66,18 +66,18 @@
 //!   so does the slope prior's part of the offset's error (a stated model: `envelope`):
 //!   `nu_eff = nu / (the learned part's share of the residual's variance in its own
 //!   direction)`, that share at a visited point at its 95 % upper confidence bound
-//!   (`Measured::effective_dof`;
-//!   the conservative root of Satterthwaite's approximation, as in `changepoint`), with
-//!   `nu` the shape's dof; at a point farther than one bandwidth from every learned test, the learned
-//!   tests' kernel weight there less one if smaller: the shape was learned where the ship has
+//!   (`Measured::effective_dof`; the conservative root of Satterthwaite's approximation, as
+//!   in `changepoint`), with `nu` the shape's dof; at a point farther than one bandwidth
+//!   from every learned test, the learned tests' kernel weight there less one if smaller: the shape was learned where the ship has
 //!   been, and a hull's scatter can differ elsewhere, so at a new point the tail is
 //!   Hotelling's with few dof until the point's own tests are learned.
 //! - `kappa = nu / (nu - p - 1)` (the mean of Hotelling's over the chi-square's) sizes what
 //!   commissioning must resolve: 4 at K = 5, 1.75 at K = 8, 1.05 after 60 tests.
 //! - `S^ = (nu S~(x) + nu_0 diag S~) / (nu + nu_0)`: the shape near the point pooled with an
 //!   inverse-Wishart prior of `nu_0 = PRIOR_DOF` dof about the vessel's variances
-//!   everywhere, uncorrelated (at one point: the correlations shrunk by `nu / (nu + nu_0)`); `T` is still calibrated at the shape's own `nu` (the
-//!   prior's centre is the sample's own variances, which it cannot vouch for).
+//!   everywhere, uncorrelated (at one point: the correlations shrunk by `nu / (nu + nu_0)`);
+//!   `T` is still calibrated at the shape's own `nu` (the prior's centre is the sample's own
+//!   variances, which it cannot vouch for).
 //!   Three components from 7 or 8 tests can lie nearly on a plane by chance; whitening would
 //!   read every later test just off it as far out, and the decision's window would add up
 //!   tests that share that one too-small covariance.
@@ -111,9 +111,9 @@ pub use super::raw::Raw;
 use super::stats::{Cov, P};
 use serde::{Deserialize, Serialize};
 
-/// The degrees of freedom of the prior on the shape's correlations (an inverse Wishart about
-/// the learned variances, uncorrelated): `P + 2`, the weakest whose mean exists. The
-/// calibration keeps the shape's own dof: the prior's centre is the sample's variances.
+/// The degrees of freedom of the prior on the shape (an inverse Wishart about the vessel's
+/// learned variances, uncorrelated): `P + 2`, the weakest whose mean exists. The calibration
+/// keeps the shape's own dof: the prior's centre is the sample's variances.
 pub const PRIOR_DOF: f64 = P as f64 + 2.0;
 
 /// The one-sided normal quantile of the power commissioning resolves its faults with (95 %).

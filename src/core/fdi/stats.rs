@@ -193,19 +193,6 @@ impl Cov {
         }
     }
 
-    /// The correlations times `k`, the variances kept: `k Sigma + (1 - k) diag(Sigma)`.
-    pub fn shrunk(self, k: f64) -> Self {
-        Self(std::array::from_fn(|i| {
-            std::array::from_fn(|j| {
-                if i == j {
-                    self.0[i][j]
-                } else {
-                    k * self.0[i][j]
-                }
-            })
-        }))
-    }
-
     /// Every element finite.
     pub fn is_finite(&self) -> bool {
         self.0.iter().flatten().all(|v| v.is_finite())
