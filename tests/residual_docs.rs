@@ -2,8 +2,9 @@
 //! (`core::wire::residuals`), and names no field the type does not have.
 
 use helmwatch::core::wire::residuals::{
-    BaselineReport, DecisionReport, Look, ModelFitReport, ModelMismatch, ParameterResiduals,
-    RawResiduals, ReferenceKind, ReferenceReport, Residuals, ServoCheck, TrackState,
+    BaselineReport, CauseCosts, DecisionReport, Look, ModelFitReport, ModelMismatch,
+    ParameterResiduals, RawResiduals, ReferenceKind, ReferenceReport, Residuals, ServoCheck,
+    TrackState,
 };
 use helmwatch::core::wire::{Cause, Decision};
 use serde_json::Value;
@@ -44,6 +45,7 @@ fn full() -> Residuals {
             speed_log_mps: 7.0,
             dd_du_t_per_mps: 900.0,
             ln_gain: Some(-6.2),
+            ln_damping: Some(-6.3),
             speed_slope: [-0.2, 0.01, 0.3],
             loading_slope: [0.3, -0.05, -1.0],
         }),
@@ -86,6 +88,10 @@ fn full() -> Residuals {
             parameters: Some(look),
             servo: Some(look),
             false_alarm_per_test: 1e-5,
+            cause_costs: Some(CauseCosts {
+                speed_log: 0.4,
+                displacement_or_rudder_effectiveness: 1.2,
+            }),
         }),
         baseline: Some(BaselineReport {
             parameters: Some(p),

@@ -50,28 +50,32 @@
 //! (scheduler.interval-s + scheduler.steady-time-s)` tests a year (at most: a test's own
 //! duration is left out, so the rate is over-counted and the limits err high), each test may
 //! raise a false alarm with probability `alpha = F / N_y`, split evenly over the four families
-//! of looks (the servo's, the free shift's, one per parameter cause) and the `N =
-//! fdi.window-tests` window lengths (Bonferroni: the looks overlap, and a cause's is part of
-//! the free one, so the true rate is below the budget):
+//! of looks (the servo's, the free shift's, one per parameter cause; Bonferroni: a cause's
+//! look is part of the free one's evidence, so the true rate is below it) and over the `N =
+//! fdi.window-tests` window lengths counted as the `M_eff` independent looks they are worth
+//! (`effective_lengths`: Li and Ji's count from the eigenvalues of the nested windows'
+//! correlations `sqrt(n / m)`; 2 for N = 2 to 4, where Bonferroni would count N):
 //!
 //! ```text
-//! alpha_n = alpha / (4 N)
+//! alpha_n = alpha / (4 M_eff)
 //! T_n > h_n = chi2_{2 M_n}^-1(1 - alpha_n)     T_n,c > k_n = chi2_{M_n}^-1(1 - alpha_n)
 //! S_n > g = Phi^-1(1 - alpha_n)
 //! ```
 //!
-//! Defaults (F = 0.1, 3720 s, N = 4): `alpha = 1.18e-5`, `alpha_n = 7.37e-7`, `h = 28.2` (one
-//! method) / 34.0 (both), `k = 24.5` / 28.2, `g = 4.81`. A look over its limit raises the
-//! alarm at once; the evidence is spent (the window empties), so the alarm holds on new tests
-//! or clears after N tests in a row under the alert limits, which are the same statistics at
-//! a thousand times the per-look probability (`alpha_n x 1000`: `h = 14.4` / 19.1, `k =
-//! 11.4` / 14.4, `g = 3.18`): an alert says evidence is building.
+//! Defaults (F = 0.1, 3720 s, N = 4, `M_eff` = 2): `alpha = 1.18e-5`, `alpha_n = 1.47e-6`,
+//! `h = 26.9` (one method, 2 components) / 29.9 (3) / 32.6 (both, 2 each) / 37.4 (both, 3
+//! each), `k = 23.2` / 26.9, `g = 4.67`. A look over its limit raises the alarm at once;
+//! the evidence is spent (the window empties), so the alarm holds on new tests or clears
+//! after N tests in a row under the alert limits, which are the same statistics at a
+//! thousand times the per-look probability (`alpha_n x 1000`: `h = 13.0` / 15.4 / 17.6 /
+//! 21.5, `k = 10.1` / 13.0, `g = 2.97`): an alert says evidence is building.
 //!
 //! What the arithmetic does not cover: residuals that are not Gaussian (heavy tails of a hull
 //! unlike the training model), a covariance learned from few tests (the K-sample factor
 //! makes it right on average, not for every vessel), and serial correlation of the sea.
-//! The family suite counts false alarms on simulated ships directly; `helmwatch bench
-//! --false-alarms` checks the arithmetic by Monte Carlo on the model itself.
+//! The family suite counts false alarms on simulated ships directly; a Monte Carlo on the
+//! model itself checks the arithmetic (`decision_tests.rs`, docs/fdi.md "What the
+//! arithmetic covers").
 
 use super::isolation;
 use super::reference::Raw;
@@ -123,7 +127,7 @@ impl Limits {
         let tests_per_year = YEAR_S / test_period_s.max(1.0);
         let alpha_test = (false_alarms_per_year / tests_per_year).min(0.5);
         let n = window.max(1) as usize;
-        let alpha_look = alpha_test / (LOOK_FAMILIES as f64 * n as f64);
+        let alpha_look = alpha_test / (LOOK_FAMILIES as f64 * effective_lengths(n));
         let alert = (alpha_look * ALERT_FACTOR).min(0.5);
         // chi2 with 1 dof: the square of a two-sided normal score.
         let chi2_1 = |p: f64| normal_isf(p / 2.0).powi(2);
@@ -139,6 +143,29 @@ impl Limits {
             alpha_test,
         }
     }
+}
+
+/// The effective number of independent window lengths among `1..=n` (Li and Ji, 2005):
+/// the looks over nested windows ending at the same test share their newest tests, the sums
+/// over `i` and `j` tests correlating `sqrt(min / max)` (independent tests of equal
+/// variance); with `l_k` the eigenvalues of that correlation matrix, `M_eff = sum_k [l_k >=
+/// 1] + (l_k - floor(l_k))`. Between 1 (one length) and `n` (independent looks): 2 for
+/// `n = 2` to 4, 4 for 8.
+pub fn effective_lengths(n: usize) -> f64 {
+    let n = n.max(1);
+    let r = nalgebra::DMatrix::from_fn(n, n, |i, j| {
+        let (a, b) = ((i.min(j) + 1) as f64, (i.max(j) + 1) as f64);
+        (a / b).sqrt()
+    });
+    let m: f64 = r
+        .symmetric_eigenvalues()
+        .iter()
+        .map(|&l| {
+            let l = l.max(0.0);
+            f64::from(u8::from(l >= 1.0)) + (l - l.floor())
+        })
+        .sum();
+    m.clamp(1.0, n as f64)
 }
 
 /// One test in the vessel's window.
@@ -218,6 +245,9 @@ pub struct Step {
     pub raised_by_servo: Option<bool>,
     /// The suspected causes after it (empty when normal).
     pub isolation: Vec<Cause>,
+    /// The parameter causes' costs `J_c` over the parameter look's window (speed log,
+    /// displacement; `isolation`), before an alarm spends it.
+    pub costs: Option<[f64; 2]>,
 }
 
 impl Sequential {
@@ -247,6 +277,7 @@ impl Sequential {
         let alert =
             |s: Option<Scored>| s.is_some_and(|s| s.look.statistic > s.look.alert_threshold);
         let (p_over, s_over) = (over(param), over(servo));
+        let costs = param.map(|p| isolation::costs(&self.window, p.n));
         let before = self.state;
         let mut raised_by_servo = None;
         // The cause the current evidence names: the channel nearest (or furthest over) its
@@ -292,6 +323,7 @@ impl Sequential {
             servo,
             raised_by_servo,
             isolation,
+            costs,
         }
     }
 

@@ -23,13 +23,53 @@ pub(crate) fn entry(method: Method, z: [f64; 2], c: Option<f64>) -> Entry {
     }
 }
 
+/// The effective number of window lengths against hand computations: two lengths,
+/// `[[1, r], [r, 1]]` with `r = sqrt(1/2)`, have the eigenvalues `1 +- r`, so `M_eff = (1 +
+/// 0.707) + 0.293 = 2` (Li and Ji count two looks correlated 0.7 as two); three have
+/// `2.405, 0.436, 0.159`: `1 + 0.405 + 0.436 + 0.159 = 2`; four (the default) likewise 2
+/// (numpy's eigenvalues `3.100, 0.573, 0.220, 0.106`); it grows slower than `n`.
+#[test]
+fn the_effective_number_of_window_lengths_is_li_and_ji() {
+    assert!((effective_lengths(1) - 1.0).abs() < 1e-12);
+    assert!(
+        (effective_lengths(2) - 2.0).abs() < 1e-9,
+        "{}",
+        effective_lengths(2)
+    );
+    assert!(
+        (effective_lengths(3) - 2.0).abs() < 1e-9,
+        "{}",
+        effective_lengths(3)
+    );
+    assert!(
+        (effective_lengths(4) - 2.0).abs() < 1e-9,
+        "{}",
+        effective_lengths(4)
+    );
+    assert!(
+        (effective_lengths(8) - 4.0).abs() < 1e-9,
+        "{}",
+        effective_lengths(8)
+    );
+    let mut last = 1.0;
+    for n in 2..=12 {
+        let m = effective_lengths(n);
+        assert!(
+            m >= last - 1e-9 && m <= n as f64 && (n < 3 || m < n as f64),
+            "n {n}: {m}"
+        );
+        last = m;
+    }
+}
+
 #[test]
 fn the_limits_follow_from_the_budget_by_hand() {
     let l = Limits::new(0.1, 3720.0, 4);
     let tests = YEAR_S / 3720.0;
     assert!((l.alpha_test - 0.1 / tests).abs() < 1e-18);
-    // Four families of looks (servo, free shift, speed log, displacement) over 4 lengths.
-    let a = 0.1 / tests / 16.0;
+    // Four families of looks (servo, free shift, speed log, displacement) over 4 lengths,
+    // two of them independent in effect (`effective_lengths`).
+    let a = 0.1 / tests / 8.0;
     assert!((l.alpha_look - a).abs() < 1e-18);
     // chi2 with 2 dof is exponential: h = -2 ln(alpha).
     assert!(
@@ -54,17 +94,17 @@ fn the_limits_follow_from_the_budget_by_hand() {
     assert_eq!(l.cause[1], l.param[2]);
     // The figures the docs quote.
     assert!(
-        (l.param[2] - 28.2).abs() < 0.05 && (l.param[4] - 34.0).abs() < 0.05,
+        (l.param[2] - 26.86).abs() < 0.005 && (l.param[4] - 32.55).abs() < 0.005,
         "{l:?}"
     );
     assert!(
-        (l.param[3] - 31.3).abs() < 0.05 && (l.param[6] - 38.9).abs() < 0.05,
+        (l.param[3] - 29.86).abs() < 0.005 && (l.param[6] - 37.40).abs() < 0.005,
         "{l:?}"
     );
-    assert!((l.cause[0] - 24.5).abs() < 0.05, "{l:?}");
-    assert!((l.servo - 4.81).abs() < 0.01, "{}", l.servo);
+    assert!((l.cause[0] - 23.18).abs() < 0.005, "{l:?}");
+    assert!((l.servo - 4.674).abs() < 0.001, "{}", l.servo);
     assert!(
-        (l.param_alert[2] - 14.4).abs() < 0.05 && (l.cause_alert[0] - 11.4).abs() < 0.05,
+        (l.param_alert[2] - 13.04).abs() < 0.005 && (l.cause_alert[0] - 10.11).abs() < 0.005,
         "{l:?}"
     );
     // A bigger budget lowers every limit.
@@ -85,7 +125,7 @@ fn a_persistent_shift_adds_up_over_the_window_as_the_glr_says() {
     assert_eq!(first.state, TrackState::Normal);
     let second = s.update(&l, entry(Method::Clfrt, z, c));
     // T_2 = |5.6|^2 / (2 (1 + 1/9)) = 14.11, all of it along the displacement's direction
-    // (0, 1): its look (1 dof) is over the alert limit (11.4), not the alarm's (24.5).
+    // (0, 1): its look (1 dof) is over the alert limit (10.1), not the alarm's (23.2).
     let p = second.param.unwrap();
     assert_eq!(
         (p.n, p.look.dof, p.look.cause),
@@ -98,14 +138,16 @@ fn a_persistent_shift_adds_up_over_the_window_as_the_glr_says() {
     assert_eq!(second.state, TrackState::Alert);
     let third = s.update(&l, entry(Method::Clfrt, z, c));
     // T_3 = 70.56 / (3 (1 + 2/9)) = 19.2; T_4 at the fourth: 125.44 / (4 (1 + 3/9)) = 23.5;
-    // still under 24.5: with K = 8 the shared offset error limits what a window can show.
+    // the fourth's over 23.2: the window adds up to the alarm (K = 8's shared offset error
+    // slows it: against the design the third would do).
     let t3 = 70.56 / (3.0 * 11.0 / 9.0);
     assert!((third.param.unwrap().look.statistic - t3).abs() < 1e-12);
+    assert_eq!(third.state, TrackState::Alert);
     let fourth = s.update(&l, entry(Method::Clfrt, z, c));
     assert!((fourth.param.unwrap().look.statistic - 23.52).abs() < 1e-12);
-    assert_eq!(fourth.state, TrackState::Alert);
+    assert_eq!(fourth.state, TrackState::Alarm);
     // Against the design reference (c = 0) the same shift alarms at the third test:
-    // T_3 = 81 / 3 = 27 > 24.5 (the free shift's 2-dof look would need 28.2).
+    // T_3 = 81 / 3 = 27 > 23.2 (the free shift's 2-dof look would need 26.9).
     let mut d = Sequential::default();
     let z = [0.0, 3.0];
     for _ in 0..2 {
@@ -133,20 +175,20 @@ fn both_methods_add_their_evidence_with_two_more_degrees_of_freedom() {
     s.update(&l, entry(Method::Clfrt, [0.0, 4.0], Some(0.0)));
     let st = s.update(&l, entry(Method::Hbt, [3.0, 2.6], Some(0.0)));
     let p = st.param.unwrap();
-    // T_2 = 16 + 15.76 = 31.76 with 4 dof against 34.0: an alert. Along the displacement
-    // (HBT's direction (0, 1) here, not its residual's) only 16 + 6.76 = 22.76 of 28.2.
+    // T_2 = 16 + 15.76 = 31.76 with 4 dof against 32.6: an alert. Along the displacement
+    // (HBT's direction (0, 1) here, not its residual's) only 16 + 6.76 = 22.76 of 26.9.
     assert_eq!((p.n, p.look.dof), (2, 4));
     assert!((p.look.statistic - 31.76).abs() < 1e-9);
     assert_eq!(st.state, TrackState::Alert);
     let st = s.update(&l, entry(Method::Clfrt, [0.0, 4.0], Some(0.0)));
-    // T_3 = |(0, 8)|^2 / 2 + 15.76 = 47.76 > 34.0.
+    // T_3 = |(0, 8)|^2 / 2 + 15.76 = 47.76 > 32.6.
     assert_eq!(st.state, TrackState::Alarm);
     assert_eq!(st.raised_by_servo, Some(false));
 }
 
 /// A shift along a cause's direction is judged with 1 dof per method: two CLFRT tests at
-/// (0, 3.6) give T_2 = 7.2^2 / 2 = 25.92, under the free shift's 28.2 and over the
-/// displacement's 24.5, which names its cause.
+/// (0, 3.6) give T_2 = 7.2^2 / 2 = 25.92, under the free shift's 26.9 and over the
+/// displacement's 23.2, which names its cause.
 #[test]
 fn a_shift_along_a_cause_alarms_with_one_degree_of_freedom_per_method() {
     let l = Limits::new(0.1, 3720.0, 4);
@@ -172,7 +214,7 @@ fn a_shift_along_a_cause_alarms_with_one_degree_of_freedom_per_method() {
     s.update(&l, entry(Method::Clfrt, [0.0, 3.8], Some(0.0)));
     let st = s.update(&l, entry(Method::Hbt, [0.0, 3.8], Some(0.0)));
     let p = st.param.unwrap();
-    // T_2 = 14.44 + 14.44 = 28.88 > 28.2 (2 dof) where the free look (4 dof) needs 34.0.
+    // T_2 = 14.44 + 14.44 = 28.88 > 26.9 (2 dof) where the free look (4 dof) needs 32.6.
     assert_eq!(
         (p.look.dof, p.look.cause),
         (2, Some(Cause::DisplacementOrRudderEffectiveness))
@@ -182,8 +224,8 @@ fn a_shift_along_a_cause_alarms_with_one_degree_of_freedom_per_method() {
 
 /// A speed-log bias has one size for both methods (`COMMON_SIZE`): with the log direction
 /// v = (-1, 0.3) (|v|^2 = 1.09) and each method's residual 3.5 v, `sum v.z = 2 x 3.5 x 1.09`
-/// over a variance `2 x 1.09`: T = 26.7 with 1 dof, over 24.5, where a size per method
-/// (2 dof) would need 28.2. Opposite residuals in the two methods are no log bias at all.
+/// over a variance `2 x 1.09`: T = 26.7 with 1 dof, over 23.2, where a size per method
+/// (2 dof) would need 26.9. Opposite residuals in the two methods are no log bias at all.
 #[test]
 fn a_speed_log_bias_is_one_size_for_both_methods() {
     let l = Limits::new(0.1, 3720.0, 4);
@@ -325,6 +367,7 @@ fn monte_carlo(
         let g = 0.005 * (0.5 * b + 0.75f64.sqrt() * c);
         Raw {
             ln_gain: Some(-5.0 + g),
+            ln_damping: None,
             speed_mps: 1.0 + u,
             displacement: -0.2 + d,
             speed_sigma_mps: 0.05,
@@ -432,14 +475,16 @@ fn monte_carlo_scan() {
 }
 
 /// A vessel commissioned on 8 tests, then learning its tests as the daemon does: the false
-/// alarms counted on the model itself stay under twice the budget, and above a quarter of it
-/// (the looks' Bonferroni split alone, the covariance known at K = 200, gives 0.65; the prior
-/// on the shape's correlations, `reference::PRIOR_DOF`, over-covers the minor axis of this
-/// scatter, truly correlated at -0.9: measured 0.33, 1.02 without the prior). A budget of 2
-/// a year (2.4e-4 per test) is small enough for the Gaussian tails to decouple the
-/// overlapping looks and large enough to count 150 alarms in 2e6 tests.
+/// alarms counted on the model itself stay within a factor two of the budget (measured 0.67:
+/// the window lengths counted as their effective number, `effective_lengths`, where a
+/// Bonferroni over all four gave 0.33; what keeps it under 1 is the split over the families
+/// of looks, whose cause looks are parts of the free one, and the prior on the shape's
+/// correlations, `reference::PRIOR_DOF`, which over-covers the minor axis of this scatter,
+/// truly correlated at -0.9). A budget of 2 a year (2.4e-4 per test) is small enough for
+/// the Gaussian tails to decouple the overlapping looks and large enough to count 300
+/// alarms in 2e6 tests.
 #[test]
-fn monte_carlo_false_alarm_rate_stays_under_twice_the_budget() {
+fn monte_carlo_false_alarm_rate_is_within_a_factor_two_of_the_budget() {
     let budget = 2.0;
     let (alarms, decided) = monte_carlo(budget, 8, [0.0, 0.0], 20_000, 100, 7, true);
     let per_test = alarms as f64 / decided as f64;
@@ -447,7 +492,7 @@ fn monte_carlo_false_alarm_rate_stays_under_twice_the_budget() {
     let ratio = per_test / want;
     eprintln!("{alarms} alarms in {decided} tests: ratio {ratio:.3}");
     assert!(
-        (0.25..=2.0).contains(&ratio),
+        (0.5..=2.0).contains(&ratio),
         "{alarms} alarms in {decided} tests: {per_test:.4} per test against {want:.4} ({ratio:.2})"
     );
 }

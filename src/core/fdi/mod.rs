@@ -51,8 +51,8 @@ use crate::core::model::ShipConfig;
 pub use crate::core::model::{displacement_from_b, speed_from_a};
 use crate::core::monitor::config::CoreConfig;
 use crate::core::wire::residuals::{
-    DecisionReport, ParameterResiduals, RawResiduals, ReferenceKind, ReferenceReport, Residuals,
-    TrackState,
+    CauseCosts, DecisionReport, ParameterResiduals, RawResiduals, ReferenceKind, ReferenceReport,
+    Residuals, TrackState,
 };
 use crate::core::wire::{AlarmState, Cause, Decision, Estimate, Features, Method, Notification};
 use decision::{Entry, Limits, Sequential, Source};
@@ -449,6 +449,7 @@ impl Fdi {
                 speed_log_mps: r.speed_log_mps,
                 dd_du_t_per_mps: g,
                 ln_gain: r.ln_gain,
+                ln_damping: r.ln_damping,
                 speed_slope: r.speed_slope,
                 loading_slope: r.loading_slope,
             }),
@@ -463,6 +464,10 @@ impl Fdi {
                 parameters: s.param.map(|p| p.look),
                 servo: s.servo.map(|p| p.look),
                 false_alarm_per_test: self.limits.alpha_test,
+                cause_costs: s.costs.map(|[l, d]| CauseCosts {
+                    speed_log: l,
+                    displacement_or_rudder_effectiveness: d,
+                }),
             }),
             baseline: Some(baseline),
             servo_time_constant_s: Some(self.servo_time_constant_s),

@@ -179,6 +179,7 @@ impl Fdi {
             displacement_declared_t: d_nom_t,
             excitation_scale: features.excitation_scale(),
             ln_gain,
+            ln_damping: sensitivity::ln_damping(features).map(|a| a - u_log.ln()),
         };
         let ok = [raw.speed_mps, raw.displacement, g]
             .iter()
@@ -223,6 +224,12 @@ pub struct Raw {
     /// (`crate::core::fdi::sensitivity::ln_gain`; `None`: the features do not say).
     #[serde(default)]
     pub ln_gain: Option<f64>,
+    /// `e_a = ln(a^ / u_log)`: the test's own yaw damping over the speed log
+    /// (`crate::core::fdi::sensitivity::ln_damping`; `None`: the features do not say)
+    /// [ln 1/m]. The similarity law makes it the same at every speed; a speed-log bias
+    /// `beta` moves it by `-beta / u`. Reported, not decided on (docs/fdi.md, "Isolation").
+    #[serde(default)]
+    pub ln_damping: Option<f64>,
     /// How `(e_u, e_D, e_b)` move per m/s of the ship's own speed by the similarity law
     /// (`crate::core::fdi::sensitivity::scale_speed`) [(m/s, fraction, ln) per m/s].
     pub speed_slope: [f64; P],

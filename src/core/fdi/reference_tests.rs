@@ -35,6 +35,7 @@ fn raw_at(e_u: f64, e_d: f64, u: f64, d: f64) -> Raw {
         // A gain whose scatter is its own (not a linear function of the others'), about the
         // displacement's size.
         ln_gain: Some(-5.0 + 0.002 * (37.0 * e_u + 91.0 * e_d).sin()),
+        ln_damping: None,
         speed_slope: [0.0; 3],
         loading_slope: [0.0; 3],
     }
@@ -264,7 +265,7 @@ fn a_new_operating_point_is_predicted_wider_then_learned() {
         m.cov.at(0, 0),
         at_home.cov.at(0, 0)
     );
-    // A +12 % displacement there now crosses the displacement look's single-test limit (24.5)
+    // A +12 % displacement there now crosses the displacement look's single-test limit (23.2)
     // on its own.
     let (_, f) = c.measure(&s, &raw_at(0.25, -0.08, 8.5, 7000.0));
     let z = f.cov.whiten(f.r).unwrap();
@@ -349,6 +350,7 @@ fn a_sample_on_a_plane_is_not_taken_for_a_law() {
     ];
     let on_plane = |u: f64, d: f64| Raw {
         ln_gain: Some(-5.0 + (d + 0.2)),
+        ln_damping: None,
         ..raw(u, d)
     };
     let mut c = Commissioning::default();
@@ -360,6 +362,7 @@ fn a_sample_on_a_plane_is_not_taken_for_a_law() {
     // One spread up in e_D, one down in e_b: two spreads off the plane.
     let off = Raw {
         ln_gain: Some(-5.0 - sd),
+        ln_damping: None,
         ..raw(1.0, -0.2 + sd)
     };
     let (_, m) = c.measure(&s, &off);

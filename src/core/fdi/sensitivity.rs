@@ -80,6 +80,52 @@ pub fn ln_gain(features: &Features) -> Option<f64> {
     v.is_finite().then_some(v)
 }
 
+/// The ln of the test's own estimate of the ship's yaw damping `a` [ln 1/s], the first-order
+/// model's corner, read from the phase of the heading's response to the rudder (no
+/// network): at a frequency `w`, `phi = -pi/2 - atan(w / a)`, so `a = w / tan(lag)`,
+/// `lag = -phi - pi/2`.
+///
+/// - **CLFRT**: every tone's `ln a_k`, weighted by its variance from the tone's phase
+///   interval (`d ln a / d lag = -2 / sin(2 lag)`: a tone far above the corner says little);
+/// - **HBT**: the cycle's response phase.
+///
+/// `a` carries the speed (`a = a0 u / l`, and by the similarity law every hull's time
+/// constants scale with `l / u`); on the Nomoto model not the displacement or the rudder
+/// (they scale `b`, which moves no phase at a fixed frequency), on the simulated family it
+/// leans with them (docs/fdi.md, "Isolation"). `None` when the features do not say (no
+/// phase in the model's range).
+pub fn ln_damping(features: &Features) -> Option<f64> {
+    use std::f64::consts::FRAC_PI_2;
+    let in_range = |lag: f64| lag > 0.0 && lag < FRAC_PI_2;
+    let v = match features {
+        Features::Clfrt(c) => {
+            let (mut num, mut den) = (0.0, 0.0);
+            for t in &c.tones {
+                let lag = -t.phase_rad - FRAC_PI_2;
+                let sd_phase = t.phase_ci90_rad / 1.645;
+                if !(in_range(lag) && t.omega_rad_s > 0.0 && sd_phase > 0.0) {
+                    continue;
+                }
+                let sd = sd_phase * 2.0 / (2.0 * lag).sin();
+                let w = 1.0 / (sd * sd);
+                num += w * (t.omega_rad_s / lag.tan()).ln();
+                den += w;
+            }
+            (den > 0.0).then(|| num / den)?
+        }
+        Features::Hbt(h) => {
+            let lag = -h.response_phase_rad? - FRAC_PI_2;
+            let w = h.omega_u_rad_s;
+            if !(in_range(lag) && w > 0.0) {
+                return None;
+            }
+            (w / lag.tan()).ln()
+        }
+        Features::None => return None,
+    };
+    v.is_finite().then_some(v)
+}
+
 /// The features of the same test on a ship whose `b` is `k` times larger (`k` near 1), or
 /// `None` when the features do not say enough (an HBT test without its response phase, or
 /// one whose phase is outside the first-order model's range).

@@ -137,6 +137,7 @@ fn a_reference_is_kept_only_for_its_configuration_and_models() {
         displacement_declared_t: 7000.0,
         excitation_scale: 1.0,
         ln_gain: Some(-5.0),
+        ln_damping: None,
         speed_slope: [0.0; 3],
         loading_slope: [0.0; 3],
     };

@@ -80,6 +80,11 @@ pub struct RawResiduals {
     /// (CLFRT's highest tone, HBT's cycle; docs/fdi.md) [ln 1/s^2].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ln_gain: Option<f64>,
+    /// `e_a = ln(a^ / u_log)`: the test's own yaw damping (the first-order corner its
+    /// response phase gives) over the speed log [ln 1/m]; reported, not decided on
+    /// (docs/fdi.md, "Isolation").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ln_damping: Option<f64>,
     /// How `(e_u [m/s], e_D, e_b)` move per m/s of the ship's own speed by the similarity law
     /// (the features at another speed, read by the networks; docs/fdi.md).
     #[serde(default)]
@@ -239,6 +244,19 @@ pub struct DecisionReport {
     pub servo: Option<Look>,
     /// The per-look false-alarm probability the limits were set for (both channels).
     pub false_alarm_per_test: f64,
+    /// How well each parameter cause explains the parameter look's window: `J_c`, the part
+    /// of its evidence off the cause's direction (chi-square units; the smaller names it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cause_costs: Option<CauseCosts>,
+}
+
+/// The parameter causes' costs over a window (`crate::core::fdi::isolation`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CauseCosts {
+    /// A speed-log bias's.
+    pub speed_log: f64,
+    /// A displacement or rudder-effectiveness change's.
+    pub displacement_or_rudder_effectiveness: f64,
 }
 
 /// One channel's window statistic.

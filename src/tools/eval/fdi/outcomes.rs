@@ -44,6 +44,7 @@ pub(super) fn write_outcomes(
                     "chi2_actuator": nan_null(t.q_actuator),
                     "sea_index": nan_null(t.sea_index),
                     "z": t.z.map(nan_null),
+                    "cause_costs": t.cause_costs.map(nan_null),
                     "raw": t.raw.map(nan_null),
                 });
                 if let Err(e) = writeln!(w, "{line}") {

@@ -73,8 +73,8 @@ pub struct TestOutcome {
     pub z: [f64; 3],
     /// The raw residuals against the design (`residuals.raw`: `e_u` [m/s], `e_D`, `s_u`
     /// [m/s], `s_D`, `u_log` [m/s], `dD/du_log` [t per m/s], the similarity law's speed slope of
-    /// `e_u` and `e_D` [per m/s], `e_b` and its speed slope; NaN without).
-    pub raw: [f64; 10],
+    /// `e_u` and `e_D` [per m/s], `e_b` and its speed slope, `e_a`; NaN without).
+    pub raw: [f64; 11],
     /// The test's place in the schedule.
     pub phase: Phase,
     /// Whether the scenario's fault was present during the test.
@@ -95,6 +95,9 @@ pub struct TestOutcome {
     /// The report says the commissioning was inconsistent (`commissioning inconsistent` in
     /// its message, or `inconsistent` in `residuals.reference`).
     pub inconsistent: bool,
+    /// The parameter causes' costs (`residuals.decision.cause_costs`: speed log,
+    /// displacement; NaN without).
+    pub cause_costs: [f64; 2],
 }
 
 /// One run: the drawn ship and its tests.
@@ -168,7 +171,7 @@ pub(super) fn outcome_of(r: &Report) -> TestOutcome {
         z: p.map_or([nan; 3], |p| {
             [p.z_speed, p.z_displacement, p.z_ln_gain.unwrap_or(nan)]
         }),
-        raw: res.raw.as_ref().map_or([nan; 10], |r| {
+        raw: res.raw.as_ref().map_or([nan; 11], |r| {
             [
                 r.speed_mps,
                 r.displacement,
@@ -180,6 +183,7 @@ pub(super) fn outcome_of(r: &Report) -> TestOutcome {
                 r.speed_slope[1],
                 r.ln_gain.unwrap_or(nan),
                 r.speed_slope[2],
+                r.ln_damping.unwrap_or(nan),
             ]
         }),
         phase: Phase::Test,
@@ -191,6 +195,13 @@ pub(super) fn outcome_of(r: &Report) -> TestOutcome {
         },
         displacement_nominal_t: res.displacement_nominal_t.unwrap_or(nan),
         state: res.decision.as_ref().map(|d| d.state),
+        cause_costs: res
+            .decision
+            .as_ref()
+            .and_then(|d| d.cause_costs)
+            .map_or([nan; 2], |c| {
+                [c.speed_log, c.displacement_or_rudder_effectiveness]
+            }),
         inconsistent: says_inconsistent(r),
         reference_kind: res
             .reference

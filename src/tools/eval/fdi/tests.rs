@@ -23,7 +23,9 @@ fn outcome(decision: Decision, raw0: f64) -> TestOutcome {
         fit_chi2: f64::NAN,
         q_actuator: f64::NAN,
         z: [0.5, -1.0, 0.0],
-        raw: [raw0, -0.02, 0.06, 0.002, 7.0, 1900.0, 0.0, 0.0, 0.0, 0.0],
+        raw: [
+            raw0, -0.02, 0.06, 0.002, 7.0, 1900.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+        ],
         phase: Phase::Test,
         fault_present: false,
         speed_log_mps: 7.0,
@@ -31,6 +33,7 @@ fn outcome(decision: Decision, raw0: f64) -> TestOutcome {
         displacement_nominal_t: 6000.0,
         state: None,
         inconsistent: false,
+        cause_costs: [f64::NAN; 2],
         reference_kind: None,
     }
 }
