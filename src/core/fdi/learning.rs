@@ -124,7 +124,8 @@ pub fn after_decision(
 
 impl Fdi {
     /// Learns what the test just decided lets the vessel learn (see the module doc): while
-    /// commissioning at once, within the wide limits' alert level; after, by `Pending`.
+    /// commissioning at once, under the wide limits' single-test alarm limit; after, by
+    /// `Pending`.
     pub(super) fn learn(
         &mut self,
         i: usize,
@@ -139,7 +140,7 @@ impl Fdi {
         if let (true, Some(r), Some(b), Some((z, dim))) = (self.cfg.enabled, raw, basis, z) {
             let q = dot(z, z);
             match b {
-                Basis::Commissioning { .. } if q <= self.limits.param_alert[dim] => {
+                Basis::Commissioning { .. } if q <= self.limits.param[dim] => {
                     added = self.commissioning[i].add(settings, &r);
                     if added == Added::Completed {
                         self.generation[i] += 1;
