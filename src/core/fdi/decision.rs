@@ -162,7 +162,8 @@ pub fn effective_lengths(n: usize) -> f64 {
         .iter()
         .map(|&l| {
             let l = l.max(0.0);
-            f64::from(u8::from(l >= 1.0)) + (l - l.floor())
+            let whole = if l >= 1.0 { 1.0 } else { 0.0 };
+            whole + (l - l.floor())
         })
         .sum();
     m.clamp(1.0, n as f64)
@@ -285,9 +286,7 @@ impl Sequential {
         let current = if servo.is_some() && ratio(servo) >= ratio(param) {
             vec![Cause::SteeringActuator]
         } else {
-            param
-                .map(|p| isolation::name(&self.window, p.n))
-                .unwrap_or_default()
+            costs.map(isolation::name).unwrap_or_default()
         };
         if p_over || s_over {
             if before != TrackState::Alarm {

@@ -30,27 +30,10 @@ pub(crate) fn entry(method: Method, z: [f64; 2], c: Option<f64>) -> Entry {
 /// (numpy's eigenvalues `3.100, 0.573, 0.220, 0.106`); it grows slower than `n`.
 #[test]
 fn the_effective_number_of_window_lengths_is_li_and_ji() {
-    assert!((effective_lengths(1) - 1.0).abs() < 1e-12);
-    assert!(
-        (effective_lengths(2) - 2.0).abs() < 1e-9,
-        "{}",
-        effective_lengths(2)
-    );
-    assert!(
-        (effective_lengths(3) - 2.0).abs() < 1e-9,
-        "{}",
-        effective_lengths(3)
-    );
-    assert!(
-        (effective_lengths(4) - 2.0).abs() < 1e-9,
-        "{}",
-        effective_lengths(4)
-    );
-    assert!(
-        (effective_lengths(8) - 4.0).abs() < 1e-9,
-        "{}",
-        effective_lengths(8)
-    );
+    for (n, want) in [(1, 1.0), (2, 2.0), (3, 2.0), (4, 2.0), (8, 4.0)] {
+        let m = effective_lengths(n);
+        assert!((m - want).abs() < 1e-9, "n {n}: {m}");
+    }
     let mut last = 1.0;
     for n in 2..=12 {
         let m = effective_lengths(n);

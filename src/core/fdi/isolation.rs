@@ -51,9 +51,8 @@ pub fn costs(window: &VecDeque<Entry>, n: usize) -> [f64; 2] {
     j
 }
 
-/// The parameter cause the newest `n` entries name.
-pub fn name(window: &VecDeque<Entry>, n: usize) -> Vec<Cause> {
-    let j = costs(window, n);
+/// The parameter cause the costs `j` of a window (`costs`) name: the cheapest.
+pub fn name(j: [f64; 2]) -> Vec<Cause> {
     if !(j[0].is_finite() && j[1].is_finite()) {
         return Vec::new();
     }
