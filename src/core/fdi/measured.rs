@@ -85,21 +85,32 @@ impl Measured {
         let Some(y) = self.cov.solve(self.r) else {
             return self.dof;
         };
-        let t = dot(self.r, y);
-        let ya = self.learned.form(y, y);
-        if ya > 0.0 && t > 0.0 {
-            let nu = self.dof.max(P as f64 + 1.5);
-            let m = if self.bounded {
-                (nu / chi2_isf(0.95, nu)).max(1.0)
-            } else {
-                1.0
-            };
-            let share = m * ya / (t + (m - 1.0) * ya);
-            (self.dof / share).max(self.dof)
-        } else {
-            f64::INFINITY
-        }
+        let level = self.bounded.then_some(0.95);
+        effective_dof(dot(self.r, y), self.learned.form(y, y), self.dof, level)
     }
+}
+
+/// The degrees of freedom of a statistic `t = r' Sigma^-1 r` whose covariance `Sigma` is
+/// known but for a learned part `A` estimated with `nu` dof: `a = y' A y` (`y = Sigma^-1 r`)
+/// is the learned part's share of `t`, taken at its upper confidence bound of `level`
+/// (`m = nu / chi2_nu^-1(1 - level)`; `nu` at least `P + 1.5`; as estimated without one):
+///
+/// ```text
+/// share = m a / (t + (m - 1) a),   nu_eff = nu / share  (at least nu)
+/// ```
+///
+/// (`Measured::effective_dof`; the commissioning's change-point test,
+/// `crate::core::fdi::changepoint`). Infinite when nothing of `t` is learned.
+pub fn effective_dof(t: f64, a: f64, nu: f64, level: Option<f64>) -> f64 {
+    if !(a > 0.0 && t > 0.0) {
+        return f64::INFINITY;
+    }
+    let m = level.map_or(1.0, |l| {
+        let n = nu.max(P as f64 + 1.5);
+        (n / chi2_isf(l, n)).max(1.0)
+    });
+    let share = m * a / (t + (m - 1.0) * a);
+    (nu / share).max(nu)
 }
 
 /// The factor `sqrt(T' / T)` that maps Hotelling's `T^2(p, nu)` statistic `t` onto the

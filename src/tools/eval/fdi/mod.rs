@@ -13,7 +13,7 @@
 //! |---|---|---|
 //! | nominal | none | the full range |
 //! | nominal, drift | heading drift of 0.25..1 deg/min, either sign | the full range |
-//! | displacement +-10 %, +-20 % | `displacement_pct` | D in [5000, 8333] t, so D (1 +- 0.2) stays in range |
+//! | displacement +-10 %, +-20 %, +-12 % | `displacement_pct` | D in [5000, 8333] t, so D (1 +- 0.2) stays in range |
 //! | speed log +0.5 m/s | `speed_log_bias_mps:0.5` | u in [4, 9.5] m/s |
 //! | servo 2 deg/s | `servo_rate_deg_s:2` | the full range |
 //! | rudder effectiveness -30 % | `rudder_effectiveness:0.7` | D in [4000, 7000] t (D / 0.7 in range) |

@@ -192,6 +192,24 @@ pub fn scenarios() -> Vec<FdiScenario> {
             None,
             Some([4000.0, 7000.0]),
         ),
+        // Appended (the rows above keep their place in the seed space): the size the
+        // nonlinear hull's acceptance is stated at (issue 25).
+        s(
+            "displacement +12 %",
+            Some("displacement_pct:12@0"),
+            false,
+            disp,
+            None,
+            d_pm20,
+        ),
+        s(
+            "displacement -12 %",
+            Some("displacement_pct:-12@0"),
+            false,
+            disp,
+            None,
+            d_pm20,
+        ),
     ]
 }
 
@@ -203,6 +221,8 @@ pub fn family_scenarios() -> Vec<FdiScenario> {
         "displacement -10 %",
         "speed log +0.5 m/s",
         "servo rate 2 deg/s",
+        "displacement +12 %",
+        "displacement -12 %",
     ];
     scenarios()
         .into_iter()
