@@ -5,7 +5,7 @@
 //! and displacement read from the baseline across the (u, D) range, per method, sea state and
 //! heading-drift condition, with the neural estimator's on the same runs for comparison:
 //! `cargo test --profile ci --test baseline -- --ignored --nocapture`.
-#![allow(clippy::unwrap_used, clippy::panic)]
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use helmwatch::config::Config;
 use helmwatch::core::estimator::Estimator;

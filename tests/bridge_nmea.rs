@@ -7,7 +7,7 @@
 //! silence check, with no decision. No timing is asserted: every wait is bounded and polls.
 
 // Helpers outside #[test] functions unwrap and panic too: a failure with a message.
-#![allow(clippy::unwrap_used, clippy::panic)]
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 mod common;
 

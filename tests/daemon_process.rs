@@ -1,6 +1,9 @@
 //! The real binaries as processes: `helmwatch run` killed mid-test (the ship's autopilot
 //! reverts within `hold_s`), and `helmwatch run` + `helmwatch ship` with SIGTERM (exit 0
 //! after `mode: none` and a final status).
+// A test crate: an unwrap, expect or panic here is the test failing, with its message
+// (clippy.toml allows them in `#[test]` functions; the helpers are test code too).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 mod common;
 
@@ -10,7 +13,7 @@ use helmwatch::shells::net::loopback_peer;
 use helmwatch::shells::shipnode::{ShipNode, ShipNodeOptions};
 use helmwatch::sim::{CommandSource, Scenario};
 use serde_json::Value;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -25,7 +28,7 @@ fn temp_dir(name: &str) -> PathBuf {
 }
 
 /// Starts `helmwatch --config <file> <args>`, standard error to `<dir>/<name>.log`.
-fn spawn(dir: &PathBuf, name: &str, toml: &str, args: &[&str]) -> Child {
+fn spawn(dir: &Path, name: &str, toml: &str, args: &[&str]) -> Child {
     let cfg = dir.join(format!("{name}.toml"));
     std::fs::write(&cfg, toml).unwrap();
     let log = std::fs::File::create(dir.join(format!("{name}.log"))).unwrap();
@@ -40,7 +43,7 @@ fn spawn(dir: &PathBuf, name: &str, toml: &str, args: &[&str]) -> Child {
         .unwrap()
 }
 
-fn log(dir: &PathBuf, name: &str) -> String {
+fn log(dir: &Path, name: &str) -> String {
     std::fs::read_to_string(dir.join(format!("{name}.log"))).unwrap_or_default()
 }
 
@@ -90,11 +93,10 @@ async fn daemon_killed_mid_test_the_autopilot_reverts_within_hold() {
         .observe(move |t, truth| t2.lock().unwrap().push((t, truth.command_source)));
     let stop = CancellationToken::new();
     let s = stop.clone();
-    let ship = tokio::spawn(
-        node.run(loopback_peer(&[], &[ep.clone()]).unwrap(), async move {
-            s.cancelled().await
-        }),
-    );
+    let ship = tokio::spawn(node.run(
+        loopback_peer(&[], std::slice::from_ref(&ep)).unwrap(),
+        async move { s.cancelled().await },
+    ));
     let obs = Observer::new(&ep, "self", false).await;
     obs.trigger("hbt").await;
 

@@ -4,6 +4,9 @@
 //!
 //! Runs are spread over both cores with scoped threads; each run is a few tens of
 //! milliseconds of CPU in the `ci` profile.
+// A test crate: an unwrap, expect or panic here is the test failing, with its message
+// (clippy.toml allows them in `#[test]` functions; the helpers are test code too).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use helmwatch::config::Config;
 use helmwatch::core::dsp::relay::limit_cycle_describing_function;
@@ -386,7 +389,7 @@ fn heading_drift_does_not_disturb_the_features() {
         for (u, d) in [(7.0, 7000.0), (4.0, 10000.0), (10.0, 4000.0)] {
             for seed in [11, 12] {
                 let a = probe(Method::Clfrt, u, d, sea, seed, vec![]);
-                let b = probe(Method::Clfrt, u, d, sea, seed, vec![drift.clone()]);
+                let b = probe(Method::Clfrt, u, d, sea, seed, vec![drift]);
                 for (x, y) in tones(&a).iter().zip(tones(&b).iter()) {
                     let ge = (y.gain / x.gain - 1.0).abs();
                     let pe = dphase(y.phase, x.phase).abs().to_degrees();
@@ -397,7 +400,7 @@ fn heading_drift_does_not_disturb_the_features() {
                     );
                 }
                 let a = probe(Method::Hbt, u, d, sea, seed, vec![]);
-                let b = probe(Method::Hbt, u, d, sea, seed, vec![drift.clone()]);
+                let b = probe(Method::Hbt, u, d, sea, seed, vec![drift]);
                 let (fa, fb) = (hbt(&a), hbt(&b));
                 for (k, x, y) in [
                     ("period_s", fa.period_s, fb.period_s),

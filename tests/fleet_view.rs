@@ -4,6 +4,9 @@
 //! fleet view, started after the first daemon (its liveliness history must show it), sees all
 //! three alive, sees their states change after a trigger, and sees one gone when its daemon
 //! stops. Every wait is bounded and polls for an event; no timing is asserted.
+// A test crate: an unwrap, expect or panic here is the test failing, with its message
+// (clippy.toml allows them in `#[test]` functions; the helpers are test code too).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 mod common;
 
@@ -112,9 +115,13 @@ async fn wait_change(seen: &Mutex<Vec<Value>>, what: &str, pred: impl Fn(&Value)
 #[tokio::test(flavor = "multi_thread")]
 async fn fleet_view_sees_vessels_alive_busy_and_gone() {
     let router_ep = endpoint();
-    let router = zenoh::open(zcfg(ZenohMode::Router, &[router_ep.clone()], &[]))
-        .await
-        .unwrap();
+    let router = zenoh::open(zcfg(
+        ZenohMode::Router,
+        std::slice::from_ref(&router_ep),
+        &[],
+    ))
+    .await
+    .unwrap();
     let mut cfg = daemon_config();
     cfg.scheduler.enabled = false;
     let names = ["alpha", "bravo", "charlie"];

@@ -5,7 +5,7 @@
 //! piecewise-linear flow straightening, and the hull inside the simulated ship (faults,
 //! autopilot, speed log).
 
-#![allow(clippy::unwrap_used)]
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use helmwatch::config::Config;
 use helmwatch::core::model::SeaState;

@@ -11,7 +11,7 @@
 //! instrument (the km/h field, VHW's own true heading), never read back from the decoder.
 
 // Helpers outside #[test] functions unwrap and panic too: a failure with a message.
-#![allow(clippy::unwrap_used, clippy::panic)]
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use helmwatch::core::nmea::{
     datagram, tag_time_ms, tick_sentences, DecodeOptions, Decoder, HeadingSentence, LineBuffer,

@@ -3,6 +3,9 @@
 //! autopilot and ship for the nominal servo, and a finely integrated rate-limited first-order
 //! servo for the degraded one. Also: the test stays within its duration limit and the safety
 //! gate never bounds a nominal test's excitation.
+// A test crate: an unwrap, expect or panic here is the test failing, with its message
+// (clippy.toml allows them in `#[test]` functions; the helpers are test code too).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use helmwatch::config::Config;
 use helmwatch::core::model::SeaState;

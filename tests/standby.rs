@@ -182,9 +182,10 @@ fn duplicates(obs: &Observer) -> Vec<(f64, usize)> {
 async fn two_daemons_one_vessel_every_heading_answered_once_one_report_per_test() {
     let dir = temp_dir("standby-two");
     let router_ep = endpoint();
-    let router = zenoh::open(loopback(ZenohMode::Router, &[router_ep.clone()], &[]).unwrap())
-        .await
-        .unwrap();
+    let router =
+        zenoh::open(loopback(ZenohMode::Router, std::slice::from_ref(&router_ep), &[]).unwrap())
+            .await
+            .unwrap();
     let obs = Observer::new(&router_ep, "self", true).await;
     let owners = Ownership::new(&obs.session).await;
     // Scheduled tests every 10 minutes of steady course, both methods in turn.
@@ -294,8 +295,7 @@ async fn two_daemons_one_vessel_every_heading_answered_once_one_report_per_test(
     let last = out
         .lines()
         .filter_map(|l| serde_json::from_str::<Value>(l).ok())
-        .filter(|l| l["vessel"] == "self")
-        .last()
+        .rfind(|l| l["vessel"] == "self")
         .unwrap_or_else(|| panic!("no fleet line: {out}"));
     assert_eq!(last["holders"], serde_json::json!(["a"]), "{out}");
     assert_eq!(last["standbys"], serde_json::json!(["b"]), "{out}");
@@ -398,9 +398,10 @@ async fn kill_and_take_over(
 async fn the_standby_takes_over_an_alarm_with_the_state_after_sigkill_both_ways() {
     let dir = temp_dir("standby-kill");
     let router_ep = endpoint();
-    let router = zenoh::open(loopback(ZenohMode::Router, &[router_ep.clone()], &[]).unwrap())
-        .await
-        .unwrap();
+    let router =
+        zenoh::open(loopback(ZenohMode::Router, std::slice::from_ref(&router_ep), &[]).unwrap())
+            .await
+            .unwrap();
     let obs = Observer::new(&router_ep, "self", true).await;
     let owners = Ownership::new(&obs.session).await;
     // The fewest commissioning tests the covariance's K-sample factor allows.
@@ -499,7 +500,7 @@ async fn counter(addr: std::net::SocketAddr, series: &str) -> u64 {
 /// One side of a partition: a router on a free loopback endpoint, and that endpoint.
 async fn partition() -> (String, zenoh::Session) {
     let ep = endpoint();
-    let router = zenoh::open(loopback(ZenohMode::Router, &[ep.clone()], &[]).unwrap())
+    let router = zenoh::open(loopback(ZenohMode::Router, std::slice::from_ref(&ep), &[]).unwrap())
         .await
         .unwrap();
     (ep, router)
@@ -583,9 +584,10 @@ async fn a_healed_partition_leaves_one_driver() {
 #[tokio::test(flavor = "multi_thread")]
 async fn a_state_of_another_configuration_is_refused_and_a_lone_standby_refuses_triggers() {
     let router_ep = endpoint();
-    let router = zenoh::open(loopback(ZenohMode::Router, &[router_ep.clone()], &[]).unwrap())
-        .await
-        .unwrap();
+    let router =
+        zenoh::open(loopback(ZenohMode::Router, std::slice::from_ref(&router_ep), &[]).unwrap())
+            .await
+            .unwrap();
     let obs = Observer::new(&router_ep, "self", false).await;
     let owners = Ownership::new(&obs.session).await;
     let mut cfg = common::daemon_config();

@@ -85,9 +85,12 @@ fn round_trip_is_bit_exact() {
     assert_eq!(m.file_name(), "clfrt_displacement.json");
 }
 
+/// A case of a bad model file: what the error names, and how the file is spoiled.
+type Spoil = (&'static str, Box<dyn FnOnce(&mut serde_json::Value)>);
+
 #[test]
 fn loader_refuses_bad_files_with_a_clear_error() {
-    let cases: Vec<(&str, Box<dyn FnOnce(&mut serde_json::Value)>)> = vec![
+    let cases: Vec<Spoil> = vec![
         ("format", Box::new(|v| v["format"] = "other".into())),
         ("version", Box::new(|v| v["version"] = 2.into())),
         (

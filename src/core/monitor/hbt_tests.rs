@@ -215,9 +215,9 @@ fn a_relay_that_cannot_shrink_enough_aborts_at_the_look() {
 
 #[test]
 fn handback_instant_zeroes_the_pd_term() {
-    let (p, a, eps, tau) = (180.0, 0.05, 0.0175, 30.0);
+    let (p, a, eps, tau): (f64, f64, f64, f64) = (180.0, 0.05, 0.0175, 30.0);
     let w = 2.0 * std::f64::consts::PI / p;
-    let phi0 = (eps / a as f64).asin();
+    let phi0 = (eps / a).asin();
     let t = handback_instant(0.0, p, a, eps, tau);
     let e = a * (w * t + phi0).sin();
     let de = a * w * (w * t + phi0).cos();

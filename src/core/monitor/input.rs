@@ -356,7 +356,7 @@ mod tests {
         assert_eq!(r(&h(1.0, 2.0 * PI)), Err(RejectReason::OutOfRange));
         assert_eq!(r(&h(f64::NAN, 1.0)), Err(RejectReason::NotFinite));
         assert_eq!(r(&h(1.0, f64::INFINITY)), Err(RejectReason::NotFinite));
-        assert_eq!(r(&h(1.0, 6.28)), Ok(()));
+        assert_eq!(r(&h(1.0, std::f64::consts::TAU - 0.003)), Ok(()));
         let rud = Input::Rudder(Scalar {
             t: 1.0,
             value: 0.81,

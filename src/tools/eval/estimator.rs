@@ -207,6 +207,29 @@ pub fn fmt_unit(v: f64, target: Target) -> String {
     }
 }
 
+/// The accuracy of `models` on each member of the family of real ships
+/// ([`crate::sim::config::family`]): the held-out database of `spec` simulated on ships of
+/// each structure (the monitor and the models unchanged), in family order.
+pub fn family_accuracy(
+    cfg: &crate::config::Config,
+    models: &[Model],
+    spec: &crate::tools::training::database::DatabaseSpec,
+    threads: usize,
+) -> Vec<(&'static str, Vec<Cell>, f64)> {
+    crate::sim::config::family()
+        .into_iter()
+        .map(|m| {
+            let mut c = cfg.clone();
+            m.apply(&mut c.structure, &mut c.autopilot);
+            let db = crate::tools::training::database::simulate(&c, spec, threads, &|_, _| {});
+            let runs: Vec<_> = db.runs.iter().flatten().collect();
+            let completed = runs.iter().filter(|r| r.features.is_ok()).count();
+            let rate = completed as f64 / runs.len().max(1) as f64;
+            (m.name, accuracy(models, &db), rate)
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -286,27 +309,4 @@ mod tests {
             "{t}"
         );
     }
-}
-
-/// The accuracy of `models` on each member of the family of real ships
-/// ([`crate::sim::config::family`]): the held-out database of `spec` simulated on ships of
-/// each structure (the monitor and the models unchanged), in family order.
-pub fn family_accuracy(
-    cfg: &crate::config::Config,
-    models: &[Model],
-    spec: &crate::tools::training::database::DatabaseSpec,
-    threads: usize,
-) -> Vec<(&'static str, Vec<Cell>, f64)> {
-    crate::sim::config::family()
-        .into_iter()
-        .map(|m| {
-            let mut c = cfg.clone();
-            m.apply(&mut c.structure, &mut c.autopilot);
-            let db = crate::tools::training::database::simulate(&c, spec, threads, &|_, _| {});
-            let runs: Vec<_> = db.runs.iter().flatten().collect();
-            let completed = runs.iter().filter(|r| r.features.is_ok()).count();
-            let rate = completed as f64 / runs.len().max(1) as f64;
-            (m.name, accuracy(models, &db), rate)
-        })
-        .collect()
 }
