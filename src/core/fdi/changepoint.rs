@@ -46,7 +46,7 @@
 //! (`fdi.false-alarms-per-year` = 0.1: 2.7e-4), spent evenly over the (look, split) pairs a
 //! commissioning can make (Bonferroni: `alpha_c / L`). Needs `n >= 6` (`nu = 4`).
 use super::envelope::{Sample, Settings as Envelope};
-use super::measured::effective_dof;
+use super::measured::{bound_factor, effective_dof};
 use super::stats::{dot, hotelling_isf, Cov, P};
 
 /// The confidence level of the upper bound on the scatter's share of a look
@@ -78,6 +78,7 @@ pub fn change_point(
         return None;
     }
     let nu = (n - 2) as f64;
+    let m = bound_factor(nu, BOUND);
     // Prefix sums of e, e e' and the operating point: every split in O(1).
     let mut pre = vec![Sums::default(); n + 1];
     for (i, s) in samples.iter().enumerate() {
@@ -119,7 +120,7 @@ pub fn change_point(
             let d2 = [d[0], d[1], 0.0];
             c2.solve(d2).map(|y| {
                 let t = dot(d2, y);
-                let dof = effective_dof(t, l2.form(y, y), nu, Some(BOUND));
+                let dof = effective_dof(t, l2.form(y, y), nu, m);
                 (t, hotelling_isf(0.5 * alpha, 2, dof))
             })
         };
@@ -127,7 +128,7 @@ pub fn change_point(
         let gain = (cb > 0.0 && d[2].is_finite()).then(|| {
             let t = d[2] * d[2] / cb;
             let a = learned.at(2, 2) * t / cb;
-            let dof = effective_dof(t, a, nu, Some(BOUND));
+            let dof = effective_dof(t, a, nu, m);
             (t, hotelling_isf(0.5 * alpha, 1, dof))
         });
         for (t, limit) in [pair, gain].into_iter().flatten() {
@@ -297,6 +298,7 @@ mod tests {
     fn a_one_dof_look_keeps_its_budget_whatever_the_known_share() {
         let alpha = 7.5e-6;
         let size = |nu: f64, kappa: f64, level: Option<f64>| -> f64 {
+            let m = level.map_or(1.0, |l| bound_factor(nu, l));
             let ln_norm = 0.5 * nu * 2f64.ln() + statrs::function::gamma::ln_gamma(0.5 * nu);
             // Trapezoid over ln x, x the chi-square variate.
             let (lo, hi, n) = ((1e-6f64).ln(), (40.0 * nu).ln(), 1500);
@@ -306,7 +308,7 @@ mod tests {
                     let x = (lo + h * i as f64).exp();
                     let w = x / nu;
                     let t = 1.0 / (w + kappa);
-                    let dof = effective_dof(t, w * t / (w + kappa), nu, level);
+                    let dof = effective_dof(t, w * t / (w + kappa), nu, m);
                     let limit = hotelling_isf(alpha, 1, dof);
                     let tail = chi2_sf(limit * (w + kappa) / (1.0 + kappa), 1.0);
                     let pdf_x = ((0.5 * nu - 1.0) * x.ln() - 0.5 * x - ln_norm).exp() * x;

@@ -85,15 +85,19 @@ impl Measured {
         let Some(y) = self.cov.solve(self.r) else {
             return self.dof;
         };
-        let level = self.bounded.then_some(0.95);
-        effective_dof(dot(self.r, y), self.learned.form(y, y), self.dof, level)
+        let m = if self.bounded {
+            bound_factor(self.dof, 0.95)
+        } else {
+            1.0
+        };
+        effective_dof(dot(self.r, y), self.learned.form(y, y), self.dof, m)
     }
 }
 
 /// The degrees of freedom of a statistic `t = r' Sigma^-1 r` whose covariance `Sigma` is
 /// known but for a learned part `A` estimated with `nu` dof: `a = y' A y` (`y = Sigma^-1 r`)
-/// is the learned part's share of `t`, taken at its upper confidence bound of `level`
-/// (`m = nu / chi2_nu^-1(1 - level)`; `nu` at least `P + 1.5`; as estimated without one):
+/// is the learned part's share of `t`, taken at an upper confidence bound `m` times the
+/// estimate (`bound_factor`; 1: as estimated):
 ///
 /// ```text
 /// share = m a / (t + (m - 1) a),   nu_eff = nu / share  (at least nu)
@@ -101,16 +105,19 @@ impl Measured {
 ///
 /// (`Measured::effective_dof`; the commissioning's change-point test,
 /// `crate::core::fdi::changepoint`). Infinite when nothing of `t` is learned.
-pub fn effective_dof(t: f64, a: f64, nu: f64, level: Option<f64>) -> f64 {
+pub fn effective_dof(t: f64, a: f64, nu: f64, m: f64) -> f64 {
     if !(a > 0.0 && t > 0.0) {
         return f64::INFINITY;
     }
-    let m = level.map_or(1.0, |l| {
-        let n = nu.max(P as f64 + 1.5);
-        (n / chi2_isf(l, n)).max(1.0)
-    });
     let share = m * a / (t + (m - 1.0) * a);
     (nu / share).max(nu)
+}
+
+/// The factor of a variance estimated with `nu` dof to its upper confidence bound of `level`:
+/// `m = nu / chi2_nu^-1(1 - level)` (`nu` at least `P + 1.5`), at least 1.
+pub fn bound_factor(nu: f64, level: f64) -> f64 {
+    let n = nu.max(P as f64 + 1.5);
+    (n / chi2_isf(level, n)).max(1.0)
 }
 
 /// The factor `sqrt(T' / T)` that maps Hotelling's `T^2(p, nu)` statistic `t` onto the
