@@ -278,7 +278,8 @@ impl Sequential {
         let alert =
             |s: Option<Scored>| s.is_some_and(|s| s.look.statistic > s.look.alert_threshold);
         let (p_over, s_over) = (over(param), over(servo));
-        let costs = param.map(|p| isolation::costs(&self.window, p.n));
+        let window_costs = param.map(|p| isolation::costs(&self.window, p.n));
+        let costs = window_costs.map(|c| c.j);
         let before = self.state;
         let mut raised_by_servo = None;
         // The cause the current evidence names: the channel nearest (or furthest over) its
@@ -286,7 +287,7 @@ impl Sequential {
         let current = if servo.is_some() && ratio(servo) >= ratio(param) {
             vec![Cause::SteeringActuator]
         } else {
-            costs.map(isolation::name).unwrap_or_default()
+            window_costs.map(isolation::name).unwrap_or_default()
         };
         if p_over || s_over {
             if before != TrackState::Alarm {

@@ -301,11 +301,58 @@ fn isolation_tells_the_speed_log_from_the_displacement_by_direction() {
     assert_eq!(st.isolation, vec![Cause::DisplacementOrRudderEffectiveness]);
     // The cost by hand: off the log line (-1, 0.3) of (0.4, 6): |z|^2 - (u.z)^2.
     let w: std::collections::VecDeque<Entry> = [entry(Method::Hbt, [0.4, 6.0], Some(0.0))].into();
-    let j = isolation::costs(&w, 1);
+    let costs = isolation::costs(&w, 1);
+    let j = costs.j;
     let u = [-1.0 / 1.09f64.sqrt(), 0.3 / 1.09f64.sqrt()];
     let along = u[0] * 0.4 + u[1] * 6.0;
     assert!((j[0] - (36.16 - along * along)).abs() < 1e-9);
     assert!((j[1] - 0.16).abs() < 1e-12);
+    // One test, two components, one size either way: one dof each.
+    assert_eq!(costs.dof, [1.0, 1.0]);
+}
+
+/// Where each method's two directions coincide, one test cannot tell the causes apart; two
+/// methods can, by how much each moved: a log bias is one size for the vessel, so the methods'
+/// residuals stand in the ratio of their log directions. A log bias of 4 m/s seen by CLFRT
+/// (2 per m/s) and HBT (1 per m/s) is named the log; a displacement step that moved them in
+/// another ratio (its sizes per method) is not, whichever way the per-method fits tie.
+#[test]
+fn isolation_reads_a_log_bias_from_both_methods_in_the_ratio_it_predicts() {
+    let with = |method, z: [f64; 2], log: f64, d: f64| {
+        let mut e = entry(method, z, Some(0.0));
+        e.directions = [[0.0, log, 0.0], [0.0, d, 0.0]];
+        e
+    };
+    let costs_of = |a: Entry, b: Entry| isolation::costs(&[a, b].into(), 2);
+    // The log: CLFRT 2 x 4, HBT 1 x 4 (exact, and with a little noise off the line).
+    for noise in [0.0, 0.3] {
+        let c = costs_of(
+            with(Method::Clfrt, [noise, 8.0], 2.0, 1.0),
+            with(Method::Hbt, [-noise, 4.0], 1.0, 2.0),
+        );
+        assert_eq!(c.dof, [3.0, 2.0]);
+        assert!((c.j[0] - c.j[1]).abs() < 1e-9, "{c:?}");
+        assert_eq!(isolation::name(c), vec![Cause::SpeedLog]);
+    }
+    // A displacement step of 4 on both: CLFRT 1 x 4, HBT 2 x 4; the log's one size cannot
+    // make 4 and 8 from 2 and 1: J_log = 4^2 + 8^2 - (2 x 4 + 1 x 8)^2 / 5 = 28.8.
+    let c = costs_of(
+        with(Method::Clfrt, [0.0, 4.0], 2.0, 1.0),
+        with(Method::Hbt, [0.0, 8.0], 1.0, 2.0),
+    );
+    assert!((c.j[0] - 28.8).abs() < 1e-9, "{c:?}");
+    assert!(c.j[1].abs() < 1e-9);
+    assert_eq!(
+        isolation::name(c),
+        vec![Cause::DisplacementOrRudderEffectiveness]
+    );
+    // Under the alarm, the same naming: the sequential test names the window's cause.
+    let l = Limits::new(0.1, 3720.0, 4);
+    let mut s = Sequential::default();
+    s.update(&l, with(Method::Clfrt, [0.0, 4.0], 2.0, 1.0));
+    let st = s.update(&l, with(Method::Hbt, [0.0, 8.0], 1.0, 2.0));
+    assert_eq!(st.state, TrackState::Alarm);
+    assert_eq!(st.isolation, vec![Cause::DisplacementOrRudderEffectiveness]);
 }
 
 /// A vessel per the decision's own model: K healthy commissioning tests per method, whose

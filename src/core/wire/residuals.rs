@@ -245,7 +245,8 @@ pub struct DecisionReport {
     /// The per-look false-alarm probability the limits were set for (both channels).
     pub false_alarm_per_test: f64,
     /// How well each parameter cause explains the parameter look's window: `J_c`, the part
-    /// of its evidence off the cause's direction (chi-square units; the smaller names it).
+    /// of its evidence the cause's model leaves (chi-square units; the likelier at its own
+    /// degrees of freedom names it: `crate::core::fdi::isolation`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cause_costs: Option<CauseCosts>,
 }
