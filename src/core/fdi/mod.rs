@@ -42,6 +42,7 @@ mod raw;
 pub mod reference;
 mod report;
 pub mod sensitivity;
+pub mod shape;
 pub mod stats;
 
 use crate::core::baseline::config::BaselineConfig;
@@ -63,6 +64,7 @@ use raw::{lerp, sea_fraction};
 use reference::{Added, Basis, Commissioning, Measured, Phase};
 pub use report::{Fingerprint, MISMATCH_ADVICE};
 use serde::{Deserialize, Serialize};
+use shape::LoopShape;
 
 /// What the FDI adds to a completed test's report.
 #[derive(Debug, Clone, PartialEq)]
@@ -129,6 +131,9 @@ pub struct FdiState {
     /// The tests in the decision's window waiting to be learned.
     #[serde(default, deserialize_with = "or_default")]
     pub pending: Pending,
+    /// The vessel's loop shape from its last CLFRT tests (HBT's displacement direction).
+    #[serde(default, deserialize_with = "or_default")]
+    pub loop_shape: LoopShape,
 }
 
 /// A part of a saved state as it stands, or its default when it is in an older version's
@@ -158,6 +163,7 @@ pub struct Fdi {
     generation: [u32; 2],
     fingerprint: Fingerprint,
     pending: Pending,
+    loop_shape: LoopShape,
 }
 
 fn method_index(m: Method) -> usize {
@@ -188,6 +194,7 @@ impl Fdi {
             generation: [0; 2],
             fingerprint: Fingerprint::of(cfg),
             pending: Pending::default(),
+            loop_shape: LoopShape::default(),
         }
     }
 
@@ -297,6 +304,7 @@ impl Fdi {
             generation: self.generation,
             fingerprint: self.fingerprint.clone(),
             pending: self.pending.clone(),
+            loop_shape: self.loop_shape.clone(),
         }
     }
 
@@ -313,6 +321,7 @@ impl Fdi {
         self.last_notification = s.last_notification;
         self.generation = s.generation;
         self.pending = s.pending;
+        self.loop_shape = s.loop_shape;
         let had = s.commissioning.iter().any(|c| c.tests > 0);
         match self.fingerprint.difference(&s.fingerprint) {
             Some(why) if had => {
@@ -357,9 +366,11 @@ impl Fdi {
         let i = method_index(method);
         let index = sea_index(features);
         let frac = sea_fraction(self.cfg.sea_wave_yaw_deg, index);
+        let slopes = self.loop_shape.slopes_at(features);
         let raw = estimate.and_then(|(e, est, scratch)| {
-            self.nn_raw(method, features, e, d_nom_t, est, scratch, frac)
+            self.nn_raw(method, features, e, d_nom_t, est, scratch, frac, slopes)
         });
+        self.loop_shape.learn(features);
         let settings = self.settings();
         let source = raw.map(|(r, g, d_dir)| Source {
             raw: r,

@@ -105,6 +105,7 @@ impl Fdi {
         est: &Estimator,
         scratch: &mut EstimatorScratch,
         frac: f64,
+        slopes: Option<sensitivity::Slopes>,
     ) -> Option<(Raw, f64, [f64; P])> {
         let u_log = features.speed_log_mps().filter(|u| u.is_finite())?;
         let (mu, su) = spread(
@@ -126,7 +127,7 @@ impl Fdi {
         // The displacement's direction through the networks and the gain: the same test on
         // a ship with b 1 % smaller (`sensitivity`); (0, 1, 0.01) when the features cannot
         // say.
-        let d_dir = sensitivity::scale_b(features, 1.0 - DB_REL)
+        let d_dir = sensitivity::scale_b_at(features, 1.0 - DB_REL, slopes)
             .and_then(|f| Some((est.estimate(method, &f, scratch).ok()?, gain_of(&f))))
             .map(|(e, g)| {
                 [
@@ -159,7 +160,7 @@ impl Fdi {
         // scales by `1 / D` (`sensitivity::scale_b`), the residual is taken against the new
         // declared displacement.
         let mut loaded = |dl: f64| -> Option<[f64; P]> {
-            let f = sensitivity::scale_b(features, (-dl).exp())?;
+            let f = sensitivity::scale_b_at(features, (-dl).exp(), slopes)?;
             let e = est.estimate(method, &f, scratch).ok()?;
             Some([
                 e.speed_mps,

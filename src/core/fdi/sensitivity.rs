@@ -22,6 +22,25 @@
 //!
 //! and the periods scale with `1/w` (their relative spread unchanged).
 //!
+//! That is the first-order model's loop. On any linear ship the same harmonic balance holds
+//! with the loop's own local slopes at the cycle, `m = d ln|G| / d ln w` and `p = d arg G /
+//! d ln w`, and the relay's lag `theta` (`sin theta = eps / A`, at the cycle `arg G = -pi +
+//! theta`, so `tan theta = cot(lag)`):
+//!
+//! ```text
+//! d ln w / d ln k = -1 / (m + p tan(lag))         (magnitude and phase of k G N(A) = -1)
+//! d ln A / d ln k = -p tan(lag) d ln w / d ln k
+//! d ln |G(jw)|    = d ln k + m d ln w,   d phi = p d ln w
+//! ```
+//!
+//! (the first-order model's `m = -(1 + q)`, `p = -sqrt(q (1 - q))`, `tan(lag)^2 = q / (1 - q)`
+//! give the lines above). A higher-order hull's phase falls faster or slower than the
+//! first-order model's with the same lag, so its cycle moves otherwise when `b` changes, and
+//! the networks read the move otherwise (the second-order hulls': HBT's displacement
+//! direction leaning towards the speed log's). The slopes are measured on the vessel: by its
+//! CLFRT tests' tones around the cycle's frequency, moved to the HBT test's speed by the
+//! similarity law below ([`tone_slopes`], `crate::core::fdi::shape`).
+//!
 //! How a change of the ship's **speed** moves them, by the similarity law of manoeuvring: with
 //! non-dimensional coefficients that do not depend on the speed (Nomoto's `K' = K l / u`,
 //! `T' = T u / l`, and every time constant of a higher-order or MMG hull likewise), the
@@ -166,6 +185,102 @@ pub fn scale_b(features: &Features, k: f64) -> Option<Features> {
     }
 }
 
+/// The local slopes of the ship's measured frequency response (rudder to heading) at one
+/// frequency.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Slopes {
+    /// `d ln|G| / d ln w`.
+    pub ln_gain: f64,
+    /// `d arg G / d ln w` [rad].
+    pub phase: f64,
+}
+
+/// The slopes at `ln_omega` of a response measured at `points` (`(ln w, ln|G|, arg G)`,
+/// increasing `w`, phases continuous): the derivative of the parabola through the three
+/// points nearest (a line through two). `None` outside the points' span widened by half its
+/// mean spacing on either side, or with fewer than two points.
+pub fn tone_slopes(points: &[[f64; 3]], ln_omega: f64) -> Option<Slopes> {
+    let n = points.len();
+    if n < 2 || !ln_omega.is_finite() {
+        return None;
+    }
+    let (lo, hi) = (points[0][0], points[n - 1][0]);
+    let margin = 0.5 * (hi - lo) / (n - 1) as f64;
+    if !(margin > 0.0 && ln_omega >= lo - margin && ln_omega <= hi + margin) {
+        return None;
+    }
+    let idx: Vec<usize> = if n == 2 {
+        vec![0, 1]
+    } else {
+        let k = points
+            .iter()
+            .enumerate()
+            .min_by(|a, b| {
+                (a.1[0] - ln_omega)
+                    .abs()
+                    .total_cmp(&(b.1[0] - ln_omega).abs())
+            })
+            .map(|(k, _)| k)?;
+        let first = k.saturating_sub(1).min(n - 3);
+        vec![first, first + 1, first + 2]
+    };
+    // d/dx of Lagrange's form: sum_i y_i sum_{j != i} prod_{l != i, j} (x - x_l) / prod_{j != i} (x_i - x_j).
+    let mut d = [0.0; 2];
+    for &i in &idx {
+        let mut den = 1.0;
+        let mut num = 0.0;
+        for &j in idx.iter().filter(|&&j| j != i) {
+            den *= points[i][0] - points[j][0];
+            num += idx
+                .iter()
+                .filter(|&&l| l != i && l != j)
+                .map(|&l| ln_omega - points[l][0])
+                .product::<f64>();
+        }
+        if den.abs() < 1e-12 {
+            return None;
+        }
+        for (c, dc) in d.iter_mut().enumerate() {
+            *dc += points[i][c + 1] * num / den;
+        }
+    }
+    let s = Slopes {
+        ln_gain: d[0],
+        phase: d[1],
+    };
+    (s.ln_gain.is_finite() && s.phase.is_finite()).then_some(s)
+}
+
+/// [`scale_b`] with HBT's cycle moved by the loop's measured local `slopes` at the cycle
+/// (module doc) instead of the first-order model's; CLFRT's tones as in [`scale_b`]. `None`
+/// slopes, or slopes under which the cycle would not be stable (`m + p tan(lag)` not below
+/// -1/2: a cycle whose frequency moves over twice as fast as `b`), take the first-order model.
+pub fn scale_b_at(features: &Features, k: f64, slopes: Option<Slopes>) -> Option<Features> {
+    let (Features::Hbt(h), Some(sl)) = (features, slopes) else {
+        return scale_b(features, k);
+    };
+    let w = h.omega_u_rad_s;
+    let lag = -h.response_phase_rad? - std::f64::consts::FRAC_PI_2;
+    if !(lag > 0.0 && lag < std::f64::consts::FRAC_PI_2 && w > 0.0) {
+        return None;
+    }
+    let den = sl.ln_gain + sl.phase * lag.tan();
+    if den.is_nan() || den >= -0.5 {
+        return scale_b(features, k);
+    }
+    let lk = k.ln();
+    let dlw = -lk / den;
+    let dla = -sl.phase * lag.tan() * dlw;
+    let mut h = h.clone();
+    h.amplitude_rad *= dla.exp();
+    h.omega_u_rad_s = w * dlw.exp();
+    h.period_s *= (-dlw).exp();
+    h.period_std_s *= (-dlw).exp();
+    h.response_gain = h.response_gain.map(|g| g * (lk + sl.ln_gain * dlw).exp());
+    h.response_phase_rad = h.response_phase_rad.map(|p| p + sl.phase * dlw);
+    Some(Features::Hbt(h))
+}
+
 /// The features of the same test on the same ship at speed `u1_mps` (the similarity law, see
 /// the module documentation), the speed log reading `u1_mps`; `None` when the test has no
 /// speed log or CLFRT fewer than two tones.
@@ -216,7 +331,7 @@ pub fn scale_speed(features: &Features, u1_mps: f64) -> Option<Features> {
 }
 
 /// Phases made continuous from one tone to the next (steps within `(-pi, pi]`).
-fn unwrap(phases: impl Iterator<Item = f64>) -> Vec<f64> {
+pub(super) fn unwrap(phases: impl Iterator<Item = f64>) -> Vec<f64> {
     let mut out: Vec<f64> = Vec::new();
     for p in phases {
         let q = match out.last() {
