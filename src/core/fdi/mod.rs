@@ -328,6 +328,7 @@ impl Fdi {
                 self.commissioning = Default::default();
                 self.sequential.window.clear();
                 self.pending = Pending::default();
+                self.loop_shape = LoopShape::default();
                 Some(format!(
                     "commissioning reference discarded, commissioning starts again: {why}"
                 ))

@@ -146,6 +146,15 @@ fn a_reference_is_kept_only_for_its_configuration_and_models() {
         fdi.commissioning[1].add(&s, &raw);
     }
     assert!(fdi.commissioning[1].reference.is_some());
+    // A CLFRT test's tones in the loop shape.
+    let tones = [0.032, 0.075, 0.18]
+        .iter()
+        .map(|&w| sample::tone(w, 1e-3 / (w * w), -2.5))
+        .collect();
+    let mut c = sample::clfrt(tones);
+    c.speed_log_mps = Some(7.0);
+    fdi.loop_shape.learn(&Features::Clfrt(c));
+    assert_ne!(fdi.loop_shape, LoopShape::default());
     let saved = fdi.state();
 
     let mut same = Fdi::new(&cfg);
@@ -161,6 +170,7 @@ fn a_reference_is_kept_only_for_its_configuration_and_models() {
     let why = other_models.restore(saved.clone()).unwrap();
     assert!(why.contains("models changed (aaaa -> bbbb)"), "{why}");
     assert_eq!(other_models.commissioning, <[Commissioning; 2]>::default());
+    assert_eq!(other_models.loop_shape, LoopShape::default());
 
     let mut longer = cfg.clone();
     longer.ship.length_m = 130.0;
@@ -178,9 +188,10 @@ fn a_reference_is_kept_only_for_its_configuration_and_models() {
     new_load.set_models(Some("aaaa".into()));
     assert_eq!(new_load.restore(saved.clone()), None);
 
-    // An older file: no commissioning, no fingerprint, no sequential test.
+    // An older file: no commissioning, no fingerprint, no sequential test, no loop shape.
     let mut v = serde_json::to_value(&saved).unwrap();
     let o = v.as_object_mut().unwrap();
+    o.remove("loop_shape");
     o.remove("commissioning");
     o.remove("fingerprint");
     o.remove("sequential");
