@@ -209,21 +209,16 @@ pub fn tone_slopes(points: &[[f64; 3]], ln_omega: f64) -> Option<Slopes> {
     if !(margin > 0.0 && ln_omega >= lo - margin && ln_omega <= hi + margin) {
         return None;
     }
-    let idx: Vec<usize> = if n == 2 {
-        vec![0, 1]
-    } else {
-        let k = points
-            .iter()
-            .enumerate()
-            .min_by(|a, b| {
-                (a.1[0] - ln_omega)
-                    .abs()
-                    .total_cmp(&(b.1[0] - ln_omega).abs())
-            })
-            .map(|(k, _)| k)?;
-        let first = k.saturating_sub(1).min(n - 3);
-        vec![first, first + 1, first + 2]
-    };
+    let nearest = points
+        .iter()
+        .enumerate()
+        .min_by(|a, b| {
+            (a.1[0] - ln_omega)
+                .abs()
+                .total_cmp(&(b.1[0] - ln_omega).abs())
+        })
+        .map(|(k, _)| k)?;
+    let idx = stencil(n, nearest);
     // d/dx of Lagrange's form: sum_i y_i sum_{j != i} prod_{l != i, j} (x - x_l) / prod_{j != i} (x_i - x_j).
     let mut d = [0.0; 2];
     for &i in &idx {
@@ -346,16 +341,21 @@ pub(super) fn unwrap(phases: impl Iterator<Item = f64>) -> Vec<f64> {
     out
 }
 
-/// `y` over `x` (increasing) at `at`, near point `k`: the parabola through the three points
-/// nearest `k` (a line through two).
-fn interpolate(x: &[f64], y: &[f64], at: f64, k: usize) -> Option<f64> {
-    let n = x.len();
-    let idx: Vec<usize> = if n == 2 {
+/// The points a parabola near point `k` of `n >= 2` goes through: the three centred on `k`
+/// (shifted inside at the ends), the two when there are two.
+fn stencil(n: usize, k: usize) -> Vec<usize> {
+    if n == 2 {
         vec![0, 1]
     } else {
         let lo = k.saturating_sub(1).min(n - 3);
         vec![lo, lo + 1, lo + 2]
-    };
+    }
+}
+
+/// `y` over `x` (increasing) at `at`, near point `k`: the parabola through the three points
+/// nearest `k` (a line through two).
+fn interpolate(x: &[f64], y: &[f64], at: f64, k: usize) -> Option<f64> {
+    let idx = stencil(x.len(), k);
     // Lagrange's form.
     let mut v = 0.0;
     for &i in &idx {
