@@ -464,14 +464,16 @@ fn a_state_file_plots_the_learned_reference_with_one_point_per_learned_test() {
         loading_slope: [0.0; 3],
     };
     let wobble = [0.0, 0.03, -0.03, 0.02, -0.02, 0.01, -0.01, 0.015];
+    // The vessel's test numbers order the samples (`Commissioning::add`'s third argument).
+    let mut order = 0..;
     for w in wobble {
-        st.commissioning[0].add(&s, &raw(7.0, w));
+        st.commissioning[0].add(&s, &raw(7.0, w), order.next().unwrap());
     }
     for w in &wobble[..4] {
-        st.commissioning[0].add(&s, &raw(8.5, *w));
+        st.commissioning[0].add(&s, &raw(8.5, *w), order.next().unwrap());
     }
     for w in &wobble[..3] {
-        st.commissioning[1].add(&s, &raw(7.0, *w));
+        st.commissioning[1].add(&s, &raw(7.0, *w), order.next().unwrap());
     }
     let learned = st.commissioning[0].samples.len() + st.commissioning[1].samples.len();
     assert_eq!(learned, 8 + 4 + 3);

@@ -41,13 +41,38 @@
 //! speed-log bias arising in a moderate sea moves `e_b` by `-2 beta / u` (0.1-0.25, 5-25
 //! standard deviations of the difference) and met a limit of 203 (`t = 14`) at `nu = 6`.
 //!
-//! The sample is declared inconsistent at the split whose look is furthest over its limit.
-//! Budget: one ship-day of the alarm budget per commissioning, `alpha_c = F / 365.25`
-//! (`fdi.false-alarms-per-year` = 0.1: 2.7e-4), spent evenly over the (look, split) pairs a
-//! commissioning can make (Bonferroni: `alpha_c / L`). Needs `n >= 6` (`nu = 4`).
+//! Each look's statistic gives its tail probability at its dof, and a split's tail is the
+//! smaller of its two looks' doubled (Bonferroni). The exact size of that tail as a p-value,
+//! `P(p < alpha)`, stays within `alpha` at every level (the unit test checks 5 %, 1e-3 and
+//! 7.5e-6): what lets the methods combine.
+//!
+//! **Both methods at once.** A fault arises at a moment of the vessel's time and moves both
+//! methods' residuals from their next test on. Their tests are independent (other tests,
+//! other sea), so at every moment between two of the vessel's tests, the methods whose
+//! sample the moment splits (each with at least 6 tests) combine their split's tails by
+//! Fisher's rule, `X = -2 sum_m ln p_m`, chi-square with `2 M` dof on a healthy sample; one
+//! method's combined tail is its own. Where each method alone is a few standard deviations
+//! short of its limit (a moderate sea: a change after a method's first or second test is a
+//! difference against one test's scatter from 4-6 dof, heavy-tailed), two tails of 1e-4
+//! combine to 2e-7 (the unit test: a displacement change of 5 scatter standard deviations
+//! at the vessel's 7th test of 16 is flagged at the moment far more often jointly than by
+//! either method alone).
+//!
+//! The vessel's commissioning is declared inconsistent at the moment whose combined tail is
+//! the smallest, if under its budget; each method whose sample it splits is inconsistent
+//! (a reference it had just completed is not used). The test runs when a method completes
+//! its sample, over it and the other method's sample (gathering, or completed or found
+//! inconsistent from tests that overlap it in time): the budget is spent where the
+//! reference would be set. Budget:
+//! one ship-day of the alarm budget per commissioning, `alpha_c = F / 365.25`
+//! (`fdi.false-alarms-per-year` = 0.1: 2.7e-4), spent evenly over the (evaluation, moment)
+//! pairs a commissioning can make: two evaluations over at most `2 K - 1` moments
+//! (Bonferroni: `L = 2 (2 K - 1)`, 30 for K = 8: `alpha_c / L = 9e-6`). Needs `n >= 6`
+//! (`nu = 4`) in a method.
 use super::envelope::{Sample, Settings as Envelope};
 use super::measured::{bound_factor, effective_dof};
-use super::stats::{dot, hotelling_isf, Cov, P};
+use super::reference::{Commissioning, Phase, Settings};
+use super::stats::{chi2_sf, dot, hotelling_sf, Cov, P};
 
 /// The confidence level of the upper bound on the scatter's share of a look
 /// (`measured::effective_dof`): at 99 % a one-dof look's exact size stays within its budget
@@ -57,25 +82,119 @@ const BOUND: f64 = 0.99;
 /// The fewest tests the test runs on.
 pub const MIN_TESTS: usize = 6;
 
-/// The number of (look, split) pairs a commissioning of up to `k_max` tests can make.
+/// The number of (evaluation, moment) pairs a commissioning of up to `k_max` tests of each
+/// method can make: the joint test runs when a method completes its sample (twice), over
+/// at most one moment between each two of the vessel's tests (at most `2 k_max` of them).
+/// Bonferroni's count, a bound whatever the order of the methods' tests.
 pub fn looks(k_max: u32) -> usize {
-    (MIN_TESTS..=k_max.max(MIN_TESTS as u32) as usize)
-        .map(|n| n - 1)
-        .sum::<usize>()
-        .max(1)
+    2 * (2 * k_max.max(MIN_TESTS as u32) as usize - 1)
 }
 
-/// The split with the largest statistic over its limit: `(k, T_k)` (the change at test
-/// `k + 1`), or `None`. `alpha` is each (look, split)'s tail probability.
-pub fn change_point(
-    samples: &[Sample],
+/// The vessel's change-point test when method `i` has completed its commissioning sample:
+/// [`joint_change_point`] over its sample and the other method's (still gathering, or
+/// completed or found inconsistent from tests that overlap `i`'s in time: its commissioning
+/// tests only); each method whose sample the change splits is declared inconsistent (its
+/// reference, just completed or completed during `i`'s commissioning, is not used; one
+/// already inconsistent keeps its verdict).
+pub fn check(c: &mut [Commissioning; 2], i: usize, s: &Settings) -> Option<Change> {
+    let first = c[i].samples.first().map_or(0, |x| x.order);
+    fn sample(x: &Commissioning, first: u64) -> &[Sample] {
+        let gathered = x.samples.get(..x.tests as usize).unwrap_or(&[]);
+        match x.phase {
+            Phase::Commissioning => &x.samples,
+            _ if gathered.last().is_some_and(|l| l.order > first) => gathered,
+            _ => &[],
+        }
+    }
+    let samples: [&[Sample]; 2] = std::array::from_fn(|m| sample(&c[m], first));
+    let change = joint_change_point(samples, &s.envelope, s.floors(), s.change_alpha)?;
+    for (x, k) in c.iter_mut().zip(change.splits) {
+        if let (Some(k), false) = (k, matches!(x.phase, Phase::Inconsistent { .. })) {
+            x.phase = Phase::Inconsistent {
+                at: k as u32 + 1,
+                statistic: change.tail,
+            };
+        }
+    }
+    Some(change)
+}
+
+/// The vessel's number for its next test: one past the newest sample's of either method
+/// (samples restored from a state without numbers count as 0).
+pub fn next_order(c: &[Commissioning; 2]) -> u64 {
+    c.iter()
+        .flat_map(|x| x.samples.iter().map(|s| s.order))
+        .max()
+        .map_or(1, |o| o + 1)
+}
+
+/// A change the joint test found.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Change {
+    /// Per method, the split of its sample (`Some(k)`: the change at its test `k + 1`), or
+    /// `None` when the moment does not split it.
+    pub splits: [Option<usize>; 2],
+    /// The combined tail probability (Fisher's rule over the split methods).
+    pub tail: f64,
+}
+
+/// The vessel's change point over its methods' commissioning samples (each in the order
+/// of its tests, `Sample::order` the vessel's test number): for every moment between two of
+/// the vessel's tests, the methods whose sample it splits (with at least [`MIN_TESTS`]
+/// tests) combine their split's tail probabilities ([`split_tails`]) by Fisher's rule,
+/// `X = -2 sum_m ln p_m ~ chi2(2 M)` under a healthy sample (the methods' tests are
+/// independent); the moment whose combined tail is the smallest, if under `alpha`.
+pub fn joint_change_point(
+    samples: [&[Sample]; 2],
     env: &Envelope,
     floors: [f64; P],
     alpha: f64,
-) -> Option<(usize, f64)> {
+) -> Option<Change> {
+    let tails = samples.map(|s| split_tails(s, env, floors));
+    let mut moments: Vec<u64> = samples
+        .iter()
+        .zip(&tails)
+        .filter(|(_, t)| !t.is_empty())
+        .flat_map(|(s, _)| s.iter().map(|x| x.order))
+        .collect();
+    moments.sort_unstable();
+    moments.dedup();
+    let mut best: Option<(Change, f64)> = None;
+    for t in moments {
+        let mut splits = [None; 2];
+        let (mut x, mut dof) = (0.0, 0.0);
+        for m in 0..2 {
+            let k = samples[m].iter().filter(|s| s.order < t).count();
+            if let Some(p) = tails[m].get(k).filter(|_| k >= 1) {
+                splits[m] = Some(k);
+                x -= 2.0 * p.max(f64::MIN_POSITIVE).ln();
+                dof += 2.0;
+            }
+        }
+        if dof == 0.0 {
+            continue;
+        }
+        let tail = chi2_sf(x, dof);
+        // Equal tails (both under the smallest double): the larger evidence per method.
+        let better = best.is_none_or(|(b, bx)| {
+            tail.total_cmp(&b.tail)
+                .then_with(|| bx.total_cmp(&(x / dof)))
+                .is_lt()
+        });
+        if tail < alpha && better {
+            best = Some((Change { splits, tail }, x / dof));
+        }
+    }
+    best.map(|(c, _)| c)
+}
+
+/// Each split's tail probability of one method's sample: `p[k]` for the change at its test
+/// `k + 1` (`k` in `1..n`; `p[0] = 1`), the smaller of its two looks' tails doubled
+/// (Bonferroni); empty with fewer than [`MIN_TESTS`] tests.
+pub fn split_tails(samples: &[Sample], env: &Envelope, floors: [f64; P]) -> Vec<f64> {
     let n = samples.len();
     if n < MIN_TESTS {
-        return None;
+        return Vec::new();
     }
     let nu = (n - 2) as f64;
     let m = bound_factor(nu, BOUND);
@@ -85,7 +204,7 @@ pub fn change_point(
         pre[i + 1] = pre[i].plus(s);
     }
     let total = pre[n];
-    let mut best: Option<(usize, f64, f64)> = None;
+    let mut tails = vec![1.0; n];
     for (k, &a) in pre.iter().enumerate().take(n).skip(1) {
         let b = total.minus(&a);
         let (ma, xa) = a.means();
@@ -111,34 +230,28 @@ pub fn change_point(
         let c = learned
             .plus(Cov::diag(floors).times(f))
             .plus(Cov::diag(std::array::from_fn(|j| psi(j).sqrt())));
-        // Two looks, half the budget each: the networks' pair (e_u, e_D), and the gain e_b
-        // alone (one dof: at the few tests of a commissioning, Hotelling's tail in three
-        // dimensions would cost the gain's evidence more than it adds). Each at the dof its
-        // learned share leaves (`measured::effective_dof`, the share at its upper bound).
+        // Two looks: the networks' pair (e_u, e_D), and the gain e_b alone (one dof: at the
+        // few tests of a commissioning, Hotelling's tail in three dimensions would cost the
+        // gain's evidence more than it adds). Each at the dof its learned share leaves
+        // (`measured::effective_dof`, the share at its upper bound).
         let pair = {
             let (c2, l2) = (c.leading(2, 1.0), learned.leading(2, 0.0));
             let d2 = [d[0], d[1], 0.0];
             c2.solve(d2).map(|y| {
                 let t = dot(d2, y);
-                let dof = effective_dof(t, l2.form(y, y), nu, m);
-                (t, hotelling_isf(0.5 * alpha, 2, dof))
+                hotelling_sf(t, 2, effective_dof(t, l2.form(y, y), nu, m))
             })
         };
         let cb = c.at(2, 2);
         let gain = (cb > 0.0 && d[2].is_finite()).then(|| {
             let t = d[2] * d[2] / cb;
             let a = learned.at(2, 2) * t / cb;
-            let dof = effective_dof(t, a, nu, m);
-            (t, hotelling_isf(0.5 * alpha, 1, dof))
+            hotelling_sf(t, 1, effective_dof(t, a, nu, m))
         });
-        for (t, limit) in [pair, gain].into_iter().flatten() {
-            let ratio = t / limit;
-            if t.is_finite() && t > limit && best.is_none_or(|(_, _, br)| ratio > br) {
-                best = Some((k, t, ratio));
-            }
-        }
+        let least = [pair, gain].into_iter().flatten().fold(1.0, f64::min);
+        tails[k] = (2.0 * least).min(1.0);
     }
-    best.map(|(k, t, _)| (k, t))
+    tails
 }
 
 /// Sums over a run of samples: count, `e`, `e e'`, `(u, ln D, ln s)`, the similarity
@@ -201,193 +314,5 @@ impl Sums {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::core::fdi::stats::chi2_sf;
-    use rand::SeedableRng;
-    use rand_chacha::ChaCha8Rng;
-    use rand_distr::{Distribution, StandardNormal};
-
-    use crate::core::fdi::envelope::tests::st as env;
-
-    const FLOORS: [f64; 3] = [0.05, 0.004, 0.004];
-
-    /// A test of a second-order-like hull: `e_b` with the displacement's scatter, a
-    /// displacement change `x` moving `e_D` by `x` and `e_b` by `-x`.
-    fn sample(rng: &mut ChaCha8Rng, shift: [f64; 2], u: f64) -> Sample {
-        let n = |r: &mut ChaCha8Rng| -> f64 { StandardNormal.sample(r) };
-        Sample {
-            e: [
-                0.8 + 0.08 * n(rng) + shift[0],
-                -0.1 + 0.004 * n(rng) + shift[1],
-                -5.0 + 0.004 * n(rng) - shift[1],
-            ],
-            s: [0.05, 0.002, 0.002],
-            speed_mps: u,
-            displacement_t: 7000.0,
-            excitation_scale: 1.0,
-            speed_slope: [0.0; 3],
-            loading_slope: [0.0; 3],
-        }
-    }
-
-    #[test]
-    fn a_shift_in_the_middle_is_found_at_its_test_and_a_healthy_sample_is_not() {
-        let alpha = 2.7e-4 / looks(8) as f64;
-        let mut rng = ChaCha8Rng::seed_from_u64(3);
-        // A +12 % displacement from the fourth test on (k = 3).
-        let shifted: Vec<Sample> = (0..8)
-            .map(|i| sample(&mut rng, if i >= 3 { [0.0, 0.12] } else { [0.0; 2] }, 7.0))
-            .collect();
-        let (k, t) = change_point(&shifted, &env(), FLOORS, alpha).unwrap();
-        assert_eq!(k, 3);
-        assert!(t > 300.0, "{t}");
-        // A healthy sample, and the same at a change of speed of 1.5 m/s mid-sample with
-        // an offset moving as the slope prior allows (0.5 m/s per m/s: 1 sd).
-        let mut flagged = 0;
-        for _ in 0..2000 {
-            let ok: Vec<Sample> = (0..8).map(|_| sample(&mut rng, [0.0; 2], 7.0)).collect();
-            flagged += usize::from(change_point(&ok, &env(), FLOORS, alpha).is_some());
-        }
-        assert_eq!(flagged, 0);
-        let moved: Vec<Sample> = (0..8)
-            .map(|i| {
-                let (u, de) = if i >= 4 { (5.5, 0.75) } else { (7.0, 0.0) };
-                sample(&mut rng, [de, 0.0], u)
-            })
-            .collect();
-        assert!(change_point(&moved, &env(), FLOORS, alpha).is_none());
-        // Too few tests: no verdict.
-        assert!(change_point(&shifted[..5], &env(), FLOORS, alpha).is_none());
-        assert_eq!(looks(8), 5 + 6 + 7);
-    }
-
-    /// A speed change of 1.5 m/s mid-sample whose offset moves 0.75 of D, 17 slope-prior sds
-    /// of `e_D` (0.5 per m/s; a smaller move stays under the limit of 8 tests whose speed
-    /// residual's scatter is barely over its floor): a change when the tests' similarity
-    /// slope is 0, none when it says the ship moves so.
-    #[test]
-    fn a_speed_change_along_the_similarity_slope_is_no_change_of_health() {
-        let alpha = 2.7e-4 / looks(8) as f64;
-        let mut rng = ChaCha8Rng::seed_from_u64(5);
-        let run = |rng: &mut ChaCha8Rng, slope: f64| -> Vec<Sample> {
-            (0..8)
-                .map(|i| {
-                    let (u, de) = if i >= 4 { (8.5, 0.75) } else { (7.0, 0.0) };
-                    Sample {
-                        speed_slope: [0.0, slope, -slope],
-                        ..sample(rng, [0.0, de], u)
-                    }
-                })
-                .collect()
-        };
-        let flat = run(&mut rng, 0.0);
-        let (k, _) = change_point(&flat, &env(), FLOORS, alpha).unwrap();
-        assert_eq!(k, 4);
-        let along = run(&mut rng, 0.5);
-        assert!(change_point(&along, &env(), FLOORS, alpha).is_none());
-    }
-
-    /// The exact size of the gain's one-dof look, integrated over the scatter's chi-square:
-    /// `v = sigma^2 w`, `w ~ chi2_nu / nu`, the known part `kappa` (in units of the
-    /// scatter's `sigma^2 (1/k + 1/(n-k))`); healthy, `d^2 ~ (1 + kappa) chi2_1`, and the
-    /// look exceeds when `d^2 / (w + kappa) > L(w)`, `L` Hotelling's at the dof
-    /// `effective_dof` gives. At the 99 % bound within the look's budget at every `nu` and
-    /// known share; with the share as estimated (no bound), many times over it.
-    #[test]
-    fn a_one_dof_look_keeps_its_budget_whatever_the_known_share() {
-        let alpha = 7.5e-6;
-        let size = |nu: f64, kappa: f64, level: Option<f64>| -> f64 {
-            let m = level.map_or(1.0, |l| bound_factor(nu, l));
-            let ln_norm = 0.5 * nu * 2f64.ln() + statrs::function::gamma::ln_gamma(0.5 * nu);
-            // Trapezoid over ln x, x the chi-square variate.
-            let (lo, hi, n) = ((1e-6f64).ln(), (40.0 * nu).ln(), 1500);
-            let h = (hi - lo) / n as f64;
-            (0..=n)
-                .map(|i| {
-                    let x = (lo + h * i as f64).exp();
-                    let w = x / nu;
-                    let t = 1.0 / (w + kappa);
-                    let dof = effective_dof(t, w * t / (w + kappa), nu, m);
-                    let limit = hotelling_isf(alpha, 1, dof);
-                    let tail = chi2_sf(limit * (w + kappa) / (1.0 + kappa), 1.0);
-                    let pdf_x = ((0.5 * nu - 1.0) * x.ln() - 0.5 * x - ln_norm).exp() * x;
-                    let edge = if i == 0 || i == n { 0.5 } else { 1.0 };
-                    edge * h * tail * pdf_x
-                })
-                .sum()
-        };
-        for nu in [4.0, 6.0, 10.0] {
-            for kappa in [0.0, 0.003, 0.04, 0.1, 1.0, 10.0] {
-                let r = size(nu, kappa, Some(BOUND)) / alpha;
-                assert!(r < 1.05, "nu {nu} kappa {kappa}: {r}");
-            }
-            // Without known variance the look is Student's, exactly at its budget.
-            let r = size(nu, 0.0, Some(BOUND)) / alpha;
-            assert!((r - 1.0).abs() < 0.03, "nu {nu}: {r}");
-        }
-        // The plug-in share: a scatter small by chance takes the chi-square's limit.
-        assert!(size(4.0, 0.1, None) / alpha > 5.0);
-    }
-
-    #[test]
-    fn the_hotelling_limit_matches_tables_and_tends_to_the_chi_square() {
-        // T^2(2, nu) = 2 nu / (nu - 1) F(2, nu - 1); F(2, 5) at 5 % is 5.786 (tables):
-        // nu = 6 gives 13.89.
-        assert!((hotelling_isf(0.05, 2, 6.0) - 2.4 * 5.786).abs() < 0.01);
-        // nu -> infinity: chi2_2 at 1e-4 = 2 ln 1e4 = 18.42.
-        let chi2 = 2.0 * 1e4f64.ln();
-        assert!((hotelling_isf(1e-4, 2, 1e7) - chi2).abs() < 1e-3);
-        assert!(hotelling_isf(1e-4, 2, 50.0) > chi2 && hotelling_isf(1e-4, 2, 6.0) > 10.0 * chi2);
-    }
-
-    /// False "inconsistent" on healthy samples by Monte Carlo: scatter at and above the
-    /// floors, every look of a commissioning of up to 8 (`cargo test --profile ci --lib
-    /// change_point_false_flags -- --ignored --nocapture`).
-    #[test]
-    #[ignore]
-    fn change_point_false_flags() {
-        let alpha = 2.7e-4 / looks(8) as f64;
-        for (su, sd) in [
-            (0.05, 0.004),
-            (0.1, 0.004),
-            (0.2, 0.02),
-            (0.3, 0.01),
-            (1.0, 0.03),
-        ] {
-            let mut rng = ChaCha8Rng::seed_from_u64(11);
-            let runs = 200_000;
-            let mut flagged = 0;
-            for _ in 0..runs {
-                let n = |r: &mut ChaCha8Rng| -> f64 { StandardNormal.sample(r) };
-                let v: Vec<Sample> = (0..8)
-                    .map(|_| {
-                        let a = n(&mut rng);
-                        let b = n(&mut rng);
-                        let c = n(&mut rng);
-                        Sample {
-                            e: [
-                                su * a,
-                                sd * (-0.9 * a + 0.436 * b),
-                                sd * (0.5 * b + 0.866 * c),
-                            ],
-                            s: [0.05, 0.002, 0.002],
-                            speed_mps: 7.0,
-                            displacement_t: 7000.0,
-                            excitation_scale: 1.0,
-                            speed_slope: [0.0; 3],
-                            loading_slope: [0.0; 3],
-                        }
-                    })
-                    .collect();
-                let any =
-                    (MIN_TESTS..=8).any(|m| change_point(&v[..m], &env(), FLOORS, alpha).is_some());
-                flagged += usize::from(any);
-            }
-            println!(
-                "scatter ({su}, {sd}): {flagged} of {runs} flagged: {:.2e} per commissioning (budget 2.7e-4)",
-                flagged as f64 / runs as f64
-            );
-        }
-    }
-}
+#[path = "changepoint_tests.rs"]
+mod tests;

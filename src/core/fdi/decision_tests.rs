@@ -474,7 +474,7 @@ fn monte_carlo(
                 .into_iter()
                 .flatten()
             {
-                c[h.method].add(&settings, &h.raw);
+                c[h.method].add(&settings, &h.raw, 0);
             }
         }
     }

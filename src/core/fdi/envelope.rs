@@ -100,6 +100,11 @@ pub struct Sample {
     /// (`crate::core::fdi::sensitivity::scale_b`): the loading slope's prior mean.
     #[serde(default)]
     pub loading_slope: [f64; P],
+    /// The vessel's test number it came from (both methods count): orders the methods'
+    /// samples in time for the commissioning's change-point test. 0 in a state saved
+    /// before it was kept: those samples are one moment to the test (no split among them).
+    #[serde(default)]
+    pub order: u64,
 }
 
 fn as_designed() -> f64 {

@@ -23,6 +23,7 @@ fn smp(e: [f64; 2], u: f64, d: f64) -> Sample {
         excitation_scale: 1.0,
         speed_slope: [0.0; 3],
         loading_slope: [0.0; 3],
+        order: 0,
     }
 }
 

@@ -27,6 +27,7 @@
 //! The price: an alerting new operating point is learned N tests later than it could be,
 //! its tests meanwhile judged against the prediction's wider interval.
 
+use super::changepoint;
 use super::decision::{Sequential, Step};
 use super::measured::measure_entry;
 use super::reference::{Added, Basis, Raw, Settings};
@@ -141,9 +142,15 @@ impl Fdi {
             let q = dot(z, z);
             match b {
                 Basis::Commissioning { .. } if q <= self.limits.param[dim] => {
-                    added = self.commissioning[i].add(settings, &r);
+                    let order = changepoint::next_order(&self.commissioning);
+                    added = self.commissioning[i].add(settings, &r, order);
                     if added == Added::Completed {
                         self.generation[i] += 1;
+                        if let Some(c) = changepoint::check(&mut self.commissioning, i, settings) {
+                            added = Added::Inconsistent {
+                                at: c.splits[i].map_or(0, |k| k as u32 + 1),
+                            };
+                        }
                     }
                 }
                 Basis::Vessel(_) if q <= self.limits.param[dim] => {
@@ -167,7 +174,8 @@ impl Fdi {
             .flatten()
             {
                 if h.generation == self.generation[h.method] {
-                    self.commissioning[h.method].add(settings, &h.raw);
+                    let order = changepoint::next_order(&self.commissioning);
+                    self.commissioning[h.method].add(settings, &h.raw, order);
                 }
             }
         }

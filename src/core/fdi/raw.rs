@@ -277,6 +277,7 @@ impl Raw {
             excitation_scale: self.excitation_scale,
             speed_slope: self.speed_slope,
             loading_slope: self.loading_slope,
+            order: 0,
         }
     }
 }

@@ -39,10 +39,11 @@
 //! (`h_1` the decision's single-test limit; `t_j` the statistic whose calibrated value is
 //! `h_1`; `z_0.95` = 1.645: a fault of that size crosses the limit in one test with 95 %
 //! probability), and at `fdi.commissioning-tests` tests at the latest.
-//! From the sixth test on, every new test runs the change-point test over the sample
-//! (`crate::core::fdi::changepoint`): a change inside it ("commissioning inconsistent: a
-//! change at test k") raises an alert and the sample sets no reference; decisions stay on the
-//! wide limits until commissioning starts again (`helmwatch commission`).
+//! When a method completes its sample, the vessel runs the change-point test over it and the
+//! other method's (`crate::core::fdi::changepoint`, `Fdi::learn`): a change inside it
+//! ("commissioning inconsistent: a change at test k") raises an alert and the sample sets
+//! no reference; decisions stay on the wide limits until commissioning starts again
+//! (`helmwatch commission`).
 //!
 //! ## The vessel's own reference, and learning
 //!
@@ -132,7 +133,7 @@ pub enum Phase {
     Inconsistent {
         /// The first test after the change (1-based).
         at: u32,
-        /// The change-point statistic.
+        /// The change-point test's combined tail probability (`changepoint::Change`).
         statistic: f64,
     },
     /// Commissioned; learning its healthy tests.
@@ -360,10 +361,14 @@ impl Commissioning {
         }
     }
 
-    /// Adds a healthy test (the caller has judged it so): to the commissioning sample, or
-    /// to what the vessel has learned.
-    pub fn add(&mut self, s: &Settings, raw: &Raw) -> Added {
-        let smp = raw.sample();
+    /// Adds a healthy test (the caller has judged it so), the vessel's test number `order`:
+    /// to the commissioning sample, or to what the vessel has learned. A change inside the
+    /// sample is the vessel's to find, over both methods (`changepoint::check`).
+    pub fn add(&mut self, s: &Settings, raw: &Raw, order: u64) -> Added {
+        let smp = Sample {
+            order,
+            ..raw.sample()
+        };
         let finite = smp.e.iter().chain(&smp.s).all(|v| v.is_finite())
             && smp.s.iter().all(|v| *v > 0.0)
             && smp.speed_mps.is_finite()
@@ -376,16 +381,6 @@ impl Commissioning {
             Phase::Commissioning => {
                 self.samples.push(smp);
                 self.tests += 1;
-                if let Some((k, t)) = changepoint::change_point(
-                    &self.samples,
-                    &s.envelope,
-                    s.floors(),
-                    s.change_alpha,
-                ) {
-                    let at = k as u32 + 1;
-                    self.phase = Phase::Inconsistent { at, statistic: t };
-                    return Added::Inconsistent { at };
-                }
                 self.shape = envelope::shape(&self.samples, &s.envelope);
                 let least = s.tests.min(changepoint::MIN_TESTS as u32);
                 if self.tests >= s.tests || (self.tests >= least && self.resolved(s)) {

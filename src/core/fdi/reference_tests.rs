@@ -56,7 +56,7 @@ const SAMPLE: [(f64, f64); 5] = [
 fn commissioned(s: &Settings) -> Commissioning {
     let mut c = Commissioning::default();
     for (u, d) in SAMPLE {
-        c.add(s, &raw(u, d));
+        c.add(s, &raw(u, d), 0);
     }
     assert_eq!(c.phase, Phase::Learning);
     c
@@ -74,7 +74,7 @@ fn the_reference_is_the_sample_mean_and_covariance() {
         } else {
             Added::Sample
         };
-        assert_eq!(c.add(&s, &raw(*u, *d)), want);
+        assert_eq!(c.add(&s, &raw(*u, *d), 0), want);
     }
     let r = c.reference.unwrap();
     // Two-pass sample moments (n - 1), computed here independently.
@@ -188,7 +188,7 @@ fn commissioning_is_wide_and_ends_as_soon_as_the_sample_resolves_its_faults() {
     // and 10 % (the least the change-point test needs).
     let tight = [0.0, 0.02, -0.02, 0.01, -0.01, 0.0, 0.015, -0.015];
     for (i, w) in tight.iter().enumerate() {
-        let a = c.add(&s, &raw(1.0 + w, -0.2 + w / 20.0));
+        let a = c.add(&s, &raw(1.0 + w, -0.2 + w / 20.0), 0);
         if i == 5 {
             assert_eq!(a, Added::Completed);
             break;
@@ -199,7 +199,7 @@ fn commissioning_is_wide_and_ends_as_soon_as_the_sample_resolves_its_faults() {
     // A scatter of 0.3 m/s: the speed-log bias of 0.5 m/s is not resolved: all 8 tests.
     let mut wide = Commissioning::default();
     for (i, w) in tight.iter().enumerate() {
-        let a = wide.add(&s, &raw(1.0 + 15.0 * w, -0.2 + w / 20.0));
+        let a = wide.add(&s, &raw(1.0 + 15.0 * w, -0.2 + w / 20.0), 0);
         assert_eq!(a == Added::Completed, i == 7, "{i}: {a:?}");
     }
 }
@@ -209,13 +209,17 @@ fn a_change_inside_the_commissioning_sample_sets_no_reference() {
     let s = settings(8);
     let mut c = Commissioning::default();
     let scatter = [0.0, 0.02, -0.02, 0.01, -0.01, 0.0];
-    let mut last = Added::Nothing;
     for (i, w) in scatter.iter().enumerate() {
         // +12 % displacement from the fourth test on.
         let shift = if i >= 3 { 0.12 } else { 0.0 };
-        last = c.add(&s, &raw(1.0 + 4.0 * w, -0.2 + w / 10.0 + shift));
+        let a = c.add(&s, &raw(1.0 + 4.0 * w, -0.2 + w / 10.0 + shift), i as u64);
+        assert_eq!(a, Added::Sample);
     }
-    assert_eq!(last, Added::Inconsistent { at: 4 });
+    // The vessel's test (the other method has no sample) splits this one at its fourth.
+    let mut both = [c, Commissioning::default()];
+    let change = changepoint::check(&mut both, 0, &s).unwrap();
+    assert_eq!(change.splits, [Some(3), None]);
+    let [mut c, _] = both;
     assert!(c.reference.is_none());
     assert_eq!(c.state(&s), "inconsistent");
     assert!(c
@@ -225,10 +229,43 @@ fn a_change_inside_the_commissioning_sample_sets_no_reference() {
     assert_eq!(b.name(), "commissioning_inconsistent");
     assert_eq!(m.offset_var, None);
     // Nothing more is gathered until commissioning starts again.
-    assert_eq!(c.add(&s, &raw(1.0, -0.2)), Added::Nothing);
+    assert_eq!(c.add(&s, &raw(1.0, -0.2), 0), Added::Nothing);
     c.restart();
     assert!(c.in_progress(&s));
     assert_eq!(c.describe(&s), "commissioning 0 of at most 8");
+}
+
+/// Two methods in turn: the change is judged in both samples when the first completes (the
+/// other's partial sample with it), and a method commissioned before the other began is
+/// left alone.
+#[test]
+fn the_change_is_the_vessels_in_both_samples_that_overlap_in_time() {
+    let s = settings(8);
+    let scatter = [0.0, 0.02, -0.02, 0.01, -0.01, 0.0, 0.015, -0.015];
+    let run = |c: &mut Commissioning, m: u64, from: u64, shift_at: u64| -> Added {
+        let mut last = Added::Nothing;
+        for (i, w) in scatter.iter().enumerate() {
+            let order = from + 2 * i as u64 + m;
+            let shift = if order >= shift_at { 0.12 } else { 0.0 };
+            last = c.add(&s, &raw(1.0 + 4.0 * w, -0.2 + w / 10.0 + shift), order);
+        }
+        last
+    };
+    // In turn from the vessel's test 0, +12 % from its test 6: method 0's fourth test,
+    // method 1's fourth.
+    let mut both: [Commissioning; 2] = Default::default();
+    assert_eq!(run(&mut both[1], 1, 0, 6), Added::Completed);
+    assert_eq!(run(&mut both[0], 0, 0, 6), Added::Completed);
+    let change = changepoint::check(&mut both, 0, &s).unwrap();
+    assert_eq!(change.splits, [Some(3), Some(3)]);
+    assert!(both.iter().all(|c| c.state(&s) == "inconsistent"));
+    // Method 0 commissioned healthy before method 1 began: only method 1 is judged.
+    let mut both: [Commissioning; 2] = Default::default();
+    assert_eq!(run(&mut both[0], 0, 0, u64::MAX), Added::Completed);
+    assert_eq!(run(&mut both[1], 1, 100, 106), Added::Completed);
+    let change = changepoint::check(&mut both, 1, &s).unwrap();
+    assert_eq!(change.splits, [None, Some(3)]);
+    assert_eq!(both[0].state(&s), "commissioned");
 }
 
 #[test]
@@ -252,7 +289,7 @@ fn a_new_operating_point_is_predicted_wider_then_learned() {
     // Learned: four tests there and the point is the vessel's own.
     for w in [0.0, 0.02, -0.02, 0.01] {
         assert_eq!(
-            c.add(&s, &raw_at(0.25 + w, -0.2, 8.5, 7000.0)),
+            c.add(&s, &raw_at(0.25 + w, -0.2, 8.5, 7000.0), 0),
             Added::Learned
         );
     }
@@ -283,7 +320,7 @@ fn memory_keeps_the_newest_of_the_fullest_bin() {
     };
     let mut c = commissioned(&s);
     for k in 0..6 {
-        c.add(&s, &raw_at(1.0, -0.2, 9.0, 7000.0 + k as f64));
+        c.add(&s, &raw_at(1.0, -0.2, 9.0, 7000.0 + k as f64), 0);
     }
     assert_eq!(c.samples.len(), 8);
     // The 7 m/s bin (5 tests) gave way until both held 4.
@@ -296,7 +333,7 @@ fn memory_keeps_the_newest_of_the_fullest_bin() {
 fn without_commissioning_the_design_reference_serves() {
     let s = settings(0);
     let mut c = Commissioning::default();
-    assert_eq!(c.add(&s, &raw(1.0, 0.0)), Added::Nothing);
+    assert_eq!(c.add(&s, &raw(1.0, 0.0), 0), Added::Nothing);
     let (b, m) = c.measure(&s, &raw(1.0, -0.2));
     assert_eq!(b, Basis::Design);
     assert_eq!(
@@ -355,7 +392,7 @@ fn a_sample_on_a_plane_is_not_taken_for_a_law() {
     };
     let mut c = Commissioning::default();
     for (u, d) in pts {
-        c.add(&s, &on_plane(u, d));
+        c.add(&s, &on_plane(u, d), 0);
     }
     assert_eq!(c.phase, Phase::Learning);
     let sd = c.reference.unwrap().covariance.at(1, 1).sqrt();

@@ -143,7 +143,7 @@ fn a_reference_is_kept_only_for_its_configuration_and_models() {
     };
     // No scatter: the floors alone resolve the faults, so commissioning ends at 6 tests.
     while fdi.commissioning[1].in_progress(&s) {
-        fdi.commissioning[1].add(&s, &raw);
+        fdi.commissioning[1].add(&s, &raw, 0);
     }
     assert!(fdi.commissioning[1].reference.is_some());
     // A CLFRT test's tones in the loop shape.

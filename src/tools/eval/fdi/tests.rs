@@ -272,3 +272,46 @@ fn a_commissioning_fault_arises_at_test_k() {
     let c = score_commissioning(std::slice::from_ref(&r), false);
     assert_eq!(c.onset_sum, k.min(6));
 }
+
+/// Both methods in turn, 6 commissioning tests each, D +12 % arising before the vessel's
+/// test k: nothing is flagged "inconsistent" before a method completes its sample; when the
+/// first one does, the vessel's change-point test finds the change in both samples (the
+/// other's partial one with it) and every report from then on says so, at alert or above,
+/// with neither method's reference set.
+#[test]
+fn a_fault_arising_during_commissioning_is_found_in_both_samples_when_one_completes() {
+    let (mut cfg, mut o, est) = cheap();
+    cfg.fdi.commissioning_tests = 6;
+    o.methods = vec![Method::Clfrt, Method::Hbt];
+    o.in_turn = true;
+    let sc = by_name(commissioning_scenarios(), "commissioning: D +12 %");
+    let seed = 5;
+    let k = scenarios::draw(&cfg, &sc, SeaState::Calm, seed, None)
+        .unwrap()
+        .onset_test
+        .unwrap();
+    assert!((3..=6).contains(&k), "{k}: the change splits both samples");
+    let r = run_one(&cfg, &sc, SeaState::Calm, &o.methods, seed, &est, &o, None);
+    assert_eq!(r.error, None);
+    assert_eq!(r.commissioning.len(), 12);
+    let first = r.commissioning.iter().position(|t| t.inconsistent);
+    assert_eq!(
+        first,
+        Some(10),
+        "the first completion is the vessel's 11th test"
+    );
+    for t in r.commissioning[10..].iter().chain(&r.tests) {
+        assert!(t.inconsistent, "{t:?}");
+        assert_ne!(
+            t.state,
+            Some(crate::core::wire::residuals::TrackState::Normal),
+            "{t:?}"
+        );
+    }
+    for t in &r.tests {
+        assert_eq!(
+            t.reference_kind.as_deref(),
+            Some("commissioning_inconsistent")
+        );
+    }
+}
