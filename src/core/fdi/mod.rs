@@ -241,13 +241,17 @@ impl Fdi {
         self.fingerprint.models = fingerprint;
     }
 
-    /// Starts commissioning again for `method`, or for both.
+    /// Starts commissioning again for `method`, or for both. The loop shape is CLFRT's
+    /// tones (after a repair or new gear, another loop): it goes with CLFRT's reference.
     pub fn commission(&mut self, method: Option<Method>) {
         for m in [Method::Clfrt, Method::Hbt] {
             if method.is_none_or(|x| x == m) {
                 self.commissioning[method_index(m)].restart();
                 self.generation[method_index(m)] += 1;
             }
+        }
+        if method.is_none_or(|x| x == Method::Clfrt) {
+            self.loop_shape = LoopShape::default();
         }
     }
 

@@ -201,6 +201,12 @@ fn a_reference_is_kept_only_for_its_configuration_and_models() {
     assert!(fresh
         .commissioning_text()
         .starts_with("CLFRT commissioning 0 of at most 8"));
+
+    // Commissioning HBT again keeps CLFRT's loop shape; commissioning CLFRT again drops it.
+    same.commission(Some(Method::Hbt));
+    assert_eq!(same.loop_shape, saved.loop_shape);
+    same.commission(Some(Method::Clfrt));
+    assert_eq!(same.loop_shape, LoopShape::default());
 }
 
 /// A saved state, through JSON and back into a fresh FDI, is the same state, and the next
