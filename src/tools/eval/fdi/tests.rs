@@ -235,21 +235,32 @@ fn an_envelope_run_changes_the_operating_point_as_scheduled() {
     }
 }
 
+/// The commissioning run of seed 5 with D +12 % in a calm sea: the onset's test of the ship
+/// and the run (which completed).
+fn displacement_during_commissioning(
+    cfg: &Config,
+    o: &FdiEvalOptions,
+    est: &Arc<Estimator>,
+) -> (usize, RunOutcome) {
+    let sc = by_name(commissioning_scenarios(), "commissioning: D +12 %");
+    let seed = 5;
+    let k = scenarios::draw(cfg, &sc, SeaState::Calm, seed, None)
+        .unwrap()
+        .onset_test
+        .unwrap();
+    let r = run_one(cfg, &sc, SeaState::Calm, &o.methods, seed, est, o, None);
+    assert_eq!(r.error, None);
+    (k, r)
+}
+
 /// One commissioning run with D +12 %: the fault is present from commissioning test k of the
 /// ship on (k drawn in 2..6, at most one past the last commissioning test), and in both tests
 /// after commissioning, tagged `after fault`; nothing is declared (the nominal D stays).
 #[test]
 fn a_commissioning_fault_arises_at_test_k() {
     let (cfg, o, est) = cheap();
-    let sc = by_name(commissioning_scenarios(), "commissioning: D +12 %");
-    let seed = 5;
-    let k = scenarios::draw(&cfg, &sc, SeaState::Calm, seed, None)
-        .unwrap()
-        .onset_test
-        .unwrap();
+    let (k, r) = displacement_during_commissioning(&cfg, &o, &est);
     assert!((2..=6).contains(&k), "{k}");
-    let r = run_one(&cfg, &sc, SeaState::Calm, &o.methods, seed, &est, &o, None);
-    assert_eq!(r.error, None);
     assert_eq!(r.commissioning.len(), 5);
     assert_eq!(r.tests.len(), AFTER_COMMISSIONING_TESTS);
     for (i, t) in r.commissioning.iter().enumerate() {
@@ -284,15 +295,8 @@ fn a_fault_arising_during_commissioning_is_found_in_both_samples_when_one_comple
     cfg.fdi.commissioning_tests = 6;
     o.methods = vec![Method::Clfrt, Method::Hbt];
     o.in_turn = true;
-    let sc = by_name(commissioning_scenarios(), "commissioning: D +12 %");
-    let seed = 5;
-    let k = scenarios::draw(&cfg, &sc, SeaState::Calm, seed, None)
-        .unwrap()
-        .onset_test
-        .unwrap();
+    let (k, r) = displacement_during_commissioning(&cfg, &o, &est);
     assert!((3..=6).contains(&k), "{k}: the change splits both samples");
-    let r = run_one(&cfg, &sc, SeaState::Calm, &o.methods, seed, &est, &o, None);
-    assert_eq!(r.error, None);
     assert_eq!(r.commissioning.len(), 12);
     let first = r.commissioning.iter().position(|t| t.inconsistent);
     assert_eq!(
