@@ -99,10 +99,13 @@ pub fn looks(k_max: u32) -> usize {
 pub fn check(c: &mut [Commissioning; 2], i: usize, s: &Settings) -> Option<Change> {
     let first = c[i].samples.first().map_or(0, |x| x.order);
     fn sample(x: &Commissioning, first: u64) -> &[Sample] {
+        // Its commissioning tests are the first `tests` while nothing has been forgotten
+        // (`reference.memory-tests`).
+        let whole = x.samples.len() == (x.tests + x.learned) as usize;
         let gathered = x.samples.get(..x.tests as usize).unwrap_or(&[]);
         match x.phase {
             Phase::Commissioning => &x.samples,
-            _ if gathered.last().is_some_and(|l| l.order > first) => gathered,
+            _ if whole && gathered.last().is_some_and(|l| l.order > first) => gathered,
             _ => &[],
         }
     }
