@@ -97,7 +97,6 @@ pub fn looks(k_max: u32) -> usize {
 /// reference, just completed or completed during `i`'s commissioning, is not used; one
 /// already inconsistent keeps its verdict).
 pub fn check(c: &mut [Commissioning; 2], i: usize, s: &Settings) -> Option<Change> {
-    let first = c[i].samples.first().map_or(0, |x| x.order);
     fn sample(x: &Commissioning, first: u64) -> &[Sample] {
         // Its commissioning tests are the first `tests` while nothing has been forgotten
         // (`reference.memory-tests`).
@@ -109,6 +108,7 @@ pub fn check(c: &mut [Commissioning; 2], i: usize, s: &Settings) -> Option<Chang
             _ => &[],
         }
     }
+    let first = c[i].samples.first().map_or(0, |x| x.order);
     let samples: [&[Sample]; 2] = std::array::from_fn(|m| sample(&c[m], first));
     let change = joint_change_point(samples, &s.envelope, s.floors(), s.change_alpha)?;
     for (x, k) in c.iter_mut().zip(change.splits) {

@@ -146,10 +146,8 @@ impl Fdi {
                     added = self.commissioning[i].add(settings, &r, order);
                     if added == Added::Completed {
                         self.generation[i] += 1;
-                        if let Some(c) = changepoint::check(&mut self.commissioning, i, settings) {
-                            added = Added::Inconsistent {
-                                at: c.splits[i].map_or(0, |k| k as u32 + 1),
-                            };
+                        if changepoint::check(&mut self.commissioning, i, settings).is_some() {
+                            added = Added::Inconsistent;
                         }
                     }
                 }

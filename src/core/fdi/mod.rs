@@ -489,7 +489,7 @@ impl Fdi {
             servo_time_constant_s: Some(self.servo_time_constant_s),
         };
         let commissioning_text = match (&basis, added) {
-            (_, Added::Inconsistent { .. }) | (Some(Basis::Inconsistent { .. }), _) => {
+            (_, Added::Inconsistent) | (Some(Basis::Inconsistent { .. }), _) => {
                 inconsistent.clone()
             }
             (Some(Basis::Commissioning { .. }), _) if completed => Some(format!(

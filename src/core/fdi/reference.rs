@@ -259,11 +259,9 @@ pub enum Added {
     Sample,
     /// Completed commissioning.
     Completed,
-    /// Found the commissioning sample inconsistent.
-    Inconsistent {
-        /// The first test after the change.
-        at: u32,
-    },
+    /// The vessel's change-point test found a change in a commissioning sample (each
+    /// method's test of it in its `Phase::Inconsistent`).
+    Inconsistent,
     /// Learned after commissioning.
     Learned,
 }
