@@ -182,7 +182,7 @@ async fn an_nmea_only_ship_runs_a_test_end_to_end_and_bad_sentences_are_counted(
         .wait_for("bridge/stats", LIMIT, |s| {
             s["rejected"]["checksum"].as_u64() == Some(1)
                 && s["rejected"]["no_time"].as_u64() == Some(1)
-                && s["datagrams"].as_u64() > Some(1000)
+                && s["samples"]["heading"].as_u64() > Some(1000)
         })
         .await;
     let rej = &stats["rejected"];
