@@ -197,6 +197,9 @@ pub struct Prediction {
     pub support: f64,
     /// Distance to the nearest learned test, in bandwidths.
     pub nearest: f64,
+    /// Distance in declared loading and excitation alone (speed left out) to the nearest
+    /// learned test, in bandwidths.
+    pub nearest_loading_excitation: f64,
     /// The slope prior's share of each component's variance in `cov` (0 where the tests
     /// span the point).
     pub prior_share: [f64; P],
@@ -422,10 +425,15 @@ pub fn local_shape(samples: &[Sample], st: &Settings, global: &Shape, at: &Point
 pub fn predict(samples: &[Sample], st: &Settings, shape: &Shape, at: &Point) -> Option<Prediction> {
     let at = at.x();
     let f = fit(samples, st, at, shape.cov.variances())?;
-    let (support, nearest) = samples.iter().fold((0.0, f64::INFINITY), |(w, d), s| {
-        let (wi, d2) = kernel(st, s.x(), at);
-        (w + wi, d.min(d2.sqrt()))
-    });
+    let (support, nearest, nearest_loading_excitation) =
+        samples
+            .iter()
+            .fold((0.0, f64::INFINITY, f64::INFINITY), |(w, d, l), s| {
+                let (wi, d2) = kernel(st, s.x(), at);
+                let (x, b) = (s.x(), st.bandwidth);
+                let dl = ((x[1] - at[1]) / b[1]).hypot((x[2] - at[2]) / b[2]);
+                (w + wi, d.min(d2.sqrt()), l.min(dl))
+            });
     // The components' errors: the tests' part correlates as their scatter does; the slope
     // prior's part is each component's own (the priors are independent).
     let data = f.map(|c| (c.1 - c.2).max(0.0));
@@ -443,6 +451,7 @@ pub fn predict(samples: &[Sample], st: &Settings, shape: &Shape, at: &Point) -> 
         cov,
         support,
         nearest,
+        nearest_loading_excitation,
         prior_share: f.map(|c| if c.1 > 0.0 { c.2 / c.1 } else { 0.0 }),
     })
 }

@@ -50,8 +50,8 @@ pub struct Measured {
     /// The components measured: 2 (`e_u`, `e_D`: against the design, or a test without
     /// `e_b`) or `P`.
     pub dim: usize,
-    /// The learned part's share is taken at its upper confidence bound (a point with learned
-    /// tests; at a point not yet visited `dof` is already cut to the tests near it).
+    /// The learned part's share is taken at its upper confidence bound (at a learned loading
+    /// and excitation; at a new one `dof` is already cut to the tests near it).
     pub bounded: bool,
 }
 

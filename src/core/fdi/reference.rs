@@ -70,10 +70,15 @@
 //!   `nu_eff = nu / (the learned part's share of the residual's variance in its own
 //!   direction)`, that share at a visited point at its 95 % upper confidence bound
 //!   (`Measured::effective_dof`; the conservative root of Satterthwaite's approximation, as
-//!   in `changepoint`), with `nu` the shape's dof; at a point farther than one bandwidth
-//!   from every learned test, the learned tests' kernel weight there less one if smaller: the shape was learned where the ship has
-//!   been, and a hull's scatter can differ elsewhere, so at a new point the tail is
-//!   Hotelling's with few dof until the point's own tests are learned.
+//!   in `changepoint`), with `nu` the shape's dof. At a new speed at a learned loading and
+//!   excitation (within one bandwidth of a learned test's in those two) that holds as it
+//!   is: the similarity law carries the offset, whose error is in the prediction's `c`, and
+//!   the scatter's shape is the vessel's. At a declared loading or an excitation farther
+//!   than one bandwidth from every learned test's, `nu` is the learned tests' kernel
+//!   weight there less one if smaller, the share unbounded: there the prediction rests on
+//!   the slope priors, which a hull can break (KVLCC2's HBT speed estimate moved 0.7 m/s
+//!   with its relay resized to 0.83 at +20 % loading), so the tail is Hotelling's with few
+//!   dof until the point's own tests are learned.
 //! - `kappa = nu / (nu - p - 1)` (the mean of Hotelling's over the chi-square's) sizes what
 //!   commissioning must resolve: 4 at K = 5, 1.75 at K = 8, 1.05 after 60 tests.
 //! - `S^ = (nu S~(x) + nu_0 diag S~) / (nu + nu_0)`: the shape near the point pooled with an
@@ -338,21 +343,24 @@ impl Commissioning {
                 let cov = scatter.plus(p.cov).plus(floors).leading(dim, 1.0);
                 let e = raw.e();
                 let r = std::array::from_fn(|j| if j < dim { e[j] - p.offset[j] } else { 0.0 });
+                // A learned loading and excitation (a visited point is at one:
+                // `nearest_loading_excitation <= nearest`).
+                let known_loading = p.nearest_loading_excitation <= 1.0;
                 let m = Measured {
                     r,
                     cov,
                     offset_var: Some(p.cov.leading(dim, 0.0).max_ratio(cov)),
-                    // At a point not yet visited the scatter is known only as well as the
-                    // tests near it vouch for it: the shape was learned elsewhere, and a
-                    // hull's scatter can differ there.
-                    dof: if p.nearest <= 1.0 {
+                    // At a declared loading or an excitation not yet visited the prediction
+                    // is known only as well as the tests near it vouch for it (module doc);
+                    // at a new speed only the offset is new, in `p.cov`.
+                    dof: if known_loading {
                         shape.dof
                     } else {
                         shape.dof.min(p.support - 1.0)
                     },
                     learned,
                     dim,
-                    bounded: p.nearest <= 1.0,
+                    bounded: known_loading,
                 };
                 (Basis::Vessel(p), m)
             }

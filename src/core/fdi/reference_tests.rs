@@ -286,6 +286,20 @@ fn a_new_operating_point_is_predicted_wider_then_learned() {
     let z = m.cov.whiten(m.r).unwrap();
     assert!(dot(z, z) < 9.0, "{z:?}");
     assert!(m.offset_var.unwrap() > 0.9);
+    // Only the offset is new at a new speed at the learned loading: the scatter's shape, and
+    // the dof its calibration rests on, are the vessel's, as at home.
+    assert_eq!((m.dof, m.bounded), (at_home.dof, at_home.bounded));
+    assert!(at_home.bounded);
+    // At a new declared loading the prediction rests on the slope priors: few dof (the
+    // tests' kernel weight there less one), the share as estimated.
+    let (b, lighter) = c.measure(&s, &raw_at(1.0, -0.2, 7.0, 5600.0));
+    assert_eq!(b.name(), "predicted");
+    assert!(!lighter.bounded);
+    assert!(
+        lighter.dof < 4.0 && lighter.dof < at_home.dof,
+        "{}",
+        lighter.dof
+    );
     // Learned: four tests there and the point is the vessel's own.
     for w in [0.0, 0.02, -0.02, 0.01] {
         assert_eq!(
