@@ -63,11 +63,26 @@
 //! (a reference it had just completed is not used). The test runs when a method completes
 //! its sample, over it and the other method's sample (gathering, or completed or found
 //! inconsistent from tests that overlap it in time): the budget is spent where the
-//! reference would be set. Budget:
-//! one ship-day of the alarm budget per commissioning, `alpha_c = F / 365.25`
-//! (`fdi.false-alarms-per-year` = 0.1: 2.7e-4), spent evenly over the (evaluation, moment)
-//! pairs a commissioning can make: two evaluations over at most `2 K - 1` moments
-//! (Bonferroni: `L = 2 (2 K - 1)`, 30 for K = 8: `alpha_c / L = 9e-6`). Needs `n >= 6`
+//! reference would be set.
+//!
+//! **Confirmation.** A change after a method's first or second test leaves one or two tests
+//! against the others' scatter from `nu = 6` dof, and Hotelling's tail there is so heavy
+//! that a shift of 6 scatter standard deviations is no proof (`T^2(2, 6)` at 4.5e-6 is 29
+//! standard deviations). The tests a commissioned method learns after its commissioning
+//! (those the decision calls healthy, `learning`) add to the changed segment and to the
+//! scatter's dof: at each of them, while its sample holds at most twice its commissioning
+//! tests (`2 k`, `k <= K`) and nothing has been forgotten, the joint test runs again over
+//! the methods' samples as they are (each commissioned method's first `2 k`), and a change
+//! found makes the methods it splits inconsistent as at commissioning's end (at `nu = 14`,
+//! `T^2(2, 14)` at 2.7e-7 is 11 standard deviations). After that the reference is the
+//! vessel's.
+//!
+//! Budget: one ship-day of the alarm budget per commissioning, `alpha_c = F / 365.25`
+//! (`fdi.false-alarms-per-year` = 0.1: 2.7e-4), half at its end and half in the
+//! confirmation, each spent evenly over the (evaluation, moment) pairs it can make
+//! (Bonferroni): at the end two evaluations over at most `2 K - 1` moments (`L = 2 (2 K -
+//! 1)`, 30 for K = 8: `alpha_c / 2 / L = 4.5e-6`); in the confirmation `K` evaluations of each
+//! method over at most `4 K - 1` moments (`L_f = 2 K (4 K - 1)`, 496: 2.7e-7). Needs `n >= 6`
 //! (`nu = 4`) in a method.
 use super::envelope::{Sample, Settings as Envelope};
 use super::measured::{bound_factor, effective_dof};
@@ -90,6 +105,15 @@ pub fn looks(k_max: u32) -> usize {
     2 * (2 * k_max.max(MIN_TESTS as u32) as usize - 1)
 }
 
+/// The number of (evaluation, moment) pairs the confirmation can make: one evaluation at
+/// each of the `k_max` tests each method learns after its commissioning (its sample then
+/// holds at most `2 k_max`), over at most `4 k_max - 1` moments (both methods' samples at
+/// most `2 k_max` tests).
+pub fn confirmation_looks(k_max: u32) -> usize {
+    let k = k_max.max(MIN_TESTS as u32) as usize;
+    2 * k * (4 * k - 1)
+}
+
 /// The vessel's change-point test when method `i` has completed its commissioning sample:
 /// [`joint_change_point`] over its sample and the other method's (still gathering, or
 /// completed or found inconsistent from tests that overlap `i`'s in time: its commissioning
@@ -97,20 +121,62 @@ pub fn looks(k_max: u32) -> usize {
 /// reference, just completed or completed during `i`'s commissioning, is not used; one
 /// already inconsistent keeps its verdict).
 pub fn check(c: &mut [Commissioning; 2], i: usize, s: &Settings) -> Option<Change> {
-    fn sample(x: &Commissioning, first: u64) -> &[Sample] {
-        // Its commissioning tests are the first `tests` while nothing has been forgotten
-        // (`reference.memory-tests`).
-        let whole = x.samples.len() == (x.tests + x.learned) as usize;
-        let gathered = x.samples.get(..x.tests as usize).unwrap_or(&[]);
+    let first = c[i].samples.first().map_or(0, |x| x.order);
+    let samples: [&[Sample]; 2] = std::array::from_fn(|m| {
+        let x = &c[m];
+        let gathered = commissioning_tests(x);
         match x.phase {
-            Phase::Commissioning => &x.samples,
-            _ if whole && gathered.last().is_some_and(|l| l.order > first) => gathered,
+            Phase::Commissioning => &x.samples[..],
+            _ if gathered.last().is_some_and(|l| l.order > first) => gathered,
             _ => &[],
         }
-    }
-    let first = c[i].samples.first().map_or(0, |x| x.order);
-    let samples: [&[Sample]; 2] = std::array::from_fn(|m| sample(&c[m], first));
+    });
     let change = joint_change_point(samples, &s.envelope, s.floors(), s.change_alpha)?;
+    Some(mark(c, change))
+}
+
+/// The confirmation (module doc): when method `i` has learned a test after its
+/// commissioning of `k <= K` tests and its sample holds at most `2 k` (nothing forgotten),
+/// the joint test again over the methods' samples as they are now (each commissioned
+/// method's first twice its commissioning tests, a gathering one's all, an inconsistent
+/// one's commissioning tests): a change the commissioning's few tests could not prove,
+/// proven as the tests after it add their dof.
+pub fn confirm(c: &mut [Commissioning; 2], i: usize, s: &Settings) -> Option<Change> {
+    let x = &c[i];
+    let n = x.samples.len();
+    let k = x.tests as usize;
+    if x.phase != Phase::Learning || !intact(x) || n <= k || n > 2 * k {
+        return None;
+    }
+    let samples: [&[Sample]; 2] = std::array::from_fn(|m| {
+        let x = &c[m];
+        match x.phase {
+            Phase::Commissioning => &x.samples[..],
+            Phase::Learning if intact(x) => &x.samples[..x.samples.len().min(2 * x.tests as usize)],
+            _ => commissioning_tests(x),
+        }
+    });
+    let change = joint_change_point(samples, &s.envelope, s.floors(), s.confirm_alpha)?;
+    Some(mark(c, change))
+}
+
+/// Nothing forgotten (`reference.memory-tests`): the commissioning tests come first.
+fn intact(x: &Commissioning) -> bool {
+    x.samples.len() == (x.tests + x.learned) as usize
+}
+
+/// A method's commissioning tests while it has forgotten none; else none.
+fn commissioning_tests(x: &Commissioning) -> &[Sample] {
+    if intact(x) {
+        x.samples.get(..x.tests as usize).unwrap_or(&[])
+    } else {
+        &[]
+    }
+}
+
+/// Each method whose sample `change` splits is declared inconsistent (one already
+/// inconsistent keeps its verdict).
+fn mark(c: &mut [Commissioning; 2], change: Change) -> Change {
     for (x, k) in c.iter_mut().zip(change.splits) {
         if let (Some(k), false) = (k, matches!(x.phase, Phase::Inconsistent { .. })) {
             x.phase = Phase::Inconsistent {
@@ -119,7 +185,7 @@ pub fn check(c: &mut [Commissioning; 2], i: usize, s: &Settings) -> Option<Chang
             };
         }
     }
-    Some(change)
+    change
 }
 
 /// The vessel's number for its next test: one past the newest sample's of either method

@@ -174,6 +174,9 @@ impl Fdi {
                 if h.generation == self.generation[h.method] {
                     let order = changepoint::next_order(&self.commissioning);
                     self.commissioning[h.method].add(settings, &h.raw, order);
+                    if changepoint::confirm(&mut self.commissioning, h.method, settings).is_some() {
+                        added = Added::Inconsistent;
+                    }
                 }
             }
         }

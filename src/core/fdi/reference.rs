@@ -171,14 +171,21 @@ pub struct Settings {
     pub resolve_displacement: f64,
     /// `h_1`: the decision's single-test limit.
     pub single_limit: f64,
-    /// The change-point test's tail probability per (look, split).
+    /// The change-point test's tail probability per (evaluation, moment) at commissioning's
+    /// end.
     pub change_alpha: f64,
+    /// Its tail probability per (evaluation, moment) in the confirmation after it.
+    pub confirm_alpha: f64,
 }
 
 impl Settings {
     /// What the reference needs, from `[fdi]`, `[reference]` and the decision's `limits`.
     pub fn new(fdi: &FdiConfig, r: &ReferenceConfig, limits: &Limits) -> Self {
+        // One ship-day of the alarm budget per commissioning, half at its end, half in the
+        // confirmation after it (`changepoint`).
+        let budget = fdi.false_alarms_per_year / 365.25 / 2.0;
         let looks = changepoint::looks(fdi.commissioning_tests) as f64;
+        let confirm = changepoint::confirmation_looks(fdi.commissioning_tests) as f64;
         Self {
             tests: fdi.commissioning_tests,
             wide_speed_mps: fdi.commissioning_spread_speed_mps,
@@ -191,7 +198,8 @@ impl Settings {
             resolve_speed_mps: r.resolve_speed_mps,
             resolve_displacement: r.resolve_displacement,
             single_limit: limits.param[P],
-            change_alpha: fdi.false_alarms_per_year / 365.25 / looks,
+            change_alpha: budget / looks,
+            confirm_alpha: budget / confirm,
         }
     }
 
@@ -555,6 +563,11 @@ impl Commissioning {
             (_, Phase::Commissioning, _) => {
                 format!("commissioning {} of at most {}", self.tests, s.tests)
             }
+            (_, Phase::Inconsistent { at, .. }, _) if at > self.tests => format!(
+                "commissioning inconsistent: a change at test {at}, {} after its {} commissioning tests; commission again after repairs",
+                at - self.tests,
+                self.tests
+            ),
             (_, Phase::Inconsistent { at, .. }, _) => format!(
                 "commissioning inconsistent: a change at test {at} of {}; commission again after repairs",
                 self.tests

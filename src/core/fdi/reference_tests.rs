@@ -432,3 +432,67 @@ fn a_sample_on_a_plane_is_not_taken_for_a_law() {
     assert!(t_law > 1e4, "{t_law}");
     assert!(t > 2.0 && t < 30.0, "{t}");
 }
+
+/// A change after each method's first commissioning test: one test against the others'
+/// scatter from 6 dof is no proof at commissioning's end (Hotelling's tail is heavy there);
+/// the confirmation proves it as each method learns tests after it, their dof added, and
+/// the references set from the changed samples are dropped.
+#[test]
+fn a_change_commissioning_could_not_prove_is_proven_by_the_tests_after_it() {
+    let s = settings(8);
+    // The vessel's tests in turn (method `order % 2`), +6 % displacement from its third
+    // test (each method's second) on: six standard deviations of each residual's scatter.
+    let test = |order: u64| {
+        let x = order as f64;
+        let shift = if order >= 2 { 0.06 } else { 0.0 };
+        raw(
+            1.0 + 0.01 * (2.3 * x).sin(),
+            -0.2 + 0.01 * (1.7 * x).cos() + shift,
+        )
+    };
+    let mut both: [Commissioning; 2] = Default::default();
+    let mut completed = Vec::new();
+    let mut found = None;
+    for order in 0..40u64 {
+        let m = (order % 2) as usize;
+        match both[m].add(&s, &test(order), order) {
+            Added::Completed => {
+                assert_eq!(changepoint::check(&mut both, m, &s), None, "{order}");
+                completed.push(order);
+            }
+            Added::Learned => {
+                if let Some(c) = changepoint::confirm(&mut both, m, &s) {
+                    found = Some((order, c));
+                    break;
+                }
+            }
+            a => assert_eq!(a, Added::Sample, "{order}"),
+        }
+    }
+    // Both commissioned on the changed samples, 8 tests each.
+    assert_eq!(completed, [14, 15]);
+    // Proven once each method has learned 7 tests more (the vessel's 30th test; the
+    // confirmation runs until each holds 16).
+    let (order, change) = found.expect("the confirmation finds the change");
+    assert_eq!(order, 29);
+    assert_eq!(change.splits, [Some(1), Some(1)]);
+    for c in &both {
+        assert_eq!(c.state(&s), "inconsistent");
+        assert!(c
+            .describe(&s)
+            .starts_with("commissioning inconsistent: a change at test 2"));
+    }
+    // A healthy vessel's same tests: nothing, to the confirmation's end.
+    let mut both: [Commissioning; 2] = Default::default();
+    for order in 0..40u64 {
+        let m = (order % 2) as usize;
+        let mut t = test(order);
+        t.displacement = -0.2 + 0.01 * (1.7 * order as f64).cos();
+        match both[m].add(&s, &t, order) {
+            Added::Completed => assert_eq!(changepoint::check(&mut both, m, &s), None),
+            Added::Learned => assert_eq!(changepoint::confirm(&mut both, m, &s), None),
+            _ => {}
+        }
+    }
+    assert!(both.iter().all(|c| c.state(&s) == "commissioned"));
+}

@@ -14,9 +14,6 @@ use crate::core::wire::{Cause, Decision, Outcome, Report};
 use crate::drivers::probe::Lockstep;
 use std::sync::Arc;
 
-/// Tests of the ship a commissioning run goes on for after commissioning ends.
-pub const AFTER_COMMISSIONING_TESTS: usize = 2;
-
 /// Where a test sits in its run's schedule.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Phase {
@@ -235,7 +232,8 @@ fn schedule(
             let at = onset.unwrap_or(1).saturating_sub(1).min(commissioning);
             Schedule {
                 commissioning,
-                total: commissioning + AFTER_COMMISSIONING_TESTS,
+                // The confirmation: as many tests again (`changepoint::confirm`).
+                total: 2 * commissioning,
                 change_at: sc.change.map(|_| at),
                 inject_at: at,
             }
@@ -261,7 +259,8 @@ fn schedule(
 /// Envelope scenarios: the operating point changes when commissioning ends, the fault arises
 /// with it or `n` tests of the ship later, and at least the detection window's tests follow
 /// it. Commissioning scenarios: the fault arises before commissioning test `k` of the ship,
-/// and [`AFTER_COMMISSIONING_TESTS`] tests of the ship follow commissioning.
+/// and the confirmation's tests follow commissioning (as many as commissioning's: the
+/// reference's sample is tested for a change until it holds twice the commissioning tests).
 #[allow(clippy::too_many_arguments)]
 pub fn run_one(
     cfg: &Config,

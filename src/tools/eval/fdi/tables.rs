@@ -2,7 +2,7 @@
 //! detection, delay, isolation, beside the baseline), the envelope's and the commissioning's.
 
 use super::outcomes::write_outcomes;
-use super::run::{run_one, RunOutcome, AFTER_COMMISSIONING_TESTS};
+use super::run::{run_one, RunOutcome};
 use super::score::{operating_point, pct, quantiles, score, score_commissioning, score_envelope};
 use super::{FdiEvalOptions, Row};
 use crate::core::estimator::Estimator;
@@ -259,7 +259,8 @@ pub(super) fn envelope_table(
 }
 
 /// The commissioning scenarios' table: runs flagged from the onset (a healthy run: from its
-/// first test) through [`AFTER_COMMISSIONING_TESTS`] tests of the ship after commissioning.
+/// first test) through the confirmation after commissioning (as many tests of the ship as
+/// commissioning's).
 pub(super) fn commissioning_table(
     rows: &[Row],
     sea: SeaState,
@@ -270,7 +271,7 @@ pub(super) fn commissioning_table(
 ) {
     println!("### Commissioning: faults arising before commissioning test k of the ship");
     println!();
-    println!("Flagged: a report from the onset through {AFTER_COMMISSIONING_TESTS} tests of the ship after commissioning with `residuals.decision.state` alert or alarm, or decision `fault` (the healthy row: from the first test, false flags). Inconsistent: a report says \"commissioning inconsistent\".");
+    println!("Flagged: a report from the onset through the confirmation (as many tests of the ship after commissioning as commissioning had) with `residuals.decision.state` alert or alarm, or decision `fault` (the healthy row: from the first test, false flags). Inconsistent: a report says \"commissioning inconsistent\".");
     println!();
     println!("| scenario | runs | tests in the window | onset k (mean) | flagged | flagged during commissioning | decision fault | commissioning inconsistent | aborted |");
     println!("|---|---|---|---|---|---|---|---|---|");
