@@ -456,6 +456,33 @@ pub fn predict(samples: &[Sample], st: &Settings, shape: &Shape, at: &Point) -> 
     })
 }
 
+/// Keeps at most `memory` tests: the oldest of the most populated soft bin (a bandwidth of
+/// speed by one of declared loading) goes.
+pub fn forget(samples: &mut Vec<Sample>, st: &Settings, memory: usize) {
+    while samples.len() > memory {
+        let bin = |x: &Sample| {
+            (
+                (x.speed_mps / st.bandwidth[0]).round() as i64,
+                (x.displacement_t.max(1e-9).ln() / st.bandwidth[1]).round() as i64,
+            )
+        };
+        let mut counts: Vec<((i64, i64), usize)> = Vec::new();
+        for x in samples.iter() {
+            let b = bin(x);
+            match counts.iter_mut().find(|(k, _)| *k == b) {
+                Some((_, c)) => *c += 1,
+                None => counts.push((b, 1)),
+            }
+        }
+        let Some(&(fullest, _)) = counts.iter().max_by_key(|(_, c)| *c) else {
+            return;
+        };
+        if let Some(i) = samples.iter().position(|x| bin(x) == fullest) {
+            samples.remove(i);
+        }
+    }
+}
+
 #[cfg(test)]
 #[path = "envelope_tests.rs"]
 pub(super) mod tests;

@@ -408,7 +408,11 @@ impl Commissioning {
             Phase::Learning if s.learn => {
                 self.samples.push(smp);
                 self.learned += 1;
-                forget(&mut self.samples, s);
+                envelope::forget(
+                    &mut self.samples,
+                    &s.envelope,
+                    s.memory.max(changepoint::MIN_TESTS),
+                );
                 if let Some(sh) = envelope::shape(&self.samples, &s.envelope) {
                     self.shape = Some(sh);
                 }
@@ -577,32 +581,6 @@ impl Commissioning {
                 r.tests, r.learned, r.speed_range_mps[0], r.speed_range_mps[1]
             ),
             (_, Phase::Learning, None) => "commissioned".into(),
-        }
-    }
-}
-
-/// Keeps at most `s.memory` tests: the oldest of the most populated soft bin goes.
-fn forget(samples: &mut Vec<Sample>, s: &Settings) {
-    while samples.len() > s.memory.max(changepoint::MIN_TESTS) {
-        let bin = |x: &Sample| {
-            (
-                (x.speed_mps / s.envelope.bandwidth[0]).round() as i64,
-                (x.displacement_t.max(1e-9).ln() / s.envelope.bandwidth[1]).round() as i64,
-            )
-        };
-        let mut counts: Vec<((i64, i64), usize)> = Vec::new();
-        for x in samples.iter() {
-            let b = bin(x);
-            match counts.iter_mut().find(|(k, _)| *k == b) {
-                Some((_, c)) => *c += 1,
-                None => counts.push((b, 1)),
-            }
-        }
-        let Some(&(fullest, _)) = counts.iter().max_by_key(|(_, c)| *c) else {
-            return;
-        };
-        if let Some(i) = samples.iter().position(|x| bin(x) == fullest) {
-            samples.remove(i);
         }
     }
 }
