@@ -429,8 +429,9 @@ pub fn predict(samples: &[Sample], st: &Settings, shape: &Shape, at: &Point) -> 
         samples
             .iter()
             .fold((0.0, f64::INFINITY, f64::INFINITY), |(w, d, l), s| {
-                let (wi, d2) = kernel(st, s.x(), at);
-                let (x, b) = (s.x(), st.bandwidth);
+                let x = s.x();
+                let (wi, d2) = kernel(st, x, at);
+                let b = st.bandwidth;
                 let dl = ((x[1] - at[1]) / b[1]).hypot((x[2] - at[2]) / b[2]);
                 (w + wi, d.min(d2.sqrt()), l.min(dl))
             });

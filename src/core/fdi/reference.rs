@@ -353,7 +353,7 @@ impl Commissioning {
                 let r = std::array::from_fn(|j| if j < dim { e[j] - p.offset[j] } else { 0.0 });
                 // A learned loading and excitation (a visited point is at one:
                 // `nearest_loading_excitation <= nearest`).
-                let known_loading = p.nearest_loading_excitation <= 1.0;
+                let known_conditions = p.nearest_loading_excitation <= 1.0;
                 let m = Measured {
                     r,
                     cov,
@@ -361,14 +361,14 @@ impl Commissioning {
                     // At a declared loading or an excitation not yet visited the prediction
                     // is known only as well as the tests near it vouch for it (module doc);
                     // at a new speed only the offset is new, in `p.cov`.
-                    dof: if known_loading {
+                    dof: if known_conditions {
                         shape.dof
                     } else {
                         shape.dof.min(p.support - 1.0)
                     },
                     learned,
                     dim,
-                    bounded: known_loading,
+                    bounded: known_conditions,
                 };
                 (Basis::Vessel(p), m)
             }
