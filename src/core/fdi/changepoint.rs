@@ -19,6 +19,25 @@
 //!   mean similarity slope times `du` and its mean loading slope times `dl`
 //!   (`Sample::speed_slope`, `Sample::loading_slope`, the slope priors' means): a change of
 //!   operating point is no change of health.
+//! - The slopes are common to both segments, and where the tests' operating points spread
+//!   within the segments (CLFRT's tones resized in some tests and not in others: its
+//!   excitation alternating between two sizes) the sample itself tells them: per component
+//!   `j`, the prior `N(beta_0, T)` (`T = diag(tau^2)`) updated by the points' scatter about
+//!   their segments' means `W` and its cross-products with the component `c_j`, at the
+//!   test's noise `s_j^2` (the scatter's and the floor's),
+//!
+//!   ```text
+//!   A_j = T^-1 + W / s_j^2,   beta_j = A_j^-1 (T^-1 beta_0 + c_j / s_j^2)
+//!   d_j = mean_B - mean_A - beta_j . dx,   Psi_jj = dx' A_j^-1 dx
+//!   ```
+//!
+//!   and `S_p` is the scatter about the segments' fits, with `nu` less the slopes' effective
+//!   number `max_j tr(W A_j^-1) / s_j^2` (two passes, the first from the scatter about the
+//!   means). Without a spread within the segments (every test at one point, or one point per
+//!   segment) `W = 0`: the prior as it is. Without it, a healthy test at the smaller
+//!   excitation alone before a change (the change at the sample's second test) would be
+//!   judged against the prior's allowance for the segments' mean excitations' move, 0.3 per
+//!   unit ln s, several times a 12 % displacement's move in `e_b` on some hulls.
 //!
 //! Two looks per split, each with half the budget: the networks' pair `(e_u, e_D)` (`p = 2`)
 //! and the gain `e_b` alone (`p = 1`: at the few tests of a commissioning, Hotelling's tail in
@@ -88,6 +107,7 @@ use super::envelope::{Sample, Settings as Envelope};
 use super::measured::{bound_factor, effective_dof};
 use super::reference::{Commissioning, Phase, Settings};
 use super::stats::{chi2_sf, dot, hotelling_sf, Cov, P};
+use nalgebra::{Matrix3, Vector3};
 
 /// The confidence level of the upper bound on the scatter's share of a look
 /// (`measured::effective_dof`): at 99 % a one-dof look's exact size stays within its budget
@@ -266,7 +286,6 @@ pub fn split_tails(samples: &[Sample], env: &Envelope, floors: [f64; P]) -> Vec<
         return Vec::new();
     }
     let nu = (n - 2) as f64;
-    let m = bound_factor(nu, BOUND);
     // Prefix sums of e, e e' and the operating point: every split in O(1).
     let mut pre = vec![Sums::default(); n + 1];
     for (i, s) in samples.iter().enumerate() {
@@ -285,20 +304,33 @@ pub fn split_tails(samples: &[Sample], env: &Envelope, floors: [f64; P]) -> Vec<
         // similarity law's in speed, `b` scaling by `1 / D` in declared loading.
         let slope = total.slope.map(|v| v / total.n.max(1.0));
         let lslope = total.lslope.map(|v| v / total.n.max(1.0));
-        let d: [f64; P] = std::array::from_fn(|j| mb[j] - ma[j] - slope[j] * du - lslope[j] * dl);
-        let psi = |j: usize| {
-            let i = j.min(1);
-            (env.slope_speed[i] * du).powi(2)
-                + (env.slope_loading[i] * dl).powi(2)
-                + (env.slope_excitation[i] * dg).powi(2)
-        };
-        let per = sp.times(1.0 / nu);
+        // The slopes common to both segments (`common_slopes`), from the prior and the
+        // segments' own spread of operating points; the scatter is taken about them, with
+        // the dof the fitted slopes use (`h`, 0 without a spread). Two passes: the first
+        // with the scatter about the segments' means (which counts a slope's move as noise).
+        let dx = Vector3::new(du, dl, dg);
+        let within = a.point_scatter() + b.point_scatter();
+        let cross: [Vector3<f64>; P] = std::array::from_fn(|j| a.point_cross(j) + b.point_cross(j));
+        let prior_mean = |j: usize| Vector3::new(slope[j], lslope[j], 0.0);
+        let mut fit = Slopes::about_means(sp, nu, &prior_mean);
+        for _ in 0..2 {
+            let noise = fit.per.variances();
+            let slopes: [_; P] = std::array::from_fn(|j| {
+                let v = noise[j] + floors[j] * floors[j];
+                common_slopes(env, j, prior_mean(j), v, within, cross[j])
+            });
+            fit = Slopes::fitted(sp, nu, within, &cross, slopes);
+        }
+        let (nu, per) = (fit.nu, fit.per);
+        let m = bound_factor(nu, BOUND);
+        let d: [f64; P] = std::array::from_fn(|j| mb[j] - ma[j] - fit.beta[j].0.dot(&dx));
+        let psi: [f64; P] = std::array::from_fn(|j| dx.dot(&(fit.beta[j].1 * dx)).max(0.0));
         // The learned part (the scatter, estimated with `nu` dof) and the known ones (the
         // floors, the slope prior's share).
         let learned = per.times(f);
         let c = learned
             .plus(Cov::diag(floors).times(f))
-            .plus(Cov::diag(std::array::from_fn(|j| psi(j).sqrt())));
+            .plus(Cov::diag(psi.map(f64::sqrt)));
         // Two looks: the networks' pair (e_u, e_D), and the gain e_b alone (one dof: at the
         // few tests of a commissioning, Hotelling's tail in three dimensions would cost the
         // gain's evidence more than it adds). Each at the dof its learned share leaves
@@ -323,6 +355,103 @@ pub fn split_tails(samples: &[Sample], env: &Envelope, floors: [f64; P]) -> Vec<
     tails
 }
 
+/// A split's common slopes and the scatter about them.
+struct Slopes {
+    /// Per component, the slopes' posterior mean and covariance.
+    beta: [(Vector3<f64>, Matrix3<f64>); P],
+    /// The scatter about the segments' fits per test, `S_r / nu`, and its dof.
+    per: Cov,
+    nu: f64,
+}
+
+impl Slopes {
+    /// No slopes fitted: the prior's means, the scatter about the segments' means.
+    fn about_means(sp: Cov, nu: f64, prior_mean: &dyn Fn(usize) -> Vector3<f64>) -> Self {
+        Self {
+            beta: std::array::from_fn(|j| (prior_mean(j), Matrix3::zeros())),
+            per: sp.times(1.0 / nu),
+            nu,
+        }
+    }
+
+    /// The scatter about the fitted slopes, `S_r = S_p - b_j' c_k - c_j' b_k + b_j' W b_k`
+    /// (`W` the points' scatter, `c` their cross-products with the components), over `nu`
+    /// less the slopes' effective number, `h = max_j tr(W A_j^-1) / s_j^2` (at most one
+    /// dof per slope; at least one dof is left).
+    fn fitted(
+        sp: Cov,
+        nu: f64,
+        w: Matrix3<f64>,
+        cross: &[Vector3<f64>; P],
+        beta: [(Vector3<f64>, Matrix3<f64>, f64); P],
+    ) -> Self {
+        let b: [Vector3<f64>; P] = beta.map(|x| x.0);
+        let sr = Cov(std::array::from_fn(|j| {
+            std::array::from_fn(|k| {
+                let v =
+                    sp.at(j, k) - b[j].dot(&cross[k]) - b[k].dot(&cross[j]) + b[j].dot(&(w * b[k]));
+                if j == k {
+                    v.max(0.0)
+                } else {
+                    v
+                }
+            })
+        }));
+        let h = beta
+            .iter()
+            .map(|x| (w * x.1).trace() / x.2)
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max)
+            .clamp(0.0, 3.0);
+        let nu = (nu - h).max(1.0);
+        Self {
+            beta: beta.map(|x| (x.0, x.1)),
+            per: sr.times(1.0 / nu),
+            nu,
+        }
+    }
+}
+
+/// Component `j`'s slopes in the operating point `(u, ln D, ln s)` common to a split's two
+/// segments: the Gaussian prior (mean `prior_mean`, the physical slopes; standard deviations
+/// `reference.slope-*`) updated by the segments' own spread of points about their means
+/// (`within`, and `cross` their cross-products with the component), each test's noise
+/// `noise` (the scatter's variance and the floor's). Returns the posterior mean and
+/// covariance, and the noise (infinite where the prior is returned as it is): `A = P0 + W / s2`, `beta = A^-1 (P0 beta_0 + c / s2)`. Without a spread (every
+/// test at one point, or one point per segment) it is the prior.
+fn common_slopes(
+    env: &Envelope,
+    j: usize,
+    prior_mean: Vector3<f64>,
+    noise: f64,
+    within: Matrix3<f64>,
+    cross: Vector3<f64>,
+) -> (Vector3<f64>, Matrix3<f64>, f64) {
+    let i = j.min(1);
+    let tau = [
+        env.slope_speed[i],
+        env.slope_loading[i],
+        env.slope_excitation[i],
+    ];
+    let p0 = Matrix3::from_diagonal(&Vector3::from(tau.map(|t| 1.0 / t.max(1e-12).powi(2))));
+    let prior = (
+        prior_mean,
+        Matrix3::from_diagonal(&Vector3::from(tau.map(|t| t * t))),
+        f64::INFINITY,
+    );
+    if !(noise > 0.0
+        && noise.is_finite()
+        && within.iter().chain(cross.iter()).all(|v| v.is_finite()))
+    {
+        return prior;
+    }
+    let a = p0 + within / noise;
+    match a.try_inverse() {
+        Some(inv) => (inv * (p0 * prior_mean + cross / noise), inv, noise),
+        None => prior,
+    }
+}
+
 /// Sums over a run of samples: count, `e`, `e e'`, `(u, ln D, ln s)`, the similarity
 /// slopes (a component that is not finite counting as 0).
 #[derive(Debug, Clone, Copy, Default)]
@@ -333,6 +462,9 @@ struct Sums {
     x: [f64; 3],
     slope: [f64; P],
     lslope: [f64; P],
+    /// `sum x x'` and `sum x e_j` (`x` the operating point).
+    xx: [[f64; 3]; 3],
+    xe: [[f64; P]; 3],
 }
 
 impl Sums {
@@ -346,6 +478,8 @@ impl Sums {
             x: std::array::from_fn(|i| self.x[i] + x[i]),
             slope: std::array::from_fn(|i| self.slope[i] + finite(s.speed_slope[i])),
             lslope: std::array::from_fn(|i| self.lslope[i] + finite(s.loading_slope[i])),
+            xx: std::array::from_fn(|i| std::array::from_fn(|j| self.xx[i][j] + x[i] * x[j])),
+            xe: std::array::from_fn(|i| std::array::from_fn(|j| self.xe[i][j] + x[i] * s.e[j])),
         }
     }
 
@@ -357,6 +491,8 @@ impl Sums {
             x: std::array::from_fn(|i| self.x[i] - o.x[i]),
             slope: std::array::from_fn(|i| self.slope[i] - o.slope[i]),
             lslope: std::array::from_fn(|i| self.lslope[i] - o.lslope[i]),
+            xx: std::array::from_fn(|i| std::array::from_fn(|j| self.xx[i][j] - o.xx[i][j])),
+            xe: std::array::from_fn(|i| std::array::from_fn(|j| self.xe[i][j] - o.xe[i][j])),
         }
     }
 
@@ -364,6 +500,19 @@ impl Sums {
     fn means(&self) -> ([f64; P], [f64; 3]) {
         let n = self.n.max(1.0);
         (self.e.map(|v| v / n), self.x.map(|v| v / n))
+    }
+
+    /// The operating points' scatter about their mean, `sum (x - m_x)(x - m_x)'`.
+    fn point_scatter(&self) -> Matrix3<f64> {
+        let (_, m) = self.means();
+        Matrix3::from_fn(|i, j| self.xx[i][j] - self.n * m[i] * m[j])
+    }
+
+    /// The operating points' cross-products with component `j` about the means,
+    /// `sum (x - m_x)(e_j - m_j)`.
+    fn point_cross(&self, j: usize) -> Vector3<f64> {
+        let (e, m) = self.means();
+        Vector3::from_fn(|i, _| self.xe[i][j] - self.n * m[i] * e[j])
     }
 
     /// The scatter about the mean, `sum (e - m)(e - m)'`.
