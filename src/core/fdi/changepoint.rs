@@ -311,22 +311,22 @@ pub fn split_tails(samples: &[Sample], env: &Envelope, floors: [f64; P]) -> Vec<
         let dx = Vector3::new(du, dl, dg);
         let within = a.point_scatter() + b.point_scatter();
         let cross: [Vector3<f64>; P] = std::array::from_fn(|j| a.point_cross(j) + b.point_cross(j));
-        let prior_mean = |j: usize| Vector3::new(slope[j], lslope[j], 0.0);
-        let mut fit = Slopes::about_means(sp, nu, &prior_mean);
-        for _ in 0..2 {
-            let noise = fit.per.variances();
+        let fit_at = |per: Cov| {
+            let noise = per.variances();
             let slopes: [_; P] = std::array::from_fn(|j| {
+                let prior_mean = Vector3::new(slope[j], lslope[j], 0.0);
                 let v = noise[j] + floors[j] * floors[j];
-                common_slopes(env, j, prior_mean(j), v, within, cross[j])
+                common_slopes(env, j, prior_mean, v, within, cross[j])
             });
-            fit = Slopes::fitted(sp, nu, within, &cross, slopes);
-        }
+            Slopes::fitted(sp, nu, within, &cross, slopes)
+        };
+        let fit = fit_at(fit_at(sp.times(1.0 / nu)).per);
         let (nu, per) = (fit.nu, fit.per);
         let m = bound_factor(nu, BOUND);
         let d: [f64; P] = std::array::from_fn(|j| mb[j] - ma[j] - fit.beta[j].0.dot(&dx));
         let psi: [f64; P] = std::array::from_fn(|j| dx.dot(&(fit.beta[j].1 * dx)).max(0.0));
         // The learned part (the scatter, estimated with `nu` dof) and the known ones (the
-        // floors, the slope prior's share).
+        // floors, the slopes' share).
         let learned = per.times(f);
         let c = learned
             .plus(Cov::diag(floors).times(f))
@@ -365,15 +365,6 @@ struct Slopes {
 }
 
 impl Slopes {
-    /// No slopes fitted: the prior's means, the scatter about the segments' means.
-    fn about_means(sp: Cov, nu: f64, prior_mean: &dyn Fn(usize) -> Vector3<f64>) -> Self {
-        Self {
-            beta: std::array::from_fn(|j| (prior_mean(j), Matrix3::zeros())),
-            per: sp.times(1.0 / nu),
-            nu,
-        }
-    }
-
     /// The scatter about the fitted slopes, `S_r = S_p - b_j' c_k - c_j' b_k + b_j' W b_k`
     /// (`W` the points' scatter, `c` their cross-products with the components), over `nu`
     /// less the slopes' effective number, `h = max_j tr(W A_j^-1) / s_j^2` (at most one
@@ -416,9 +407,10 @@ impl Slopes {
 /// segments: the Gaussian prior (mean `prior_mean`, the physical slopes; standard deviations
 /// `reference.slope-*`) updated by the segments' own spread of points about their means
 /// (`within`, and `cross` their cross-products with the component), each test's noise
-/// `noise` (the scatter's variance and the floor's). Returns the posterior mean and
-/// covariance, and the noise (infinite where the prior is returned as it is): `A = P0 + W / s2`, `beta = A^-1 (P0 beta_0 + c / s2)`. Without a spread (every
-/// test at one point, or one point per segment) it is the prior.
+/// `noise` (the scatter's variance and the floor's): `A = P0 + W / s2`, `beta = A^-1 (P0
+/// beta_0 + c / s2)`. Returns the posterior mean and covariance, and the noise (infinite
+/// where the prior is returned as it is). Without a spread (every test at one point, or one
+/// point per segment) it is the prior.
 fn common_slopes(
     env: &Envelope,
     j: usize,
