@@ -22,7 +22,9 @@
 //! `safety.max-heading-error-deg`, h and eps are scaled by the same `s < 1` from that switch
 //! on (same period, amplitude times `s`) and the settling starts again; past the limit
 //! itself even at the smallest hysteresis the wave yaw allows, the test aborts
-//! (`relay_too_large`). The report carries `relay_scale` and the relay as played.
+//! (`relay_too_large`). Before the relay starts, h and eps are scaled up by `s > 1` where the
+//! sea's wave yaw (the vessel's last completed test's) needs a larger hysteresis, within
+//! `safety.max-excitation-deg`. The report carries `relay_scale` and the relay as played.
 //!
 //! Relay-centre adaptation (`hbt.bias-adaptation`): at each switch to `+h` the centre moves
 //! towards the mean rudder of the period just ended, `delta0 += g h (t+ - t-) / P`. When the
@@ -99,8 +101,8 @@ pub struct HbtReport {
     /// The servo's slew rate: the median over the measured periods of each period's largest
     /// rudder rate, and the healthy servo's rate limit [rad/s] (none when not measurable).
     pub servo_rate: Option<(f64, f64)>,
-    /// The scale of h and eps against the design when the sizing lowered the relay (none at
-    /// full size).
+    /// The scale of h and eps against the design when the sizing changed the relay (none as
+    /// designed): below 1 sized to the loop, above 1 to the sea.
     pub relay_scale: Option<f64>,
     /// What the sizing predicted at its look (none when it did not look or could not
     /// predict).
@@ -218,6 +220,13 @@ pub(crate) struct HbtRun {
     sizing: RelaySizing,
     scale: f64,
     prediction: Option<RelayPrediction>,
+    /// The relay as designed `(h, eps)` [rad], and the largest `h` the excitation's safety
+    /// limit allows [rad].
+    design: (f64, f64),
+    max_h_rad: f64,
+    /// The sea's wave yaw on the heading as the vessel's last completed test measured it
+    /// [rad] (none: not known), for the relay's size.
+    sea_wave_yaw_rad: Option<f64>,
     /// The servo, for the healthy slew rate after a resize.
     servo_cfg: (ServoConfig, f64),
     /// The speed log at the test's start [m/s] (none without one), for the sizing.
@@ -226,8 +235,14 @@ pub(crate) struct HbtRun {
 
 impl HbtRun {
     /// A relay test starting at `t_start_s`, the speed log reading `speed_mps` (none: no
-    /// speed log).
-    pub(crate) fn new(cfg: &CoreConfig, t_start_s: f64, speed_mps: Option<f64>) -> Self {
+    /// speed log), in a sea whose wave yaw on the heading the vessel's last completed test
+    /// measured as `sea_wave_yaw_rad` (none: not known; the relay starts as designed).
+    pub(crate) fn new(
+        cfg: &CoreConfig,
+        t_start_s: f64,
+        speed_mps: Option<f64>,
+        sea_wave_yaw_rad: Option<f64>,
+    ) -> Self {
         let h = &cfg.hbt;
         let rate = cfg.sensors.rate_hz;
         let capacity = ((h.timeout_s + 60.0) * rate * 2.0).ceil() as usize;
@@ -274,6 +289,9 @@ impl HbtRun {
             sizing: RelaySizing::new(cfg),
             scale: 1.0,
             prediction: None,
+            design: (h.relay_height_rad(), h.hysteresis_rad()),
+            max_h_rad: cfg.safety.max_excitation_deg.to_radians(),
+            sea_wave_yaw_rad,
             servo_cfg: (cfg.servo.clone(), cfg.sensors.rate_hz),
             speed_mps,
         }
@@ -330,6 +348,12 @@ impl HbtRun {
                 self.initial_trim_rad = x;
                 self.relay_start_s = Some(t);
                 self.sign = if error_rad >= 0.0 { 1.0 } else { -1.0 };
+                let scale = self
+                    .sizing
+                    .for_sea(self.sea_wave_yaw_rad, self.design, self.max_h_rad);
+                if scale > 1.0 {
+                    self.play_at(scale);
+                }
                 x
             }
         };
@@ -478,17 +502,15 @@ impl HbtRun {
         if resampled.is_err() {
             return Ok(());
         }
-        let relay = (self.h_rad, self.eps_rad);
-        match self.sizing.decide(h, d, self.dt_s, self.speed_mps, relay) {
+        match self
+            .sizing
+            .decide(h, d, self.dt_s, self.speed_mps, self.design, self.scale)
+        {
             Ok(RelayDecision::Abort(reason)) => Err(reason),
             Ok(RelayDecision::Play(p)) => {
                 self.prediction = Some(p);
-                if p.scale < 1.0 {
-                    self.scale = p.scale;
-                    self.h_rad *= p.scale;
-                    self.eps_rad *= p.scale;
-                    let (servo, rate) = &self.servo_cfg;
-                    self.servo_rate.0 = nominal_slew_rad_s(servo, *rate, self.h_rad);
+                if p.scale < self.scale {
+                    self.play_at(p.scale);
                     // The settling starts again: periods count from the next switch to +h.
                     self.up_switches.clear();
                     self.last_down_s = None;
@@ -497,6 +519,16 @@ impl HbtRun {
             }
             Err(_) => Ok(()),
         }
+    }
+
+    /// Plays the designed relay at `scale`: `h` and `eps` both (homogeneity), and the servo
+    /// check's healthy slew for the new step.
+    fn play_at(&mut self, scale: f64) {
+        self.scale = scale;
+        self.h_rad = self.design.0 * scale;
+        self.eps_rad = self.design.1 * scale;
+        let (servo, rate) = &self.servo_cfg;
+        self.servo_rate.0 = nominal_slew_rad_s(servo, *rate, self.h_rad);
     }
 
     fn analyse(&mut self, t_now: f64, trim: f64) -> Result<Measured, AbortReason> {
@@ -570,7 +602,7 @@ impl HbtRun {
             wave_yaw_rad,
             response,
             servo_rate,
-            relay_scale: (self.scale < 1.0).then_some(self.scale),
+            relay_scale: (self.scale != 1.0).then_some(self.scale),
             prediction: self.prediction,
         }))
     }

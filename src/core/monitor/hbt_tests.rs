@@ -58,6 +58,35 @@ fn nominal_slew_needs_a_saturating_relay() {
 /// 20 Euler steps per sample. Returns the test's outcome and the largest |heading error|
 /// over the measured periods.
 fn relay_on_linear_ship(cfg: &CoreConfig, u: f64, d: f64) -> (Result<HbtReport, AbortReason>, f64) {
+    relay_in_a_sea(cfg, u, d, &|_| 0.0, None)
+}
+
+/// Wave yaw of rms `sigma_rad` on the measured heading, independent of the simulator's
+/// wave filter: 40 tones spread evenly over 0.6-1.0 rad/s (the default sea's peak at 0.8),
+/// each of amplitude `sigma sqrt(2 / 40)`, random phases from `seed`.
+fn wave_yaw(sigma_rad: f64, seed: u64) -> impl Fn(f64) -> f64 {
+    use rand::Rng;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let n = 40;
+    let amp = sigma_rad * (2.0 / n as f64).sqrt();
+    let tones: Vec<(f64, f64)> = (0..n)
+        .map(|i| {
+            let w = 0.6 + 0.4 * (i as f64 + 0.5) / n as f64;
+            (w, rng.gen_range(0.0..std::f64::consts::TAU))
+        })
+        .collect();
+    move |t| tones.iter().map(|(w, ph)| amp * (w * t + ph).sin()).sum()
+}
+
+/// [`relay_on_linear_ship`] with `wave(t)` [rad] added to the heading the test reads, and
+/// the sea's wave yaw as the vessel's last test measured it (`sea_rad`).
+fn relay_in_a_sea(
+    cfg: &CoreConfig,
+    u: f64,
+    d: f64,
+    wave: &dyn Fn(f64) -> f64,
+    sea_rad: Option<f64>,
+) -> (Result<HbtReport, AbortReason>, f64) {
     let (a, b) = cfg.ship.nomoto(u, d);
     let dt = 1.0 / cfg.sensors.rate_hz;
     let sub = 20;
@@ -68,13 +97,14 @@ fn relay_on_linear_ship(cfg: &CoreConfig, u: f64, d: f64) -> (Result<HbtReport, 
         cfg.servo.time_constant_s,
     );
     let t0 = 100.0;
-    let mut run = HbtRun::new(cfg, t0, Some(u));
+    let mut run = HbtRun::new(cfg, t0, Some(u), sea_rad);
     let (mut psi, mut r, mut delta, mut cmd) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
     let mut peak = 0.0f64;
     for k in 0..40_000 {
         let t = t0 + k as f64 * dt;
         run.push_rudder(t, delta).unwrap();
-        let step = run.on_heading(t, psi, -psi);
+        let seen = psi + wave(t);
+        let step = run.on_heading(t, seen, -seen);
         if let Some(done) = step.done {
             let report = done.map(|m| match m {
                 Measured::Hbt(r) => r,
@@ -224,4 +254,99 @@ fn handback_instant_zeroes_the_pd_term() {
     assert!((e + tau * de).abs() < 1e-12, "{}", e + tau * de);
     assert!(de < 0.0 && e > 0.0);
     assert!(t > 0.0 && t < p / 2.0);
+}
+
+/// The sea's scale ([`RelaySizing::for_sea`]) by hand: `3 x wave yaw / eps` where that is
+/// over 1, capped by the excitation's limit; 1 in a moderate sea, without a known sea, or
+/// with the sizing off.
+#[test]
+fn the_relay_is_sized_for_the_sea_it_finds() {
+    use crate::core::monitor::sizing::RelaySizing;
+    let cfg = CoreConfig::default();
+    let design = (cfg.hbt.relay_height_rad(), cfg.hbt.hysteresis_rad());
+    let sizing = RelaySizing::new(&cfg);
+    let sea = |deg: f64| Some(deg.to_radians());
+    let roomy = 20f64.to_radians();
+    // 3 x 0.4 deg over the designed 1 deg; 3 x 0.5 deg.
+    assert!((sizing.for_sea(sea(0.4), design, roomy) - 1.2).abs() < 1e-12);
+    assert!((sizing.for_sea(sea(0.5), design, roomy) - 1.5).abs() < 1e-12);
+    // Capped by safety.max-excitation-deg (10 deg for the 8 deg relay: 1.25).
+    let capped = sizing.for_sea(sea(0.5), design, 10f64.to_radians());
+    assert!((capped - 1.25).abs() < 1e-12, "{capped}");
+    // A moderate sea (0.2 deg: 0.6 deg wanted) and an unknown one leave the design.
+    assert_eq!(sizing.for_sea(sea(0.2), design, roomy), 1.0);
+    assert_eq!(sizing.for_sea(None, design, roomy), 1.0);
+    let mut off = cfg.clone();
+    off.hbt.resize_at_switch = 0;
+    assert_eq!(RelaySizing::new(&off).for_sea(sea(0.5), design, roomy), 1.0);
+}
+
+/// A rough sea (0.5 deg of wave yaw) on the designed relay's 1 deg hysteresis: the wave's
+/// envelope crosses the hysteresis band (a Rayleigh envelope passes 2 sigma at
+/// `exp(-2)` = 14 % of its peaks), the relay chatters and the test aborts in some seas.
+/// Sized for the sea (h and eps x 1.5, `safety.max-excitation-deg` 12 deg so the cap does
+/// not bind) a back-crossing needs an envelope of 3 sigma (`exp(-4.5)` = 1 %): every test
+/// completes. The independent answers are homogeneity and the describing function:
+/// - without waves, the cycle at 1.5 against the designed one in the describing function's
+///   ratios (the servo's rate limit: the 24 deg step slews 6 s, the 16 deg one 4 s);
+/// - in the sea, on a linear ship the relay `(s h, s eps)` in the wave `w(t)` is the
+///   designed relay in the wave `w(t) / s`, scaled by `s` (the rate limit aside, which the
+///   ratios take out). Each sea moves a cycle by a few % (the wave advances or delays
+///   switches, and the two runs' switches part after the first), so the estimator's inputs
+///   of the two agree on the mean over 12 seas, within the half-size test's tolerances
+///   (without the ratios `ln a_u` would be off by `ln 1.5` = 0.41).
+#[test]
+fn a_relay_sized_for_a_rough_sea_completes_with_the_designed_cycle() {
+    use crate::core::estimator::features::Feature;
+    use crate::core::wire::Features;
+    let mut cfg = CoreConfig::default();
+    cfg.safety.max_excitation_deg = 12.0;
+    cfg.hbt.timeout_s = 3000.0;
+    cfg.safety.max_test_duration_s = 3600.0;
+    let mut designed = cfg.clone();
+    designed.hbt.resize_at_switch = 0;
+    let (u, d) = (7.0, 7000.0);
+    let sigma = 0.5f64.to_radians();
+    let rel = |x: f64, y: f64| x / y - 1.0;
+    let (r, _) = relay_in_a_sea(&cfg, u, d, &|_| 0.0, Some(sigma));
+    let (r0, _) = relay_in_a_sea(&designed, u, d, &|_| 0.0, None);
+    let (r, r0) = (r.unwrap(), r0.unwrap());
+    let (rw, ra) = r.prediction.unwrap().ratios();
+    let (c, c0) = (r.cycle, r0.cycle);
+    assert!(
+        rel(c.omega_u_rad_s / c0.omega_u_rad_s, rw).abs() < 0.02,
+        "{c:?} {c0:?} {rw}"
+    );
+    assert!(
+        rel(c.amplitude_rad / c0.amplitude_rad, ra).abs() < 0.04,
+        "{c:?} {c0:?} {ra}"
+    );
+    let features = [Feature::LnOmegaU, Feature::LnAmplitude];
+    let (mut chatter, mut diff, seas) = (0, [0.0; 2], 12);
+    for seed in 0..seas {
+        let wave = wave_yaw(sigma, 100 + seed);
+        let (r, _) = relay_in_a_sea(&designed, u, d, &wave, Some(sigma));
+        chatter += usize::from(matches!(r, Err(AbortReason::RelayChatter { .. })));
+        let (r, _) = relay_in_a_sea(&cfg, u, d, &wave, Some(sigma));
+        let r = r.unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        let s = r.relay_scale.unwrap();
+        assert!((s - 1.5).abs() < 1e-12, "seed {seed}: scale {s}");
+        let (r0, _) = relay_in_a_sea(&designed, u, d, &|t| wave(t) / s, None);
+        let r0 = r0.unwrap_or_else(|e| panic!("seed {seed}, the sea / s: {e}"));
+        let (f, f0) = (
+            Features::Hbt(r.to_features()),
+            Features::Hbt(r0.to_features()),
+        );
+        for (k, feature) in features.iter().enumerate() {
+            diff[k] += (feature.value(&f).unwrap() - feature.value(&f0).unwrap()) / seas as f64;
+        }
+    }
+    assert!(diff[0].abs() < 0.02, "mean ln w_u difference {}", diff[0]);
+    assert!(diff[1].abs() < 0.04, "mean ln a_u difference {}", diff[1]);
+    // The designed relay in the same seas: 3 of 12 chatter here (half the simulator's rough
+    // seas, whose gyro noise adds to the wave yaw).
+    assert!(
+        chatter > 0,
+        "the designed relay never chattered in {seas} seas"
+    );
 }

@@ -265,6 +265,9 @@ pub struct Monitor {
     last_test_end: Option<f64>,
     /// Which scheduled method runs next (index into `scheduler.methods`).
     next_method: usize,
+    /// The wave yaw on the heading the last completed test measured [rad]: the sea the
+    /// next relay is sized for (`crate::core::monitor::sizing`).
+    sea_wave_yaw_rad: Option<f64>,
     /// Tests started so far (part of the test id).
     test_seq: u64,
     /// Outputs waiting for the driver.
@@ -350,6 +353,7 @@ impl Monitor {
             run: None,
             last_test_end: None,
             next_method: 0,
+            sea_wave_yaw_rad: None,
             test_seq: 0,
             outputs: VecDeque::new(),
             status: MonitorState::Idle,
@@ -636,7 +640,12 @@ impl Monitor {
         let kind = match method {
             Method::Hbt => {
                 let speed = self.speed_smooth.map(|x| x.0);
-                RunKind::Hbt(Box::new(hbt::HbtRun::new(&self.cfg, t, speed)))
+                RunKind::Hbt(Box::new(hbt::HbtRun::new(
+                    &self.cfg,
+                    t,
+                    speed,
+                    self.sea_wave_yaw_rad,
+                )))
             }
             Method::Clfrt => {
                 let ms = self.multisine.clone()?;

@@ -85,6 +85,12 @@ impl Monitor {
                         ),
                     },
                 };
+                if let Some(w) = features
+                    .wave_yaw_rad()
+                    .filter(|w| w.is_finite() && *w >= 0.0)
+                {
+                    self.sea_wave_yaw_rad = Some(w);
+                }
                 let mut msg = format!("{name} test completed; {est_text}; {}", a.summary);
                 if let Some(scales) = features.clfrt().and_then(|c| c.amplitude_scales.as_ref()) {
                     let pct: Vec<String> = scales
@@ -97,8 +103,9 @@ impl Monitor {
                     ));
                 }
                 if let Some(scale) = features.hbt().and_then(|h| h.relay_scale) {
+                    let to = if scale > 1.0 { "sea" } else { "loop" };
                     msg.push_str(&format!(
-                        "; relay sized to the loop: {:.0} % of the design",
+                        "; relay sized to the {to}: {:.0} % of the design",
                         100.0 * scale
                     ));
                 }

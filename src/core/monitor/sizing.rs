@@ -1,7 +1,9 @@
 //! Excitation sized to the loop the test finds: each method plays its designed excitation,
-//! measures what the loop makes of it early in the test's settling, and lowers it (never
-//! raises it) when the loop would carry the ship past a limit; the measurement then sees one
-//! size, the report says which, and the features the estimator reads do not depend on it.
+//! measures what the loop makes of it early in the test's settling, and lowers it (the look
+//! never raises it) when the loop would carry the ship past a limit; the measurement then
+//! sees one size, the report says which, and the features the estimator reads do not depend
+//! on it. HBT's relay is also sized up for the sea before it starts, where the designed
+//! hysteresis is under the wave yaw (below).
 //!
 //! ## CLFRT: the tones ([`ToneSizing`])
 //!
@@ -52,6 +54,20 @@
 //! it or the relay chatters). When even that smallest relay is predicted past the heading
 //! limit itself, the test aborts (`relay_too_large`) before the ship gets there; when it is
 //! predicted between the fraction and the limit, the smallest relay plays.
+//!
+//! **Sized for the sea.** A relay whose hysteresis the wave yaw on the heading crosses
+//! chatters (switches closer than `hbt.min-switch-interval-s`: the test aborts): in the
+//! simulator's rough sea (0.5 deg of wave yaw on the designed 1 deg) about half the relay
+//! tests did. Before the relay starts ([`RelaySizing::for_sea`]), with the sea's wave yaw as
+//! the vessel's last completed test measured it (over its whole record: a 60 s trim window of
+//! a sea whose wave yaw lives in a band of ~0.2 rad/s holds two or three independent
+//! components, too few to judge it), `h` and `eps` are scaled by `s = hbt.resize-wave-factor
+//! x wave yaw / eps` where that is over 1, no further than `safety.max-excitation-deg / h`;
+//! the look at the `hbt.resize-at-switch`-th switch may lower it again (never below the
+//! wave floor). By the same homogeneity the cycle is the designed relay's at `s` times its
+//! amplitude, read through the same ratios; with the sea in the picture, the relay `(s h, s
+//! eps)` in a wave `w` is the designed relay in the wave `w / s`, scaled by `s`. Unknown sea
+//! (no completed test yet) or the sizing off (`hbt.resize-at-switch` 0): as designed.
 //!
 //! After a resize the settling starts again (`hbt.settle-periods` from the next switch to
 //! `+h`). The report's `relay_height_rad` and `hysteresis_rad` are the relay as played,
@@ -418,11 +434,37 @@ impl RelaySizing {
         self.at_switch > 0 && switches == self.at_switch
     }
 
-    /// The verdict for a relay `(h, eps)` [rad] from the heading and rudder recorded since it
-    /// started (`dt` apart, same length, starting on a steady course) and the speed log at
-    /// the test's start (none: unknown). `Err`: no prediction (the fit or the describing
-    /// function failed, or the fitted ship is not a ship); the relay then plays as designed
-    /// and the safety limits still hold.
+    /// The relay's scale for the sea, before it starts (see "HBT" in the module doc): with
+    /// the sea's wave yaw on the heading (the vessel's last completed test's, measured over
+    /// its whole record), `s = hbt.resize-wave-factor x wave yaw / eps` where that is over 1
+    /// (the designed hysteresis is under the wave floor: the relay would chatter), no larger
+    /// than lets `s h` stay within `max_h_rad` (`safety.max-excitation-deg`); else 1 (also
+    /// with the sizing off or no wave yaw known).
+    pub fn for_sea(
+        &self,
+        wave_yaw_rad: Option<f64>,
+        (h_rad, eps_rad): (f64, f64),
+        max_h_rad: f64,
+    ) -> f64 {
+        let wanted = match wave_yaw_rad {
+            Some(w) if self.at_switch > 0 => self.wave_factor * w / eps_rad,
+            _ => return 1.0,
+        };
+        let most = (max_h_rad / h_rad).max(1.0);
+        if wanted.is_finite() {
+            wanted.clamp(1.0, most)
+        } else {
+            1.0
+        }
+    }
+
+    /// The verdict for the designed relay `(h, eps)` [rad] played at `scale` (1, or the
+    /// sea's [`RelaySizing::for_sea`]) from the heading and rudder recorded since it started
+    /// (`dt` apart, same length, starting on a steady course) and the speed log at the
+    /// test's start (none: unknown). The scale it gives is never above `scale` (the look only
+    /// lowers) nor below the wave floor. `Err`: no prediction (the fit or the describing
+    /// function failed, or the fitted ship is not a ship); the relay then plays as it is and
+    /// the safety limits still hold.
     pub fn decide(
         &mut self,
         heading_rad: &[f64],
@@ -430,6 +472,7 @@ impl RelaySizing {
         dt_s: f64,
         speed_mps: Option<f64>,
         (h_rad, eps_rad): (f64, f64),
+        scale: f64,
     ) -> Result<RelayDecision, String> {
         let (a, b) = match speed_mps.filter(|u| u.is_finite() && *u > 0.0) {
             Some(u) => {
@@ -447,12 +490,18 @@ impl RelaySizing {
         }
         let (band, spectrum, scratch) = &mut self.wave;
         let wave_yaw_rad = band_rms(heading_rad, dt_s, *band, spectrum, scratch).ok();
-        let peak = |h: f64, eps: f64| -> Result<(f64, f64, f64), String> {
-            let (w, amp) = limit_cycle_describing_function(a, b, h, eps, &self.servo)
-                .map_err(|e| format!("describing function: {e}"))?;
+        let peak = |s: f64| -> Result<(f64, f64, f64), String> {
+            let (w, amp) =
+                limit_cycle_describing_function(a, b, s * h_rad, s * eps_rad, &self.servo)
+                    .map_err(|e| format!("describing function: {e}"))?;
             Ok((w, amp, square_wave_peak_factor(w, a) * amp))
         };
-        let (omega_rad_s, amplitude_rad, peak_rad) = peak(h_rad, eps_rad)?;
+        let (omega_rad_s, amplitude_rad, peak_rad) = peak(1.0)?;
+        let playing = if scale == 1.0 {
+            (omega_rad_s, amplitude_rad, peak_rad)
+        } else {
+            peak(scale)?
+        };
         let mut prediction = RelayPrediction {
             a_per_s: a,
             b_per_s2: b,
@@ -460,33 +509,30 @@ impl RelaySizing {
             omega_rad_s,
             amplitude_rad,
             peak_rad,
-            scale: 1.0,
-            scaled_omega_rad_s: omega_rad_s,
-            scaled_amplitude_rad: amplitude_rad,
-            scaled_peak_rad: peak_rad,
+            scale,
+            scaled_omega_rad_s: playing.0,
+            scaled_amplitude_rad: playing.1,
+            scaled_peak_rad: playing.2,
         };
-        if peak_rad <= self.target_rad {
+        if playing.2 <= self.target_rad {
             return Ok(RelayDecision::Play(prediction));
         }
         let floor_rad = self
             .min_eps_rad
             .max(self.wave_factor * wave_yaw_rad.unwrap_or(0.0));
-        let scale = (self.target_rad / peak_rad)
+        let lower = (self.target_rad / peak_rad)
             .max(floor_rad / eps_rad)
-            .min(1.0);
-        let (scaled_omega_rad_s, scaled_amplitude_rad, scaled_peak_rad) = if scale < 1.0 {
-            peak(scale * h_rad, scale * eps_rad)?
-        } else {
-            (omega_rad_s, amplitude_rad, peak_rad)
-        };
+            .min(scale);
+        let (scaled_omega_rad_s, scaled_amplitude_rad, scaled_peak_rad) =
+            if lower < scale { peak(lower)? } else { playing };
         if scaled_peak_rad > self.limit_rad {
             return Ok(RelayDecision::Abort(AbortReason::RelayTooLarge {
                 predicted_deg: scaled_peak_rad.to_degrees(),
                 limit_deg: self.limit_rad.to_degrees(),
-                hysteresis_deg: (scale * eps_rad).to_degrees(),
+                hysteresis_deg: (lower * eps_rad).to_degrees(),
             }));
         }
-        prediction.scale = scale;
+        prediction.scale = lower;
         prediction.scaled_omega_rad_s = scaled_omega_rad_s;
         prediction.scaled_amplitude_rad = scaled_amplitude_rad;
         prediction.scaled_peak_rad = scaled_peak_rad;

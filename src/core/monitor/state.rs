@@ -22,6 +22,10 @@ pub struct VesselState {
     pub next_method: usize,
     /// Tests started so far.
     pub test_seq: u64,
+    /// The sea the next relay is sized for: the wave yaw the last completed test measured
+    /// [rad] (absent in states of earlier releases: not known).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sea_wave_yaw_rad: Option<f64>,
 }
 
 impl VesselState {
@@ -39,6 +43,7 @@ impl Monitor {
             last_test_end: self.last_test_end,
             next_method: self.next_method,
             test_seq: self.test_seq,
+            sea_wave_yaw_rad: self.sea_wave_yaw_rad,
         }
     }
 
@@ -63,6 +68,7 @@ impl Monitor {
         self.last_test_end = s.last_test_end.filter(|t| t.is_finite());
         self.next_method = s.next_method % self.cfg.scheduler.methods.len().max(1);
         self.test_seq = s.test_seq;
+        self.sea_wave_yaw_rad = s.sea_wave_yaw_rad.filter(|w| w.is_finite() && *w >= 0.0);
         Ok(discarded)
     }
 
@@ -91,5 +97,31 @@ impl Monitor {
     /// alarm stays an alarm across a restart).
     pub fn last_notification(&self) -> Option<&Notification> {
         self.fdi.last_notification()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::core::monitor::config::CoreConfig;
+
+    /// The sea the next relay is sized for survives a restart; a state of an earlier release
+    /// (no such key) restores with the sea unknown, and a non-finite one is refused.
+    #[test]
+    fn the_sea_survives_a_restart_and_old_states_restore() {
+        let cfg = CoreConfig::default();
+        let mut m = Monitor::new(&cfg, "self");
+        let mut s = m.saved_state();
+        assert_eq!(s.sea_wave_yaw_rad, None);
+        let json = serde_json::to_string(&s).unwrap();
+        assert!(!json.contains("sea_wave_yaw_rad"), "{json}");
+        let old: VesselState = serde_json::from_str(&json).unwrap();
+        assert_eq!(old.sea_wave_yaw_rad, None);
+        s.sea_wave_yaw_rad = Some(0.008);
+        m.restore(s.clone()).unwrap();
+        assert_eq!(m.saved_state().sea_wave_yaw_rad, Some(0.008));
+        s.sea_wave_yaw_rad = Some(f64::NAN);
+        m.restore(s).unwrap();
+        assert_eq!(m.saved_state().sea_wave_yaw_rad, None);
     }
 }
