@@ -284,6 +284,8 @@ pub struct Ship {
     autopilot: Autopilot,
     bias: MarkovBias,
     wave: WaveYaw,
+    /// The sea's levels the bias and the wave yaw are at now.
+    sea_levels: config::SeaLevels,
     rng: ChaCha8Rng,
     /// Noise std [rad, rad, m/s], zero when noise is off.
     heading_noise_rad: f64,
@@ -424,6 +426,7 @@ impl Ship {
             autopilot,
             bias,
             wave,
+            sea_levels: levels,
             rng,
             heading_noise_rad: noise * deg(cfg.sensors.heading_noise_deg),
             rudder_noise_rad: noise * deg(cfg.sensors.rudder_noise_deg),
@@ -690,6 +693,33 @@ impl Ship {
         self.displacement_t = displacement_t;
         self.declared_displacement_t = Some(displacement_t);
         self.status_dirty = true;
+        Ok(())
+    }
+
+    /// The sea becomes `levels` from the next tick (the weather, not a fault): the
+    /// rudder-equivalent bias and the wave yaw keep their state, rescaled to the new
+    /// standard deviations (both stay stationary; no random draw, so the run's other draws
+    /// are those of the same seed). A level that was zero stays zero. Refuses levels that
+    /// are not finite and >= 0.
+    pub fn set_sea(&mut self, levels: config::SeaLevels) -> Result<(), SimError> {
+        for (field, value) in [
+            ("sea.wave_yaw_deg", levels.wave_yaw_deg),
+            ("sea.bias_deg", levels.bias_deg),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(SimError::Scenario {
+                    field,
+                    value,
+                    allowed: "finite and >= 0",
+                });
+            }
+        }
+        let ratio = |new: f64, old: f64| if old > 0.0 { new / old } else { 0.0 };
+        self.wave
+            .rescale(ratio(levels.wave_yaw_deg, self.sea_levels.wave_yaw_deg));
+        self.bias
+            .rescale(ratio(levels.bias_deg, self.sea_levels.bias_deg));
+        self.sea_levels = levels;
         Ok(())
     }
 

@@ -65,6 +65,13 @@ impl MarkovBias {
     pub fn value_rad(&self) -> f64 {
         self.value_rad
     }
+    /// The sea changes: the stationary std times `factor` (>= 0), the value with it, so the
+    /// process stays stationary at its new level and continuous in shape.
+    pub fn rescale(&mut self, factor: f64) {
+        self.sigma_rad *= factor;
+        self.drive_rad *= factor;
+        self.value_rad *= factor;
+    }
 }
 
 /// Why the wave filter could not be discretised.
@@ -157,6 +164,12 @@ impl WaveYaw {
     pub fn value_rad(&self) -> f64 {
         self.gain * self.x.y
     }
+
+    /// The sea changes: the output's stationary std times `factor` (>= 0); the state (of a
+    /// unit-intensity input) is kept, so the output stays stationary at its new level.
+    pub fn rescale(&mut self, factor: f64) {
+        self.gain *= factor;
+    }
 }
 
 #[cfg(test)]
@@ -234,5 +247,38 @@ mod tests {
             "rho = {}",
             cov / var
         );
+    }
+
+    /// The sea rises: both processes rescaled from a calm sea's levels to a rough one's take
+    /// the new standard deviations (stationary from the change on: the empirical std over
+    /// the steps after it, against the new target, as the tests above).
+    #[test]
+    fn a_rescaled_sea_is_stationary_at_its_new_level() {
+        let (calm, rough) = (0.05f64.to_radians(), 0.5f64.to_radians());
+        let dt = 0.5;
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let mut w = WaveYaw::new(0.8, 0.1, calm, dt).unwrap();
+        let mut b = MarkovBias::new(300.0, calm, 30.0);
+        w.start(n(&mut rng), n(&mut rng));
+        b.start(n(&mut rng));
+        for _ in 0..1000 {
+            w.step(n(&mut rng), n(&mut rng));
+            b.step(n(&mut rng));
+        }
+        let before = w.value_rad();
+        w.rescale(rough / calm);
+        b.rescale(rough / calm);
+        approx::assert_relative_eq!(w.value_rad(), before * 10.0, max_relative = 1e-12);
+        let steps = 800_000;
+        let (mut sw, mut sb) = (0.0, 0.0);
+        for _ in 0..steps {
+            w.step(n(&mut rng), n(&mut rng));
+            b.step(n(&mut rng));
+            sw += w.value_rad().powi(2);
+            sb += b.value_rad().powi(2);
+        }
+        let (stdw, stdb) = ((sw / steps as f64).sqrt(), (sb / steps as f64).sqrt());
+        approx::assert_relative_eq!(stdw, rough, max_relative = 0.03);
+        approx::assert_relative_eq!(stdb, rough, max_relative = 0.03);
     }
 }

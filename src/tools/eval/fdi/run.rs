@@ -330,6 +330,7 @@ pub fn run_one(
             let c = change.unwrap_or(super::scenarios::DrawnChange {
                 speed_mps: None,
                 displacement_t: None,
+                sea: None,
             });
             let applied = c
                 .speed_mps
@@ -337,6 +338,10 @@ pub fn run_one(
                 .and_then(|()| {
                     c.displacement_t
                         .map_or(Ok(()), |d| ls.ship.set_loading_t(d))
+                })
+                .and_then(|()| {
+                    c.sea
+                        .map_or(Ok(()), |s| ls.ship.set_sea(cfg.sim().sea.levels(s)))
                 });
             if let Err(e) = applied {
                 run.error = Some(format!("the operating point cannot change: {e}"));

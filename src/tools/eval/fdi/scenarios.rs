@@ -64,6 +64,8 @@ pub struct Change {
     /// Range of the loading change, a fraction of the displacement (`set_loading_t`, declared
     /// as `design/displacement`); `None`: the loading stays.
     pub loading: Option<[f64; 2]>,
+    /// The sea rises one state (calm to moderate, moderate to rough; a rough sea stays).
+    pub sea_rises: bool,
 }
 
 /// When the scenario's fault arises.
@@ -238,7 +240,9 @@ const FAULT_SPEED_MPS: &[f64] = &[1.5];
 const LOADING: [f64; 2] = [-0.3, 0.2];
 
 /// The envelope scenarios: a healthy ship whose speed and/or declared loading changes after
-/// commissioning, then displacement faults after a speed change (4 tests later, or with it).
+/// commissioning, then displacement faults after a speed change (4 tests later, or with it);
+/// then the same for a sea that rises a state. A row's seeds follow its place in the list:
+/// new rows go at its end.
 pub fn envelope_scenarios() -> Vec<FdiScenario> {
     let disp = Some(Cause::DisplacementOrRudderEffectiveness);
     let e = |name, fault, expected, displacement_t, change, onset, window_tests| FdiScenario {
@@ -256,6 +260,12 @@ pub fn envelope_scenarios() -> Vec<FdiScenario> {
     let speed = |speed_mps| Change {
         speed_mps,
         loading: None,
+        sea_rises: false,
+    };
+    let sea = Change {
+        speed_mps: &[],
+        loading: None,
+        sea_rises: true,
     };
     let after = Onset::AfterCommissioning;
     // D (1 + x) stays in the configured 4000..10000 t for every x drawn or faulted.
@@ -280,6 +290,7 @@ pub fn envelope_scenarios() -> Vec<FdiScenario> {
             Change {
                 speed_mps: &[],
                 loading: Some(LOADING),
+                sea_rises: false,
             },
             after,
             None,
@@ -292,6 +303,7 @@ pub fn envelope_scenarios() -> Vec<FdiScenario> {
             Change {
                 speed_mps: ENVELOPE_SPEEDS_MPS,
                 loading: Some(LOADING),
+                sea_rises: false,
             },
             after,
             None,
@@ -331,6 +343,34 @@ pub fn envelope_scenarios() -> Vec<FdiScenario> {
             speed(FAULT_SPEED_MPS),
             after,
             Some(2),
+        ),
+        // Last: each row's seeds follow its place in this list.
+        e(
+            "envelope: the sea rises a state",
+            None,
+            None,
+            None,
+            sea,
+            after,
+            None,
+        ),
+        e(
+            "envelope: the sea rises, D +10 % 4 tests later",
+            Some("displacement_pct:10@0"),
+            disp,
+            d_pm10,
+            sea,
+            Onset::AfterChange(4),
+            Some(3),
+        ),
+        e(
+            "envelope: the sea rises, D -10 % 4 tests later",
+            Some("displacement_pct:-10@0"),
+            disp,
+            d_pm10,
+            sea,
+            Onset::AfterChange(4),
+            Some(3),
         ),
     ]
 }
@@ -389,6 +429,7 @@ pub fn commissioning_scenarios() -> Vec<FdiScenario> {
             change: Some(Change {
                 speed_mps: &[1.0, 1.5],
                 loading: None,
+                sea_rises: false,
             }),
             ..c(
                 "commissioning: healthy, speed +-1..1.5 m/s at test k",
@@ -408,6 +449,8 @@ pub struct DrawnChange {
     pub speed_mps: Option<f64>,
     /// The new, declared displacement [t] (`None`: unchanged, nothing declared).
     pub displacement_t: Option<f64>,
+    /// The new sea state (`None`: unchanged).
+    pub sea: Option<SeaState>,
 }
 
 /// One run as drawn.
@@ -473,7 +516,14 @@ pub fn draw(
         seed: rng.gen(),
     };
     let change = match sc.change {
-        Some(c) => Some(draw_change(&mut rng, &c, u, d, cfg.ship.speed_range_mps)?),
+        Some(c) => Some(draw_change(
+            &mut rng,
+            &c,
+            u,
+            d,
+            cfg.ship.speed_range_mps,
+            sea,
+        )?),
         None => None,
     };
     let onset_test = match sc.onset {
@@ -490,13 +540,15 @@ pub fn draw(
 }
 
 /// Draws a change from (u [m/s], D [t]): a magnitude of `c.speed_mps`, its sign among those
-/// that keep the speed in `range`, and a loading fraction in `c.loading`.
+/// that keep the speed in `range`, a loading fraction in `c.loading`, and the sea one state
+/// above `sea` when it rises (no draw).
 fn draw_change(
     rng: &mut ChaCha8Rng,
     c: &Change,
     u: f64,
     d: f64,
     [lo, hi]: [f64; 2],
+    sea: SeaState,
 ) -> Result<DrawnChange, String> {
     let speed_mps = match c.speed_mps {
         [] => None,
@@ -523,8 +575,13 @@ fn draw_change(
         }
     };
     let displacement_t = c.loading.map(|[a, b]| d * (1.0 + rng.gen_range(a..=b)));
+    let sea = c.sea_rises.then_some(match sea {
+        SeaState::Calm => SeaState::Moderate,
+        SeaState::Moderate | SeaState::Rough => SeaState::Rough,
+    });
     Ok(DrawnChange {
         speed_mps,
         displacement_t,
+        sea,
     })
 }

@@ -235,6 +235,41 @@ fn an_envelope_run_changes_the_operating_point_as_scheduled() {
     }
 }
 
+/// The sea rises a state at commissioning's end (calm to moderate, moderate to rough, a rough
+/// sea stays; no speed or loading change): the test after it measures the new sea's wave yaw
+/// (the sea index, the wave yaw on the heading in deg: calm 0.05, moderate 0.2 by the
+/// simulator's levels, the gyro's noise in the band on top).
+#[test]
+fn an_envelope_run_whose_sea_rises_measures_the_new_sea() {
+    let cfg = Config::default();
+    let sc = by_name(envelope_scenarios(), "envelope: the sea rises a state");
+    for (from, to) in [
+        (SeaState::Calm, SeaState::Moderate),
+        (SeaState::Moderate, SeaState::Rough),
+        (SeaState::Rough, SeaState::Rough),
+    ] {
+        let c = scenarios::draw(&cfg, &sc, from, 3, None)
+            .unwrap()
+            .change
+            .unwrap();
+        assert_eq!(
+            (c.sea, c.speed_mps, c.displacement_t),
+            (Some(to), None, None)
+        );
+    }
+    let (cfg, o, est) = cheap();
+    let r = run_one(&cfg, &sc, SeaState::Calm, &o.methods, 11, &est, &o, None);
+    assert_eq!(r.error, None);
+    for t in &r.commissioning {
+        assert!(t.sea_index > 0.03 && t.sea_index < 0.1, "{t:?}");
+    }
+    assert_eq!(r.tests.len(), 1);
+    for t in &r.tests {
+        assert_eq!(t.phase, Phase::AfterChange);
+        assert!(t.sea_index > 0.15 && t.sea_index < 0.3, "{t:?}");
+    }
+}
+
 /// The commissioning run of seed 5 with D +12 % in a calm sea: the onset's test of the ship
 /// and the run (which completed).
 fn displacement_during_commissioning(
