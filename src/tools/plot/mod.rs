@@ -10,8 +10,9 @@
 //!
 //! The nominal ship is the configuration's `[ship]` at its nominal speed and displacement; the
 //! estimated one is the same model at the report's `estimate`; `(a, b)` from `(u, D)` through
-//! [`crate::core::model::ShipConfig::nomoto`]. The relay's height and hysteresis come from the
-//! configuration's `[hbt]` (the height clamped to `servo.max-angle-deg`, as the relay is).
+//! [`crate::core::model::ShipConfig::nomoto`]. The relay's height and hysteresis are the
+//! report's, as played (a test sized to the loop or to the sea plays another than `[hbt]`'s;
+//! the height clamped to `servo.max-angle-deg`, as the relay is).
 //!
 //! Markers: only the measured points are circles (one per tone in each panel of a Bode pair,
 //! one per HBT report, one per report in a history's chi2 panel), so a reader of the SVG can
@@ -298,7 +299,7 @@ pub fn plot_report(
                     r.test, r.outcome
                 ))
             })?;
-            // The relay as played (the report's: a sized test played a smaller one).
+            // The relay as played (the report's: a sized test played another).
             let relay = charts::Relay {
                 height_rad: f.relay_height_rad.min(cfg.servo.max_angle_rad()),
                 hysteresis_rad: f.hysteresis_rad,
