@@ -32,6 +32,7 @@ pub(super) fn write_outcomes(
                     "fault_present": t.fault_present,
                     "test": i,
                     "completed": t.completed,
+                    "reason": t.abort_reason,
                     "speed_log_mps": nan_null(t.speed_log_mps),
                     "relay_scale": nan_null(t.relay_scale),
                     "displacement_nominal_t": nan_null(t.displacement_nominal_t),

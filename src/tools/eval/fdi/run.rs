@@ -89,6 +89,8 @@ pub struct TestOutcome {
     /// The reference the test was measured against (`residuals.reference.kind`, e.g.
     /// `commissioned`, `outside_commissioned_band`).
     pub reference_kind: Option<String>,
+    /// Why an aborted test stopped (the report's `reason`; none when completed).
+    pub abort_reason: Option<String>,
     /// The report says the commissioning was inconsistent (`commissioning inconsistent` in
     /// its message, or `inconsistent` in `residuals.reference`).
     pub inconsistent: bool,
@@ -205,6 +207,9 @@ pub(super) fn outcome_of(r: &Report) -> TestOutcome {
             .as_ref()
             .and_then(|x| serde_json::to_value(x).ok())
             .and_then(|v| v.get("kind").and_then(|k| k.as_str()).map(String::from)),
+        abort_reason: (r.outcome != Outcome::Completed)
+            .then(|| r.reason.clone())
+            .flatten(),
     }
 }
 

@@ -35,6 +35,7 @@ fn outcome(decision: Decision, raw0: f64) -> TestOutcome {
         inconsistent: false,
         cause_costs: [f64::NAN; 2],
         reference_kind: None,
+        abort_reason: None,
     }
 }
 
@@ -101,6 +102,8 @@ fn outcomes_are_one_json_line_per_test() {
         declared_after_t: f64::NAN,
         commissioning: vec![TestOutcome {
             phase: Phase::Commissioning,
+            completed: false,
+            abort_reason: Some("relay chatter".into()),
             ..outcome(Decision::Nominal, f64::NAN)
         }],
         tests: vec![
@@ -118,8 +121,10 @@ fn outcomes_are_one_json_line_per_test() {
         .collect();
     assert_eq!(lines.len(), 3);
     assert_eq!(lines[0]["phase"], "commissioning");
+    assert_eq!(lines[0]["reason"], "relay chatter");
     assert!(lines[0]["raw"][0].is_null());
     assert!(lines[0]["chi2_actuator"].is_null());
+    assert!(lines[1]["reason"].is_null());
     assert_eq!(lines[1]["phase"], "test");
     assert_eq!(lines[1]["speed_log_mps"], 7.0);
     assert_eq!(lines[1]["displacement_nominal_t"], 6000.0);
