@@ -230,6 +230,9 @@ pub struct Sequential {
     pub quiet_run: u32,
     /// The causes named when the alarm was raised (or last confirmed), kept while it holds.
     pub named: Vec<Cause>,
+    /// The other parameter causes that evidence had not ruled out
+    /// (`isolation::not_ruled_out`), kept with the name.
+    pub open: Vec<Cause>,
 }
 
 /// What one test did to the decision.
@@ -246,6 +249,8 @@ pub struct Step {
     pub raised_by_servo: Option<bool>,
     /// The suspected causes after it (empty when normal).
     pub isolation: Vec<Cause>,
+    /// The other parameter causes the evidence behind `isolation` does not rule out.
+    pub open: Vec<Cause>,
     /// The parameter causes' costs `J_c` over the parameter look's window (speed log,
     /// displacement; `isolation`), before an alarm spends it.
     pub costs: Option<[f64; 2]>,
@@ -289,11 +294,16 @@ impl Sequential {
         } else {
             window_costs.map(isolation::name).unwrap_or_default()
         };
+        let current_open = match (window_costs, current.first()) {
+            (Some(c), Some(&named)) => isolation::not_ruled_out(c, named),
+            _ => Vec::new(),
+        };
         if p_over || s_over {
             if before != TrackState::Alarm {
                 raised_by_servo = Some((s_over && !p_over) || ratio(servo) > ratio(param));
             }
             self.named = current.clone();
+            self.open = current_open.clone();
             self.state = TrackState::Alarm;
             self.quiet_run = 0;
             // The evidence is spent on this alarm: it holds, or clears, on tests to come.
@@ -309,13 +319,14 @@ impl Sequential {
                 self.state = TrackState::Normal;
             }
         }
-        let isolation = match self.state {
+        let (isolation, open) = match self.state {
             TrackState::Normal => {
                 self.named.clear();
-                Vec::new()
+                self.open.clear();
+                (Vec::new(), Vec::new())
             }
-            TrackState::Alert => current,
-            TrackState::Alarm => self.named.clone(),
+            TrackState::Alert => (current, current_open),
+            TrackState::Alarm => (self.named.clone(), self.open.clone()),
         };
         Step {
             state: self.state,
@@ -323,6 +334,7 @@ impl Sequential {
             servo,
             raised_by_servo,
             isolation,
+            open,
             costs,
         }
     }

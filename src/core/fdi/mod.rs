@@ -484,6 +484,7 @@ impl Fdi {
                     speed_log: l,
                     displacement_or_rudder_effectiveness: d,
                 }),
+                not_ruled_out: s.open.clone(),
             }),
             baseline: Some(baseline),
             servo_time_constant_s: Some(self.servo_time_constant_s),

@@ -148,7 +148,20 @@ pub fn summary(
         String::new()
     } else {
         let names: Vec<&str> = isolation.iter().map(|c| c.name()).collect();
-        format!("; suspected: {}", names.join(", "))
+        let open: Vec<&str> = r
+            .decision
+            .as_ref()
+            .map(|d| d.not_ruled_out.iter().map(|c| c.name()).collect())
+            .unwrap_or_default();
+        if open.is_empty() {
+            format!("; suspected: {}", names.join(", "))
+        } else {
+            format!(
+                "; suspected: {} ({} not yet ruled out)",
+                names.join(", "),
+                open.join(", ")
+            )
+        }
     };
     let head = match state {
         TrackState::Normal => "nominal",

@@ -249,6 +249,10 @@ pub struct DecisionReport {
     /// degrees of freedom names it: `crate::core::fdi::isolation`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cause_costs: Option<CauseCosts>,
+    /// The other parameter causes the evidence behind the report's `isolation` does not rule
+    /// out at 95 % (`crate::core::fdi::isolation::not_ruled_out`; absent when none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub not_ruled_out: Vec<Cause>,
 }
 
 /// The parameter causes' costs over a window (`crate::core::fdi::isolation`).
