@@ -10,7 +10,6 @@
 
 use helmwatch::config::Config;
 use helmwatch::core::model::SeaState;
-use helmwatch::core::monitor::Output;
 use helmwatch::core::wire::{Features, Method, Outcome, Report};
 use helmwatch::drivers::probe::Lockstep;
 use helmwatch::sim::Scenario;
@@ -22,18 +21,8 @@ fn test(ls: &mut Lockstep, cfg: &Config, method: Method) -> Report {
     ls.run_until(t + 600.0, &mut out);
     let reply = ls.trigger(method);
     assert!(reply.accepted, "{:?}", reply.reason);
-    out.clear();
     let t_end = ls.time_s() + cfg.safety.max_test_duration_s + 120.0;
-    while ls.time_s() < t_end {
-        ls.tick(&mut out, false);
-        if let Some(r) = out.drain(..).find_map(|o| match o {
-            Output::Report(r) => Some(*r),
-            _ => None,
-        }) {
-            return r;
-        }
-    }
-    panic!("no report");
+    ls.next_report(t_end, drop).expect("no report")
 }
 
 /// CLFRT then HBT on the default ship at 7 m/s, 7000 t in `sea`.

@@ -9,7 +9,6 @@
 
 use helmwatch::config::Config;
 use helmwatch::core::model::SeaState;
-use helmwatch::core::monitor::Output;
 use helmwatch::core::wire::Method;
 use helmwatch::core::wire::{Outcome, Report};
 use helmwatch::drivers::probe::Lockstep;
@@ -33,21 +32,12 @@ fn run(cfg: &Config, sc: &Scenario, options: SimOptions, warmup_s: f64) -> Run {
     ls.run_until(warmup_s, &mut out);
     let reply = ls.trigger(Method::Clfrt);
     assert!(reply.accepted, "{:?}", reply.reason);
-    out.clear();
     let t_end = ls.time_s() + cfg.safety.max_test_duration_s + 120.0;
-    while ls.time_s() < t_end {
-        ls.tick(&mut out, false);
-        if let Some(r) = out.drain(..).find_map(|o| match o {
-            Output::Report(r) => Some(*r),
-            _ => None,
-        }) {
-            return Run {
-                report: r,
-                clamped: ls.monitor.stats().excitation_clamped,
-            };
-        }
+    let report = ls.next_report(t_end, drop).expect("no report");
+    Run {
+        report,
+        clamped: ls.monitor.stats().excitation_clamped,
     }
-    panic!("no report");
 }
 
 fn scenario(u: f64, d: f64, sea: SeaState, seed: u64, faults: Vec<Fault>) -> Scenario {

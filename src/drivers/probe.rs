@@ -110,6 +110,23 @@ impl Lockstep {
     pub fn trigger(&mut self, method: Method) -> TriggerReply {
         self.monitor.trigger(method)
     }
+
+    /// Runs ticks until the monitor's next report or ship time `until_s`, whichever comes
+    /// first; the outputs before the report go to `other` (excitations excluded), those after
+    /// it in the same tick are dropped. `None`: no report by then.
+    pub fn next_report(&mut self, until_s: f64, mut other: impl FnMut(Output)) -> Option<Report> {
+        let mut out = Vec::new();
+        while self.time_s() < until_s {
+            self.tick(&mut out, false);
+            for o in out.drain(..) {
+                match o {
+                    Output::Report(r) => return Some(*r),
+                    o => other(o),
+                }
+            }
+        }
+        None
+    }
 }
 
 /// Options of one probe run.
@@ -188,22 +205,14 @@ pub fn run_probe(
     let _ = last_refusal;
     out.clear();
     let mut statuses = Vec::new();
-    while ls.time_s() < t_trigger + opts.max_test_s {
-        ls.tick(&mut out, false);
-        for o in out.drain(..) {
-            match o {
-                Output::Status(s) => statuses.push(s),
-                Output::Report(r) => {
-                    return Ok(ProbeResult {
-                        report: *r,
-                        statuses,
-                    })
-                }
-                _ => {}
-            }
+    match ls.next_report(t_trigger + opts.max_test_s, |o| {
+        if let Output::Status(s) = o {
+            statuses.push(s);
         }
+    }) {
+        Some(report) => Ok(ProbeResult { report, statuses }),
+        None => Err(ProbeError::Timeout(opts.max_test_s)),
     }
-    Err(ProbeError::Timeout(opts.max_test_s))
 }
 
 #[cfg(test)]
