@@ -265,11 +265,13 @@ pub struct StructureConfig {
     /// Backlash between the servo and the rudder blade (total play) [deg], [0, 5]. The
     /// rudder-angle sensor reads the blade.
     pub rudder_backlash_deg: f64,
-    /// The hull model: `nomoto` (the equation above) or `kvlcc2-mmg`, the surge-sway-yaw MMG
-    /// model of the KVLCC2 tanker ([`crate::sim::mmg`]), which replaces the Nomoto hull (its
-    /// T2, T3 and n3 must then be 0; dead band and backlash still apply).
+    /// The hull model: `nomoto` (the equation above), `kvlcc2-mmg`, the surge-sway-yaw MMG
+    /// model of the KVLCC2 tanker ([`crate::sim::mmg`]), or `mariner`, the Mariner-class cargo
+    /// ship's surge-sway-yaw model from captive tests ([`crate::sim::mariner`]); the last two
+    /// replace the Nomoto hull (its T2, T3 and n3 must then be 0; dead band and backlash still
+    /// apply).
     pub hull: HullModel,
-    /// Length the MMG hull is scaled to by Froude similarity [m], [10, 400].
+    /// Length the MMG or Mariner hull is scaled to by Froude similarity [m], [10, 400].
     pub mmg_length_m: f64,
 }
 
@@ -282,6 +284,9 @@ pub enum HullModel {
     Nomoto,
     /// The MMG standard model of KVLCC2 (Yasukawa & Yoshimura 2015), Froude-scaled.
     Kvlcc2Mmg,
+    /// The Mariner-class cargo ship's model (Chislett & Strøm-Tejsen 1965, Fossen's
+    /// `mariner.m`), Froude-scaled.
+    Mariner,
 }
 
 impl Default for StructureConfig {
@@ -326,7 +331,11 @@ impl StructureConfig {
             5.0,
         )?;
         check_range("structure.mmg-length-m", self.mmg_length_m, 10.0, 400.0)?;
-        if self.hull == HullModel::Kvlcc2Mmg {
+        if let Some(name) = match self.hull {
+            HullModel::Nomoto => None,
+            HullModel::Kvlcc2Mmg => Some("\"kvlcc2-mmg\""),
+            HullModel::Mariner => Some("\"mariner\""),
+        } {
             for (key, value) in [
                 ("structure.nomoto-t2-ratio", self.nomoto_t2_ratio),
                 ("structure.nomoto-t3-ratio", self.nomoto_t3_ratio),
@@ -336,7 +345,9 @@ impl StructureConfig {
                     return Err(crate::core::config::fail(
                         key,
                         value,
-                        "0 with structure.hull = \"kvlcc2-mmg\" (the MMG hull replaces the Nomoto one)",
+                        &format!(
+                            "0 with structure.hull = {name} (that hull replaces the Nomoto one)"
+                        ),
                     ));
                 }
             }
@@ -378,8 +389,9 @@ impl FamilyMember {
 
 /// The family of ships of the real-ships issue, each nuisance alone at two strengths (the
 /// upper one the acceptance bound: T2/T1 0.1, T3/T1 0.25, dead band 1 deg), then all at once,
-/// then a hull that is no Nomoto equation at all: KVLCC2's surge-sway-yaw MMG model scaled to
-/// the family's 120 m. The first member is the first-order ship the estimator was designed on.
+/// then hulls that are no Nomoto equation at all: KVLCC2's surge-sway-yaw MMG model and the
+/// Mariner cargo ship's captive-test model, both scaled to the family's 120 m (the Mariner
+/// last: a row's seeds follow its member's place in the list). The first member is the first-order ship the estimator was designed on.
 pub fn family() -> Vec<FamilyMember> {
     let s = |t2, t3, n3, db, bl| StructureConfig {
         nomoto_t2_ratio: t2,
@@ -426,6 +438,15 @@ pub fn family() -> Vec<FamilyMember> {
             "KVLCC2 MMG 120 m",
             StructureConfig {
                 hull: HullModel::Kvlcc2Mmg,
+                mmg_length_m: 120.0,
+                ..StructureConfig::default()
+            },
+            false,
+        ),
+        m(
+            "Mariner 120 m",
+            StructureConfig {
+                hull: HullModel::Mariner,
                 mmg_length_m: 120.0,
                 ..StructureConfig::default()
             },

@@ -246,7 +246,7 @@ impl LinearNomoto {
 pub enum MmgError {
     /// Length or speed not finite and positive.
     #[error(
-        "MMG hull: length {length_m} m and design speed {speed_mps} m/s must be finite and > 0"
+        "surge-sway-yaw hull: length {length_m} m and design speed {speed_mps} m/s must be finite and > 0"
     )]
     Particulars {
         /// Length [m].

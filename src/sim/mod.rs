@@ -20,9 +20,9 @@
 //!
 //! e is the rudder effectiveness (1 nominal), beta the sea's rudder-equivalent bias
 //! ([`sea`]). With `structure.hull = "kvlcc2-mmg"` the hull is instead the surge-sway-yaw MMG
-//! model of KVLCC2 ([`mmg`]): the rudder delta drives it, e scales its rudder normal force,
-//! beta acts as the straight-running rudder force and moment of that angle, D / D_nom scales
-//! its mass and yaw inertia, the speed log reads its surge speed, and the autopilot is tuned
+//! model of KVLCC2 ([`mmg`]), with `"mariner"` the Mariner cargo ship's ([`mariner`]): the
+//! rudder delta drives it, e scales its rudder force, beta acts as the straight-running
+//! rudder force and moment of that angle, D / D_nom scales its mass and yaw inertia, the speed log reads its surge speed, and the autopilot is tuned
 //! by the same pole placement on its own linearised first-order model. Sensors at each tick,
 //! with white noise n_* of the configured std:
 //!
@@ -62,6 +62,7 @@
 pub mod autopilot;
 pub mod config;
 pub mod fault;
+pub mod mariner;
 pub mod mmg;
 mod record;
 pub mod sea;
@@ -78,7 +79,8 @@ use crate::core::model::{SeaState, ShipConfig};
 use crate::core::wire::{Excitation, Input, Scalar, StateValue};
 use crate::sim::config::SimConfig;
 use fault::Effects;
-use mmg::{MmgHull, MmgInput, Side};
+use mariner::Manoeuvring;
+use mmg::MmgInput;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -108,7 +110,7 @@ pub enum SimError {
     /// The wave filter cannot be discretised at this step.
     #[error(transparent)]
     Wave(#[from] sea::WaveDiscretisationError),
-    /// The MMG hull cannot be built for this scenario.
+    /// The surge-sway-yaw hull cannot be built for this scenario.
     #[error(transparent)]
     Mmg(#[from] mmg::MmgError),
     /// Writing a recording failed.
@@ -274,9 +276,9 @@ pub struct Ship {
     autopilot_cfg: config::AutopilotConfig,
     /// The displacement the ship declares as `design/displacement` [t] (None: none declared).
     declared_displacement_t: Option<f64>,
-    /// The MMG hull, when `structure.hull = "kvlcc2-mmg"` (heading and turn rate are copied
-    /// into `hull` after every piece), and the nominal displacement its mass refers to [t].
-    mmg: Option<MmgHull>,
+    /// The surge-sway-yaw hull, when `structure.hull` is `kvlcc2-mmg` or `mariner` (heading
+    /// and turn rate are copied into `hull` after every piece), and the nominal displacement its mass refers to [t].
+    mmg: Option<Manoeuvring>,
     nominal_displacement_t: f64,
     servo: Servo,
     /// Play between the servo and the blade (None: none).
@@ -351,14 +353,7 @@ impl Ship {
             psi_rad: wrap_2pi(course),
             r_rad_s: 0.0,
         };
-        let mmg = match st.hull {
-            config::HullModel::Kvlcc2Mmg => Some(MmgHull::new(
-                st.mmg_length_m,
-                scenario.speed_mps,
-                hull.psi_rad,
-            )?),
-            config::HullModel::Nomoto => None,
-        };
+        let mmg = Manoeuvring::new(st.hull, st.mmg_length_m, scenario.speed_mps, hull.psi_rad)?;
         let general = (!st.first_order_hull() && mmg.is_none()).then(|| {
             let s = Structure::new(
                 a,
@@ -378,11 +373,15 @@ impl Ship {
             Some(m) => {
                 let tuned = match cfg.autopilot.speed_scheduling {
                     true => m.clone(),
-                    false => {
-                        MmgHull::new(st.mmg_length_m, cfg.ship.nominal_speed_mps, hull.psi_rad)?
-                    }
+                    false => Manoeuvring::new(
+                        st.hull,
+                        st.mmg_length_m,
+                        cfg.ship.nominal_speed_mps,
+                        hull.psi_rad,
+                    )?
+                    .unwrap_or_else(|| m.clone()),
                 };
-                let (k, t) = tuned.linear(Side::Starboard, 1.0, 1.0).first_order();
+                let (k, t) = tuned.linear(1.0, 1.0).first_order();
                 cfg.autopilot.gains_for_first_order(k, t)
             }
             None => cfg.autopilot.gains_at(&cfg.ship, scenario.speed_mps),
@@ -605,8 +604,8 @@ impl Ship {
                 if let Some(m) = &mut self.mmg {
                     if p.duration_s > 0.0 {
                         m.advance(d0, d1, &mmg_input, p.duration_s);
-                        self.hull.psi_rad = m.state.psi_rad;
-                        self.hull.r_rad_s = m.state.r_rad_s;
+                        self.hull.psi_rad = m.state().psi_rad;
+                        self.hull.r_rad_s = m.state().r_rad_s;
                     }
                 } else if let (Some(s), Some((_, g))) = (&structure, &mut self.general) {
                     if p.duration_s > 0.0 {
@@ -634,7 +633,9 @@ impl Ship {
 
     /// The true speed through water [m/s]: the MMG hull's surge speed, else the scenario's.
     fn true_speed_mps(&self) -> f64 {
-        self.mmg.as_ref().map_or(self.speed_mps, |m| m.state.u_mps)
+        self.mmg
+            .as_ref()
+            .map_or(self.speed_mps, |m| m.state().u_mps)
     }
 
     /// The rudder blade's angle [rad]: the servo's, through the backlash if there is one.
@@ -660,7 +661,7 @@ impl Ship {
         let gains = match &mut self.mmg {
             Some(m) => {
                 m.set_speed_mps(speed_mps)?;
-                let (k, t) = m.linear(Side::Starboard, 1.0, 1.0).first_order();
+                let (k, t) = m.linear(1.0, 1.0).first_order();
                 self.autopilot_cfg
                     .speed_scheduling
                     .then(|| self.autopilot_cfg.gains_for_first_order(k, t))
@@ -759,11 +760,7 @@ impl Ship {
         let displacement_t = self.displacement_t * fx.displacement_factor;
         let (a, b) = match &self.mmg {
             Some(m) => {
-                let lin = m.linear(
-                    Side::Starboard,
-                    displacement_t / self.nominal_displacement_t,
-                    1.0,
-                );
+                let lin = m.linear(displacement_t / self.nominal_displacement_t, 1.0);
                 let (k, t) = lin.first_order();
                 (1.0 / t, k / t)
             }
