@@ -172,6 +172,12 @@ pub struct ClfrtConfig {
     pub resize_settle_s: f64,
     /// Excitation sizing: raised-cosine ramp of a resize [s].
     pub resize_ramp_s: f64,
+    /// Excitation sizing: every tone is lowered when the heading error exceeds this fraction
+    /// of `safety.max-heading-error-deg` (a ship more responsive than the tones were sized
+    /// for), (0, 1].
+    pub resize_heading_fraction: f64,
+    /// Excitation sizing: the factor that lowering applies to every tone, (0, 0.95].
+    pub resize_heading_factor: f64,
 }
 
 impl Default for ClfrtConfig {
@@ -196,6 +202,8 @@ impl Default for ClfrtConfig {
             resize_max: 2,
             resize_settle_s: 240.0,
             resize_ramp_s: 10.0,
+            resize_heading_fraction: 0.7,
+            resize_heading_factor: 0.5,
         }
     }
 }
@@ -271,6 +279,18 @@ impl ClfrtConfig {
         check_range("clfrt.resize-wait-s", self.resize_wait_s, 0.0, 3600.0)?;
         check_count("clfrt.resize-max", self.resize_max, 0, 10)?;
         check_range("clfrt.resize-ramp-s", self.resize_ramp_s, 0.0, 600.0)?;
+        check_range_open_low(
+            "clfrt.resize-heading-fraction",
+            self.resize_heading_fraction,
+            0.0,
+            1.0,
+        )?;
+        check_range_open_low(
+            "clfrt.resize-heading-factor",
+            self.resize_heading_factor,
+            0.0,
+            0.95,
+        )?;
         // Beyond the settle windows it only means no sizing.
         check_range(
             "clfrt.resize-settle-s",

@@ -14,8 +14,9 @@
 //!   sees no step.
 //! - Sizing (while settling, from the multisine's start to `clfrt.resize-settle-s` before
 //!   the measurement): a tone the autopilot loop amplifies past `clfrt.resize-gain` on the
-//!   rudder is lowered ([`super::sizing::ToneSizing`], the `clfrt.resize-*` keys; see
-//!   "CLFRT" in [`super::sizing`]). The measured windows see one amplitude per tone; the
+//!   rudder is lowered, and every tone when the heading error heads for its limit
+//!   ([`super::sizing::ToneSizing`], the `clfrt.resize-*` keys; see "CLFRT" in
+//!   [`super::sizing`]). The measured windows see one amplitude per tone; the
 //!   report's `amplitude_scales` gives each tone's scale.
 //! - Exciting: `clfrt.measure-windows` windows at full amplitude; heading and rudder recorded.
 //! - Analysing: heading and rudder are resampled onto the uniform grid of the measurement
@@ -541,8 +542,9 @@ impl ClfrtRun {
         }
     }
 
-    /// A heading sample (`continuous_rad`: unwrapped heading).
-    pub(crate) fn on_heading(&mut self, t: f64, continuous_rad: f64) -> Step {
+    /// A heading sample (`continuous_rad`: unwrapped heading; `error_rad`: the heading error
+    /// against the test's course, for the tones' size).
+    pub(crate) fn on_heading(&mut self, t: f64, continuous_rad: f64, error_rad: f64) -> Step {
         if let Some(result) = &self.result {
             // Ramp the excitation down at the rate limit, then report.
             let (v, tp) = self.ramp;
@@ -588,6 +590,7 @@ impl ClfrtRun {
             }
         }
         self.update_check(t);
+        self.sizing.on_heading(t, error_rad);
         let value = self.excitation(t);
         let mut phase = if t >= self.measure_start_s {
             Some(MonitorState::Exciting)

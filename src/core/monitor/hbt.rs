@@ -502,10 +502,15 @@ impl HbtRun {
         if resampled.is_err() {
             return Ok(());
         }
-        match self
-            .sizing
-            .decide(h, d, self.dt_s, self.speed_mps, self.design, self.scale)
-        {
+        match self.sizing.decide(
+            h,
+            d,
+            self.dt_s,
+            self.speed_mps,
+            self.design,
+            self.scale,
+            self.sea_wave_yaw_rad,
+        ) {
             Ok(RelayDecision::Abort(reason)) => Err(reason),
             Ok(RelayDecision::Play(p)) => {
                 self.prediction = Some(p);

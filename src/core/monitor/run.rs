@@ -22,7 +22,7 @@ impl Monitor {
         let error_rad = wrap_pi(run.target_rad - heading_rad);
         let step = match &mut run.kind {
             RunKind::Hbt(h) => h.on_heading(t, continuous_rad, error_rad),
-            RunKind::Clfrt(c) => c.on_heading(t, continuous_rad),
+            RunKind::Clfrt(c) => c.on_heading(t, continuous_rad, error_rad),
         };
         let (center, test) = match &run.kind {
             RunKind::Hbt(h) => (h.trim_rad(), run.id.clone()),

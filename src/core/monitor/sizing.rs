@@ -23,6 +23,12 @@
 //! amplifies, so its rudder (the signal the ratio rests on) stays large. The report's
 //! `amplitude_scales` gives each tone's scale.
 //!
+//! The heading is the other limit: on a ship more responsive than the tones were sized for
+//! (the heading per tone, `|G S| E_i`, grows as `b / w^2`) the tones carry the heading error
+//! to `safety.max-heading-error-deg`. In the same window, when the error is past
+//! `clfrt.resize-heading-fraction` of that limit and heading for it, every tone is lowered by
+//! `clfrt.resize-heading-factor` ([`ToneSizing::on_heading`]).
+//!
 //! ## HBT: the relay ([`RelaySizing`])
 //!
 //! The relay `h sign(e)` with hysteresis `eps` on the linear ship `G(s) = b / (s (s + a))`
@@ -49,9 +55,12 @@
 //! wave at `w` ([`square_wave_peak_factor`]: `pi^3 / 32` = 0.97 for `w >> a`, `pi^2 / 8` =
 //! 1.23 for `w << a`). When `k A` exceeds `hbt.resize-heading-fraction` of the heading limit,
 //! `h` and `eps` are scaled by `s = fraction limit / (k A)`, but never `eps` below
-//! `max(hbt.resize-min-hysteresis-deg, hbt.resize-wave-factor x wave yaw)` (the wave yaw:
-//! the heading's rms in `fdi.wave-band-rad-s` over the same record; the hysteresis must exceed
-//! it or the relay chatters). When even that smallest relay is predicted past the heading
+//! `max(hbt.resize-min-hysteresis-deg, hbt.resize-wave-factor x wave yaw)` (the hysteresis
+//! must exceed the wave yaw or the relay chatters; the wave yaw: the vessel's sea as its last
+//! completed test measured it, or, with none yet, the rms in `fdi.wave-band-rad-s` of the
+//! heading on the same record less the fitted ship's answer to the recorded rudder: the
+//! heading as it is would count the relay's own swing, the band's lower edge being the
+//! short record's second or third bin). When even that smallest relay is predicted past the heading
 //! limit itself, the test aborts (`relay_too_large`) before the ship gets there; when it is
 //! predicted between the fraction and the limit, the smallest relay plays.
 //!
@@ -92,6 +101,11 @@ use std::f64::consts::PI;
 /// Tones a multisine may have (`clfrt.harmonics`: 1 to 8).
 pub(super) const MAX_TONES: usize = 8;
 
+/// Time constant of the low-pass on the heading error's rate in the tones' heading guard
+/// [s]: the wave's heading rate (0.8 rad/s) falls to an eighth, a tone's (0.03-0.2 rad/s)
+/// passes.
+const RATE_FILTER_S: f64 = 10.0;
+
 /// The tones' sizes while the test settles (see "CLFRT" in the module doc).
 #[derive(Debug, Clone, PartialEq)]
 pub(super) struct ToneSizing {
@@ -116,6 +130,13 @@ pub(super) struct ToneSizing {
     look_s: f64,
     /// Ship times between which a resize may start [s].
     window: (f64, f64),
+    /// The heading limit [rad], the fraction of it beyond which every tone may be lowered,
+    /// and by what factor; the heading error's growth rate, low-passed: `(t, e, rate)` [s,
+    /// rad, rad/s] at the latest sample.
+    heading_limit_rad: f64,
+    heading_fraction: f64,
+    heading_factor: f64,
+    heading_rate: Option<(f64, f64, f64)>,
     /// Tone frequencies [rad/s] (the multisine's) and its amplitude [rad].
     omegas: Vec<f64>,
     amplitude_rad: f64,
@@ -159,6 +180,10 @@ impl ToneSizing {
             max: c.resize_max,
             ramp_s: c.resize_ramp_s,
             wait_s: c.resize_wait_s,
+            heading_limit_rad: cfg.safety.max_heading_error_deg.to_radians(),
+            heading_fraction: c.resize_heading_fraction,
+            heading_factor: c.resize_heading_factor,
+            heading_rate: None,
             confidence: c.resize_confidence,
             correlation_s: c.resize_correlation_s,
             dt_s: 1.0 / cfg.sensors.rate_hz,
@@ -274,6 +299,60 @@ impl ToneSizing {
         let var = rss / dof * per_sample;
         let se = (0.5 * var * (inv[(3 + 2 * j, 3 + 2 * j)] + inv[(4 + 2 * j, 4 + 2 * j)])).sqrt();
         Some((gain, se))
+    }
+
+    /// A heading sample, `error_rad` the heading error against the test's course. Inside the
+    /// window, every tone is lowered by `clfrt.resize-heading-factor` when the error is
+    /// beyond `clfrt.resize-heading-fraction` `f` of the heading limit and heading for it:
+    /// its growth rate (low-passed over [`RATE_FILTER_S`]) would carry it past the limit
+    /// within the time a cut takes to act (`resize-ramp-s + resize-wait-s`), or it is past
+    /// `(1 + f) / 2` of the limit whatever its rate. A peak that turns short of the limit
+    /// keeps the tones (on a hull as sensitive as KVLCC2's, moderate-sea peaks of 7-9 deg
+    /// are common, and a cut there costs the test signal it did not need to lose). Not
+    /// again until `resize-wait-s` after the cut's ramp (the heading answers late); one
+    /// resize of the test's `max`. The tones' heading adds up (a multisine's peak is at
+    /// most the sum of its tones'), and on a ship more responsive than the design the
+    /// slowest tone's share, `|G S|` times its amplitude, grows as `b / w^2`: the test would
+    /// otherwise end on the heading limit.
+    pub(super) fn on_heading(&mut self, t: f64, error_rad: f64) {
+        let (start, end) = self.window;
+        if !self.on || !error_rad.is_finite() || t < start || t >= end {
+            return;
+        }
+        // The error's rate, low-passed over RATE_FILTER_S (the wave's heading rate, at
+        // 0.8 rad/s, falls to an eighth).
+        let rate = match self.heading_rate {
+            Some((tp, ep, r)) if t > tp => {
+                let raw = (error_rad - ep) / (t - tp);
+                let w = ((t - tp) / RATE_FILTER_S).min(1.0);
+                r + w * (raw - r)
+            }
+            Some((_, _, r)) => r,
+            None => 0.0,
+        };
+        self.heading_rate = Some((t, error_rad, rate));
+        let size = error_rad.abs();
+        let growth = rate * error_rad.signum();
+        let horizon_s = self.ramp_s + self.wait_s;
+        let limit = self.heading_limit_rad;
+        let heading_for_the_limit = size > self.heading_fraction * limit
+            && (size + growth.max(0.0) * horizon_s > limit
+                || size > 0.5 * (1.0 + self.heading_fraction) * limit);
+        if !heading_for_the_limit
+            || t < self.at_s + self.ramp_s + self.wait_s
+            || self.resizes >= self.max
+        {
+            return;
+        }
+        let now = self.scales(t);
+        self.rudder.clear();
+        for ((f, to), n) in self.from.iter_mut().zip(self.to.iter_mut()).zip(now) {
+            *f = n;
+            *to = n * self.heading_factor;
+        }
+        self.at_s = t;
+        self.look_s = t;
+        self.resizes += 1;
     }
 
     /// A rudder sample. Every `wait_s` inside the window, each tone whose rudder amplitude
@@ -460,11 +539,17 @@ impl RelaySizing {
 
     /// The verdict for the designed relay `(h, eps)` [rad] played at `scale` (1, or the
     /// sea's [`RelaySizing::for_sea`]) from the heading and rudder recorded since it started
-    /// (`dt` apart, same length, starting on a steady course) and the speed log at the
-    /// test's start (none: unknown). The scale it gives is never above `scale` (the look only
-    /// lowers) nor below the wave floor. `Err`: no prediction (the fit or the describing
-    /// function failed, or the fitted ship is not a ship); the relay then plays as it is and
-    /// the safety limits still hold.
+    /// (`dt` apart, same length, starting on a steady course), the speed log at the test's
+    /// start (none: unknown) and the sea's wave yaw as the vessel's last completed test
+    /// measured it (none: not known). The scale it gives is never above `scale` (the look
+    /// only lowers) nor below the wave floor: `hbt.resize-wave-factor` x the vessel's sea
+    /// where it is known, else the record's, read from the heading the fitted ship does not
+    /// explain ([`unexplained_heading`]: on a record of a few tens of seconds the wave band's
+    /// lower edge is its second or third bin, inside the window's main lobe of the relay's own
+    /// swing, and the heading as it is read up to 0.4 deg of "wave yaw" in a calm sea).
+    /// `Err`: no prediction (the fit or the describing function failed, or the fitted ship
+    /// is not a ship); the relay then plays as it is and the safety limits still hold.
+    #[allow(clippy::too_many_arguments)]
     pub fn decide(
         &mut self,
         heading_rad: &[f64],
@@ -473,8 +558,9 @@ impl RelaySizing {
         speed_mps: Option<f64>,
         (h_rad, eps_rad): (f64, f64),
         scale: f64,
+        sea_wave_yaw_rad: Option<f64>,
     ) -> Result<RelayDecision, String> {
-        let (a, b) = match speed_mps.filter(|u| u.is_finite() && *u > 0.0) {
+        let (a, (b, c)) = match speed_mps.filter(|u| u.is_finite() && *u > 0.0) {
             Some(u) => {
                 let a = self.ship.yaw_damping_a0 * u / self.ship.length_m;
                 (a, fit_b(heading_rad, rudder_rad, dt_s, a, &self.fit)?)
@@ -482,14 +568,18 @@ impl RelaySizing {
             None => {
                 let fit = baseline::fit(heading_rad, rudder_rad, dt_s, &self.fit)
                     .map_err(|e| format!("fit: {e}"))?;
-                (fit.a_per_s, fit.b_per_s2)
+                (fit.a_per_s, (fit.b_per_s2, 0.0))
             }
         };
         if !(a >= 0.0 && b > 0.0) {
             return Err(format!("fitted a = {a:.3e} 1/s, b = {b:.3e} 1/s^2"));
         }
+        // The sea on this record: what the fitted ship does not explain (the relay's own
+        // swing dominates the heading, and on a record of a few tens of seconds the wave
+        // band starts inside the window's main lobe of it).
+        let unexplained = unexplained_heading(heading_rad, rudder_rad, dt_s, a, b, c);
         let (band, spectrum, scratch) = &mut self.wave;
-        let wave_yaw_rad = band_rms(heading_rad, dt_s, *band, spectrum, scratch).ok();
+        let wave_yaw_rad = band_rms(&unexplained, dt_s, *band, spectrum, scratch).ok();
         let peak = |s: f64| -> Result<(f64, f64, f64), String> {
             let (w, amp) =
                 limit_cycle_describing_function(a, b, s * h_rad, s * eps_rad, &self.servo)
@@ -517,9 +607,10 @@ impl RelaySizing {
         if playing.2 <= self.target_rad {
             return Ok(RelayDecision::Play(prediction));
         }
-        let floor_rad = self
-            .min_eps_rad
-            .max(self.wave_factor * wave_yaw_rad.unwrap_or(0.0));
+        let sea = sea_wave_yaw_rad
+            .filter(|w| w.is_finite() && *w >= 0.0)
+            .or(wave_yaw_rad);
+        let floor_rad = self.min_eps_rad.max(self.wave_factor * sea.unwrap_or(0.0));
         let lower = (self.target_rad / peak_rad)
             .max(floor_rad / eps_rad)
             .min(scale);
@@ -543,14 +634,14 @@ impl RelaySizing {
 /// The rudder gain `b` [1/s^2] of `psi'' = -a psi' + b delta + c` with `a` given: the
 /// baseline's state-variable filter on both records ([`crate::core::baseline`]), then least
 /// squares of `s^2 F psi + a s F psi = b F delta + c` (two unknowns, normal equations; the
-/// record starts at rest, so no transient is left out).
+/// record starts at rest, so no transient is left out). Returns `(b, c)`.
 fn fit_b(
     heading_rad: &[f64],
     rudder_rad: &[f64],
     dt_s: f64,
     a: f64,
     cfg: &BaselineConfig,
-) -> Result<f64, String> {
+) -> Result<(f64, f64), String> {
     if heading_rad.len() != rudder_rad.len() || heading_rad.len() < baseline::MIN_FIT_SAMPLES {
         return Err(format!(
             "fit: {} heading and {} rudder samples",
@@ -580,10 +671,37 @@ fn fit_b(
     let det = sdd * n - sd * sd;
     let b = (n * sdy - sd * sy) / det;
     if det > 0.0 && b.is_finite() {
-        Ok(b)
+        Ok((b, (sy - b * sd) / n))
     } else {
         Err("fit: no rudder excitation".into())
     }
+}
+
+/// The heading less the fitted ship's answer to the recorded rudder: `psi'' = -a psi' + b
+/// delta + c` from the record's first heading at rest, the rudder held over each sample
+/// (exact for `r`, trapezoidal for `psi`) [rad].
+fn unexplained_heading(
+    heading_rad: &[f64],
+    rudder_rad: &[f64],
+    dt_s: f64,
+    a: f64,
+    b: f64,
+    c: f64,
+) -> Vec<f64> {
+    let decay = (-a * dt_s).exp();
+    let gain = if a > 0.0 { (1.0 - decay) / a } else { dt_s };
+    let (mut psi, mut r) = (heading_rad.first().copied().unwrap_or(0.0), 0.0);
+    heading_rad
+        .iter()
+        .zip(rudder_rad)
+        .map(|(&h, &d)| {
+            let out = h - psi;
+            let next = decay * r + gain * (b * d + c);
+            psi += 0.5 * dt_s * (r + next);
+            r = next;
+            out
+        })
+        .collect()
 }
 
 /// Harmonics summed by [`square_wave_peak_factor`] (their terms fall as `1 / n^2` and faster).
@@ -750,5 +868,55 @@ mod tests {
         let h1 = 2.0 / n as f64 * c.hypot(si);
         let k = square_wave_peak_factor(w, a);
         assert!((k / (peak / h1) - 1.0).abs() < 5e-3, "{k} vs {}", peak / h1);
+    }
+
+    /// The heading the fitted ship does not explain, against the exact answer: a relay's
+    /// first 31 s as the sizing sees them on a responsive ship (8 deg steps about a trim,
+    /// switching at 6 s and 21 s) on `psi'' = -a psi' + b delta + c` solved in closed form
+    /// per sample, plus a wave of 0.1 deg at 0.8 rad/s. The residual is the wave (less its
+    /// value at the record's start, where the fitted ship starts) within 1e-4 deg, and in the
+    /// wave band it reads what the wave alone reads (within 2 %); the heading itself reads
+    /// several times as much (the band's lower edge, 0.4 rad/s, is the record's second bin:
+    /// inside the window's main lobe of the relay's own swing).
+    #[test]
+    fn the_unexplained_heading_is_the_sea() {
+        let (a, b, c, dt, n) = (0.0146, 0.0059, -2e-5, 0.1, 310);
+        let (h, trim) = (8f64.to_radians(), 0.01);
+        let wave = |t: f64| 0.1f64.to_radians() * (0.8 * t + 0.3).sin();
+        let (mut psi, mut r) = (0.5, 0.0);
+        let (mut heading, mut rudder) = (Vec::new(), Vec::new());
+        for k in 0..n {
+            let t = k as f64 * dt;
+            let d = trim + if (6.0..21.0).contains(&t) { -h } else { h };
+            heading.push(psi + wave(t));
+            rudder.push(d);
+            // Exact over the sample for a constant input u: r -> r e + u (1 - e) / a.
+            let u = b * d + c;
+            let e = (-a * dt).exp();
+            let r1 = r * e + u / a * (1.0 - e);
+            psi += u / a * dt + (r - u / a) * (1.0 - e) / a;
+            r = r1;
+        }
+        let res = unexplained_heading(&heading, &rudder, dt, a, b, c);
+        let worst = heading
+            .iter()
+            .zip(&res)
+            .enumerate()
+            .map(|(k, (_, x))| (x - (wave(k as f64 * dt) - wave(0.0))).abs())
+            .fold(0.0f64, f64::max);
+        // The trapezoid on psi against the exact integral: O(dt^2 r'').
+        assert!(worst.to_degrees() < 1e-4, "{}", worst.to_degrees());
+        let (mut sp, mut sc) = (Spectrum::new(), Vec::new());
+        let raw = band_rms(&heading, dt, (0.4, 2.0), &mut sp, &mut sc).unwrap();
+        let sea = band_rms(&res, dt, (0.4, 2.0), &mut sp, &mut sc).unwrap();
+        // The same estimate on the wave alone (0.1 / sqrt 2 deg, up to the record's length).
+        let alone: Vec<f64> = (0..n).map(|k| wave(k as f64 * dt)).collect();
+        let want = band_rms(&alone, dt, (0.4, 2.0), &mut sp, &mut sc).unwrap();
+        assert!(
+            (want / (0.1f64.to_radians() / 2f64.sqrt()) - 1.0).abs() < 0.1,
+            "{want}"
+        );
+        assert!((sea / want - 1.0).abs() < 0.02, "{sea} vs {want}");
+        assert!(raw > 3.0 * want, "{raw} vs {want}");
     }
 }
