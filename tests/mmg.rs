@@ -3,7 +3,8 @@
 //! manoeuvre figures (via an independent re-implementation, see `turning_circle_at_model_scale`),
 //! the analytic linear sway-yaw step and frequency responses on both sides of its
 //! piecewise-linear flow straightening, and the hull inside the simulated ship (faults,
-//! autopilot, speed log).
+//! autopilot, speed log; the autopilot's course keeping also for the Mariner hull,
+//! `tests/mariner.rs`).
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
@@ -234,62 +235,75 @@ fn effectiveness_and_mass_act_as_the_linear_model_says() {
     assert!(heavy[0] / nominal[0] < 0.95 && heavy[2] / nominal[2] > 1.05);
 }
 
-fn mmg_config() -> Config {
+fn member_config(hull: HullModel) -> Config {
     let mut cfg = Config::default();
     let member = family()
         .into_iter()
-        .find(|m| m.structure.hull == HullModel::Kvlcc2Mmg)
+        .find(|m| m.structure.hull == hull)
         .unwrap();
     member.apply(&mut cfg.structure, &mut cfg.autopilot);
     cfg
 }
 
-/// The family's KVLCC2 member inside the simulated ship, moderate sea, at the corners of the
-/// (u, D) box: the autopilot (tuned on the hull's own linear model) keeps the true heading
-/// error RMS under 0.5 deg with the servo rate limited under 5 % of the time (the DOMAIN
-/// check), and the speed log reads the hull's surge speed (within 0.1 m/s of the scenario's
-/// on a steady course).
+fn mmg_config() -> Config {
+    member_config(HullModel::Kvlcc2Mmg)
+}
+
+/// The family's surge-sway-yaw members inside the simulated ship, moderate sea, at the
+/// corners of the (u, D) box: the autopilot (tuned on the hull's own linear model) keeps the
+/// true heading error RMS under the member's bound with the servo rate limited under 5 % of
+/// the time (the DOMAIN check), and the speed log reads the hull's surge speed (within
+/// 0.1 m/s of the scenario's on a steady course). The bound: 0.5 deg for KVLCC2, 1 deg for
+/// the Mariner. The sea acts as a rudder-equivalent angle, and the Mariner answers a rudder
+/// angle 5.5 times as much as the family's ship (K L / U = 3.9 against 0.7; KVLCC2's 6.9
+/// with four times the time constant): its heading error at 10 m/s is 0.6-0.85 deg
+/// (KVLCC2's 0.4-0.5 deg, the first-order ship's 0.15-0.2 deg).
 #[test]
-fn kvlcc2_member_keeps_its_course_in_a_moderate_sea() {
-    let cfg = mmg_config();
-    assert_eq!(cfg.structure.mmg_length_m, 120.0);
-    for (u, d) in [
-        (4.0, 4000.0),
-        (4.0, 10000.0),
-        (10.0, 4000.0),
-        (10.0, 10000.0),
-    ] {
-        let sc = Scenario {
-            speed_mps: u,
-            displacement_t: d,
-            sea: SeaState::Moderate,
-            faults: Vec::new(),
-            seed: 5,
-        };
-        let mut ship = Ship::new(&cfg.sim(), &sc).unwrap();
-        let dt = 1.0 / cfg.sensors.rate_hz;
-        for _ in 0..(600.0 / dt) as usize {
-            ship.step();
+fn surge_sway_yaw_members_keep_their_course_in_a_moderate_sea() {
+    for (hull, bound_deg) in [(HullModel::Kvlcc2Mmg, 0.5), (HullModel::Mariner, 1.0)] {
+        let cfg = member_config(hull);
+        assert_eq!(cfg.structure.mmg_length_m, 120.0);
+        for (u, d) in [
+            (4.0, 4000.0),
+            (4.0, 10000.0),
+            (10.0, 4000.0),
+            (10.0, 10000.0),
+        ] {
+            let sc = Scenario {
+                speed_mps: u,
+                displacement_t: d,
+                sea: SeaState::Moderate,
+                faults: Vec::new(),
+                seed: 5,
+            };
+            let mut ship = Ship::new(&cfg.sim(), &sc).unwrap();
+            let dt = 1.0 / cfg.sensors.rate_hz;
+            for _ in 0..(600.0 / dt) as usize {
+                ship.step();
+            }
+            let n = (1800.0 / dt) as usize;
+            let (mut sum2, mut limited, mut speed_err) = (0.0, 0usize, 0.0f64);
+            for _ in 0..n {
+                ship.step();
+                let tr = ship.truth();
+                let err = (tr.psi_rad - tr.target_rad + PI).rem_euclid(2.0 * PI) - PI;
+                sum2 += err * err;
+                limited += usize::from(tr.rate_limited);
+                speed_err = speed_err.max((tr.speed_mps - u).abs());
+            }
+            let rms_deg = (sum2 / n as f64).sqrt() / DEG;
+            let frac = limited as f64 / n as f64;
+            eprintln!("{hull:?} u {u} D {d}: heading RMS {rms_deg:.3} deg, rate limited {:.2} %, max |u - u0| {speed_err:.4} m/s", frac * 100.0);
+            assert!(
+                rms_deg < bound_deg && rms_deg > 0.005,
+                "{hull:?} u {u} D {d}: {rms_deg}"
+            );
+            assert!(frac < 0.05, "{hull:?} u {u} D {d}: {frac}");
+            assert!(
+                speed_err < 0.1 && speed_err > 0.0,
+                "{hull:?} u {u} D {d}: {speed_err}"
+            );
         }
-        let n = (1800.0 / dt) as usize;
-        let (mut sum2, mut limited, mut speed_err) = (0.0, 0usize, 0.0f64);
-        for _ in 0..n {
-            ship.step();
-            let tr = ship.truth();
-            let err = (tr.psi_rad - tr.target_rad + PI).rem_euclid(2.0 * PI) - PI;
-            sum2 += err * err;
-            limited += usize::from(tr.rate_limited);
-            speed_err = speed_err.max((tr.speed_mps - u).abs());
-        }
-        let rms_deg = (sum2 / n as f64).sqrt() / DEG;
-        let frac = limited as f64 / n as f64;
-        eprintln!("u {u} D {d}: heading RMS {rms_deg:.3} deg, rate limited {:.2} %, max |u - u0| {speed_err:.4} m/s", frac * 100.0);
-        assert!(rms_deg < 0.5 && rms_deg > 0.005, "u {u} D {d}: {rms_deg}");
-        assert!(frac < 0.05, "u {u} D {d}: {frac}");
-        assert!(
-            speed_err < 0.1 && speed_err > 0.0,
-            "u {u} D {d}: {speed_err}"
-        );
     }
 }
 

@@ -55,7 +55,7 @@
 //! ## Integration
 //!
 //! One classical Runge-Kutta step per servo piece (rudder linear over it), as the MMG hull.
-use super::mmg::{LinearNomoto, MmgError, MmgInput, MmgState};
+use super::mmg::{rk4_piece, LinearNomoto, MmgError, MmgInput, MmgState};
 
 /// The model's length [m] (its coefficients are non-dimensional).
 pub const LENGTH_M: f64 = 160.93;
@@ -273,31 +273,8 @@ impl MarinerHull {
     /// Advances the state over `tau_s` with the rudder going linearly from `delta0_rad` to
     /// `delta1_rad`: one classical Runge-Kutta step.
     pub fn advance(&mut self, delta0_rad: f64, delta1_rad: f64, input: &MmgInput, tau_s: f64) {
-        let x = [
-            self.state.u_mps,
-            self.state.v_mps,
-            self.state.r_rad_s,
-            self.state.psi_rad,
-            self.state.x_m,
-            self.state.y_m,
-        ];
-        let dm = 0.5 * (delta0_rad + delta1_rad);
-        let at = |k: &[f64; 6], h: f64| std::array::from_fn(|i| x[i] + h * k[i]);
-        let k1 = self.derivative(&x, delta0_rad, input);
-        let k2 = self.derivative(&at(&k1, 0.5 * tau_s), dm, input);
-        let k3 = self.derivative(&at(&k2, 0.5 * tau_s), dm, input);
-        let k4 = self.derivative(&at(&k3, tau_s), delta1_rad, input);
-        let y: [f64; 6] = std::array::from_fn(|i| {
-            x[i] + tau_s / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
-        });
-        self.state = MmgState {
-            u_mps: y[0],
-            v_mps: y[1],
-            r_rad_s: y[2],
-            psi_rad: y[3],
-            x_m: y[4],
-            y_m: y[5],
-        };
+        let f = |x: &[f64; 6], delta: f64| self.derivative(x, delta, input);
+        self.state = rk4_piece(self.state, delta0_rad, delta1_rad, tau_s, f);
     }
 
     /// The linearised sway-yaw model around straight running at U0, at displacement factor
@@ -309,27 +286,13 @@ impl MarinerHull {
         let (_, m22, m23, m32, m33) = masses(mass_factor);
         let (a11, a12, a21, a22) = (Y_V, Y_R - c * M, N_V, N_R - c * M * XG);
         let (b1, b2) = (-rudder_effectiveness * Y_D, -rudder_effectiveness * N_D);
-        let det_m = m22 * m33 - m23 * m32;
-        // F = M^-1 A, G = M^-1 B (non-dimensional time t U / L)
-        let f11 = (m33 * a11 - m23 * a21) / det_m;
-        let f12 = (m33 * a12 - m23 * a22) / det_m;
-        let f21 = (m22 * a21 - m32 * a11) / det_m;
-        let f22 = (m22 * a22 - m32 * a12) / det_m;
-        let g1 = (m33 * b1 - m23 * b2) / det_m;
-        let g2 = (m22 * b2 - m32 * b1) / det_m;
-        let tr = f11 + f22;
-        let det = f11 * f22 - f12 * f21;
-        let num0 = f21 * g1 - f11 * g2;
-        let disc = (tr * tr - 4.0 * det).max(0.0).sqrt();
-        let (p_slow, p_fast) = ((tr + disc) / 2.0, (tr - disc) / 2.0);
-        let time = self.length_m / self.speed_mps;
-        LinearNomoto {
-            // r = r' U / L and t = t' L / U: K' (U / L) per second.
-            k_per_s: num0 / det / time,
-            t1_s: -time / p_slow,
-            t2_s: -time / p_fast,
-            t3_s: g2 / num0 * time,
-        }
+        // Non-dimensional time t U / L and yaw rate r L / U: r = r' U / L, t = t' L / U.
+        LinearNomoto::of_sway_yaw(
+            [[m22, m23], [m32, m33]],
+            [[a11, a12], [a21, a22]],
+            [b1, b2],
+            self.length_m / self.speed_mps,
+        )
     }
 }
 

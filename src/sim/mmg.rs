@@ -166,6 +166,35 @@ pub struct MmgState {
     pub y_m: f64,
 }
 
+/// One classical Runge-Kutta step of `x' = f(x, delta)` over `tau_s` with the rudder going
+/// linearly from `delta0_rad` to `delta1_rad` (its midpoint at the middle stages).
+pub(super) fn rk4_piece(
+    state: MmgState,
+    delta0_rad: f64,
+    delta1_rad: f64,
+    tau_s: f64,
+    f: impl Fn(&[f64; 6], f64) -> [f64; 6],
+) -> MmgState {
+    let x = state.to_array();
+    let dm = 0.5 * (delta0_rad + delta1_rad);
+    let at = |k: &[f64; 6], h: f64| {
+        let mut y = x;
+        for (yi, ki) in y.iter_mut().zip(k) {
+            *yi += h * ki;
+        }
+        y
+    };
+    let k1 = f(&x, delta0_rad);
+    let k2 = f(&at(&k1, 0.5 * tau_s), dm);
+    let k3 = f(&at(&k2, 0.5 * tau_s), dm);
+    let k4 = f(&at(&k3, tau_s), delta1_rad);
+    let mut y = x;
+    for i in 0..6 {
+        y[i] += tau_s / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+    }
+    MmgState::from_array(y)
+}
+
 impl MmgState {
     fn to_array(self) -> [f64; 6] {
         [
@@ -235,6 +264,35 @@ pub struct LinearNomoto {
 }
 
 impl LinearNomoto {
+    /// The yaw rate's answer to the rudder of the linear sway-yaw system `M (v', r') = A (v,
+    /// r) + B delta` (`M` the inertia matrix with added masses, `A` the damping with the
+    /// Coriolis terms, `B` the rudder's force and moment): `r/delta = (g2 s + f21 g1 - f11 g2)
+    /// / (s^2 - tr s + det)` with `F = M^-1 A`, `G = M^-1 B`, in seconds when the system's
+    /// time unit is `time_s` seconds and its yaw rate is per that unit (1 for a dimensional
+    /// system).
+    pub fn of_sway_yaw(m: [[f64; 2]; 2], a: [[f64; 2]; 2], b: [f64; 2], time_s: f64) -> Self {
+        let ([m11, m12], [m21, m22]) = (m[0], m[1]);
+        let ([a11, a12], [a21, a22]) = (a[0], a[1]);
+        let det_m = m11 * m22 - m12 * m21;
+        let f11 = (m22 * a11 - m12 * a21) / det_m;
+        let f12 = (m22 * a12 - m12 * a22) / det_m;
+        let f21 = (m11 * a21 - m21 * a11) / det_m;
+        let f22 = (m11 * a22 - m21 * a12) / det_m;
+        let g1 = (m22 * b[0] - m12 * b[1]) / det_m;
+        let g2 = (m11 * b[1] - m21 * b[0]) / det_m;
+        let tr = f11 + f22;
+        let det = f11 * f22 - f12 * f21;
+        let num0 = f21 * g1 - f11 * g2;
+        let disc = (tr * tr - 4.0 * det).max(0.0).sqrt();
+        let (p_slow, p_fast) = ((tr + disc) / 2.0, (tr - disc) / 2.0);
+        Self {
+            k_per_s: num0 / det / time_s,
+            t1_s: -time_s / p_slow,
+            t2_s: -time_s / p_fast,
+            t3_s: g2 / num0 * time_s,
+        }
+    }
+
     /// Nomoto's first-order approximation (K, T = T1 + T2 - T3).
     pub fn first_order(&self) -> (f64, f64) {
         (self.k_per_s, self.t1_s + self.t2_s - self.t3_s)
@@ -519,24 +577,8 @@ impl MmgHull {
     /// Advances the state over `tau_s` with the rudder going linearly from `delta0_rad` to
     /// `delta1_rad`: one classical Runge-Kutta step.
     pub fn advance(&mut self, delta0_rad: f64, delta1_rad: f64, input: &MmgInput, tau_s: f64) {
-        let x = self.state.to_array();
-        let dm = 0.5 * (delta0_rad + delta1_rad);
-        let at = |k: &[f64; 6], h: f64| {
-            let mut y = x;
-            for (yi, ki) in y.iter_mut().zip(k) {
-                *yi += h * ki;
-            }
-            y
-        };
-        let k1 = self.derivative(&x, delta0_rad, input);
-        let k2 = self.derivative(&at(&k1, 0.5 * tau_s), dm, input);
-        let k3 = self.derivative(&at(&k2, 0.5 * tau_s), dm, input);
-        let k4 = self.derivative(&at(&k3, tau_s), delta1_rad, input);
-        let mut y = x;
-        for i in 0..6 {
-            y[i] += tau_s / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-        }
-        self.state = MmgState::from_array(y);
+        let f = |x: &[f64; 6], delta: f64| self.derivative(x, delta, input);
+        self.state = rk4_piece(self.state, delta0_rad, delta1_rad, tau_s, f);
     }
 
     /// The rudder's straight-running linear derivatives at u0 (the same on both sides of
@@ -597,25 +639,11 @@ impl MmgHull {
         // M (v', r') = A (v, r) + B delta
         let (m11, m12, m22) = (m + self.my_kg, xg * m, iz + xg * xg * m + self.jz_kg_m2);
         let (a11, a12, a21, a22) = (y_v, y_r - (m + self.mx_kg) * u, n_v, n_r - xg * m * u);
-        let det_m = m11 * m22 - m12 * m12;
-        // F = M^-1 A, G = M^-1 B
-        let f11 = (m22 * a11 - m12 * a21) / det_m;
-        let f12 = (m22 * a12 - m12 * a22) / det_m;
-        let f21 = (m11 * a21 - m12 * a11) / det_m;
-        let f22 = (m11 * a22 - m12 * a12) / det_m;
-        let g1 = (m22 * y_d - m12 * n_d) / det_m;
-        let g2 = (m11 * n_d - m12 * y_d) / det_m;
-        // r/delta = (g2 s + f21 g1 - f11 g2) / (s^2 - tr s + det)
-        let tr = f11 + f22;
-        let det = f11 * f22 - f12 * f21;
-        let num0 = f21 * g1 - f11 * g2;
-        let disc = (tr * tr - 4.0 * det).max(0.0).sqrt();
-        let (p_slow, p_fast) = ((tr + disc) / 2.0, (tr - disc) / 2.0);
-        LinearNomoto {
-            k_per_s: num0 / det,
-            t1_s: -1.0 / p_slow,
-            t2_s: -1.0 / p_fast,
-            t3_s: g2 / num0,
-        }
+        LinearNomoto::of_sway_yaw(
+            [[m11, m12], [m12, m22]],
+            [[a11, a12], [a21, a22]],
+            [y_d, n_d],
+            1.0,
+        )
     }
 }
