@@ -756,16 +756,17 @@ fn responsive_ship() -> Config {
 
 /// CLFRT on a ship more responsive than its tones were sized for: the tones' heading
 /// (`|G S|` times the amplitude, growing as `b / w^2`) crosses the 10 deg limit during the
-/// settling and the test ends there; with the heading guard every tone is lowered by
-/// `clfrt.resize-heading-factor` when the heading error passes 0.7 of the limit heading for
-/// it, and the test completes. The cut leaves no trace in the measurement: the tones' gains and phases are
+/// settling and the test ends there (the default, `clfrt.resize-heading-fraction` 1); with
+/// the heading guard at 0.7 every tone is lowered by `clfrt.resize-heading-factor` when the
+/// heading error passes 0.7 of the limit heading for it, and the test completes. The cut leaves no trace in the measurement: the tones' gains and phases are
 /// those of the same ship and sea with the tones designed at the lowered size from the start
 /// (within 0.5 % and 0.005 rad), and the ship's (the slowest tone within 10 %: at 1 deg it
 /// competes with the calm sea's own slow bias, 3-7 % in these seeds with or without the
 /// cut; the others within 5 %).
 #[test]
 fn clfrt_lowers_every_tone_where_the_heading_nears_its_limit() {
-    let cfg = responsive_ship();
+    let mut cfg = responsive_ship();
+    cfg.clfrt.resize_heading_fraction = 0.7;
     let (u, d) = (10.0, 4000.0);
     let probe = |c: &Config, seed: u64| {
         let sc = Scenario {
@@ -779,8 +780,8 @@ fn clfrt_lowers_every_tone_where_the_heading_nears_its_limit() {
         run_probe(&c.core(), &c.sim(), &sc, &opts).unwrap().report
     };
     let runs = par_map(vec![1u64, 2], |seed| {
-        // At 1.0 the guard's threshold is the limit itself: the safety check ends the test
-        // first.
+        // At 1.0 (the default) the guard's threshold is the limit itself: the safety check
+        // ends the test first.
         let mut off = cfg.clone();
         off.clfrt.resize_heading_fraction = 1.0;
         let on = probe(&cfg, seed);
