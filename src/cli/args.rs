@@ -246,7 +246,8 @@ pub(crate) struct EvalArgs {
     #[arg(long)]
     pub(crate) no_lengths: bool,
     /// Also evaluate on the family of real ships (second-order Nomoto, Norrbin damping, dead
-    /// band, backlash, a fixed-gain autopilot; `sim::config::family`). With --fdi: the
+    /// band, backlash, a fixed-gain autopilot, and the KVLCC2 and Mariner surge-sway-yaw
+    /// hulls; `sim::config::family`). With --fdi: the
     /// scenario suite on every member of the family (healthy with drift, then faults after
     /// commissioning; half the runs at the corners of the speed and displacement box).
     #[arg(long)]
