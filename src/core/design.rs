@@ -174,7 +174,8 @@ pub struct ClfrtConfig {
     pub resize_ramp_s: f64,
     /// Excitation sizing: every tone is lowered when the heading error exceeds this fraction
     /// of `safety.max-heading-error-deg` heading for it (a ship more responsive than the
-    /// tones were sized for), (0, 1]; 1 (the default) leaves it to the safety check: off.
+    /// tones were sized for), (0, 1]. Armed on a vessel after a CLFRT test of it ended on
+    /// the heading limit, while the armed tests need it; 1 leaves it to the safety check.
     pub resize_heading_fraction: f64,
     /// Excitation sizing: the factor that lowering applies to every tone, (0, 0.95].
     pub resize_heading_factor: f64,
@@ -202,7 +203,7 @@ impl Default for ClfrtConfig {
             resize_max: 2,
             resize_settle_s: 240.0,
             resize_ramp_s: 10.0,
-            resize_heading_fraction: 1.0,
+            resize_heading_fraction: 0.7,
             resize_heading_factor: 0.5,
         }
     }

@@ -106,6 +106,37 @@ impl Lockstep {
         }
     }
 
+    /// One test of `opts.method` on this ship as it is: `opts.warmup_s` of ship time, then
+    /// the trigger (retried each second while the monitor refuses, for up to the warm-up
+    /// time again), then its report within `opts.max_test_s` (consecutive tests on one
+    /// vessel: each keeps what the previous ones left in the monitor).
+    pub fn run_test(&mut self, opts: &ProbeOptions) -> Result<ProbeResult, ProbeError> {
+        let mut out = Vec::new();
+        let t0 = self.time_s();
+        self.run_until(t0 + opts.warmup_s, &mut out);
+        let t_trigger = loop {
+            let reply = self.trigger(opts.method);
+            if reply.accepted {
+                break self.time_s();
+            }
+            if self.time_s() > t0 + 2.0 * opts.warmup_s {
+                return Err(ProbeError::Refused(reply.reason.unwrap_or_default()));
+            }
+            let t = self.time_s();
+            self.run_until(t + 1.0, &mut out);
+        };
+        out.clear();
+        let mut statuses = Vec::new();
+        match self.next_report(t_trigger + opts.max_test_s, |o| {
+            if let Output::Status(s) = o {
+                statuses.push(s);
+            }
+        }) {
+            Some(report) => Ok(ProbeResult { report, statuses }),
+            None => Err(ProbeError::Timeout(opts.max_test_s)),
+        }
+    }
+
     /// Asks the monitor for a test now.
     pub fn trigger(&mut self, method: Method) -> TriggerReply {
         self.monitor.trigger(method)
@@ -143,6 +174,9 @@ pub struct ProbeOptions {
     /// The CLFRT multisine from [`Monitor::design_multisine`] for this configuration, to
     /// skip its design (~0.1 s) when running many probes (none: designed per run).
     pub multisine: Option<Multisine>,
+    /// The vessel's CLFRT heading guard armed, as after a CLFRT test of it that ended on the
+    /// heading limit (`crate::core::monitor::sizing`); a fresh monitor's is not.
+    pub clfrt_heading_guard: bool,
 }
 
 impl ProbeOptions {
@@ -154,6 +188,7 @@ impl ProbeOptions {
             max_test_s: cfg.safety.max_test_duration_s + 120.0,
             estimator: None,
             multisine: None,
+            clfrt_heading_guard: false,
         }
     }
 }
@@ -186,33 +221,12 @@ pub fn run_probe(
         opts.multisine.clone(),
         opts.estimator.clone(),
     )?;
-    let mut out = Vec::new();
-    let t0 = ls.time_s();
-    ls.run_until(t0 + opts.warmup_s, &mut out);
-    let mut last_refusal = String::new();
-    let t_trigger = loop {
-        let reply = ls.trigger(opts.method);
-        if reply.accepted {
-            break ls.time_s();
-        }
-        last_refusal = reply.reason.unwrap_or_default();
-        if ls.time_s() > t0 + 2.0 * opts.warmup_s {
-            return Err(ProbeError::Refused(last_refusal));
-        }
-        let t = ls.time_s();
-        ls.run_until(t + 1.0, &mut out);
-    };
-    let _ = last_refusal;
-    out.clear();
-    let mut statuses = Vec::new();
-    match ls.next_report(t_trigger + opts.max_test_s, |o| {
-        if let Output::Status(s) = o {
-            statuses.push(s);
-        }
-    }) {
-        Some(report) => Ok(ProbeResult { report, statuses }),
-        None => Err(ProbeError::Timeout(opts.max_test_s)),
+    if opts.clfrt_heading_guard {
+        let mut state = ls.monitor.saved_state();
+        state.clfrt_heading_guard = true;
+        ls.monitor.restore(state).map_err(ProbeError::Refused)?;
     }
+    ls.run_test(opts)
 }
 
 #[cfg(test)]

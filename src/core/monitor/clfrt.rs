@@ -414,7 +414,14 @@ pub(crate) struct ClfrtRun {
 
 impl ClfrtRun {
     /// A multisine test starting at `t_start_s` with the designed `multisine`.
-    pub(crate) fn new(cfg: &CoreConfig, t_start_s: f64, multisine: Multisine) -> Self {
+    /// `heading_guard`: the tones' heading guard armed (the vessel's last CLFRT test ended
+    /// on the heading limit or needed the guard; [`ToneSizing::on_heading`]).
+    pub(crate) fn new(
+        cfg: &CoreConfig,
+        t_start_s: f64,
+        multisine: Multisine,
+        heading_guard: bool,
+    ) -> Self {
         let c = &cfg.clfrt;
         let rate = cfg.sensors.rate_hz;
         let measure_start_s = t_start_s + c.settle_windows as f64 * c.window_s;
@@ -434,6 +441,7 @@ impl ClfrtRun {
                 t_start_s + multisine_start_s,
                 measure_start_s - c.resize_settle_s,
             ),
+            heading_guard,
         );
         Self {
             multisine,
@@ -466,6 +474,12 @@ impl ClfrtRun {
             baseline: (cfg.baseline.clone(), cfg.ship.clone()),
             sizing,
         }
+    }
+
+    /// Whether the heading guard lowered the tones in this test (the next test keeps it
+    /// armed).
+    pub(crate) fn heading_guarded(&self) -> bool {
+        self.sizing.heading_guarded()
     }
 
     /// After the analysis: its grid `(t0, dt)` and the resampled continuous heading, rudder

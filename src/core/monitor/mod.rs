@@ -268,6 +268,10 @@ pub struct Monitor {
     /// The wave yaw on the heading the last completed test measured [rad]: the sea the
     /// next relay is sized for (`crate::core::monitor::sizing`).
     sea_wave_yaw_rad: Option<f64>,
+    /// Whether the next CLFRT test's heading guard is armed: the vessel's last CLFRT test
+    /// ended on the heading limit, or the guard lowered its tones
+    /// (`crate::core::monitor::sizing`, `clfrt.resize-heading-fraction`).
+    clfrt_heading_guard: bool,
     /// Tests started so far (part of the test id).
     test_seq: u64,
     /// Outputs waiting for the driver.
@@ -354,6 +358,7 @@ impl Monitor {
             last_test_end: None,
             next_method: 0,
             sea_wave_yaw_rad: None,
+            clfrt_heading_guard: false,
             test_seq: 0,
             outputs: VecDeque::new(),
             status: MonitorState::Idle,
@@ -649,7 +654,12 @@ impl Monitor {
             }
             Method::Clfrt => {
                 let ms = self.multisine.clone()?;
-                RunKind::Clfrt(Box::new(clfrt::ClfrtRun::new(&self.cfg, t, ms)))
+                RunKind::Clfrt(Box::new(clfrt::ClfrtRun::new(
+                    &self.cfg,
+                    t,
+                    ms,
+                    self.clfrt_heading_guard,
+                )))
             }
         };
         self.test_seq += 1;

@@ -46,6 +46,16 @@ impl Monitor {
     pub(super) fn finish(&mut self, t: f64, result: Result<Measured, AbortReason>) {
         let Some(run) = self.run.take() else { return };
         self.last_test_end = Some(t);
+        // The tones' heading guard: armed after a CLFRT test that ended on the heading limit,
+        // kept while the armed tests need it (`crate::core::monitor::sizing`).
+        if let RunKind::Clfrt(c) = &run.kind {
+            self.clfrt_heading_guard = self.cfg.clfrt.resize_heading_fraction < 1.0
+                && match &result {
+                    Ok(_) => c.heading_guarded(),
+                    Err(AbortReason::HeadingError { .. }) => true,
+                    Err(_) => self.clfrt_heading_guard,
+                };
+        }
         let mut estimate = None;
         let mut assessment = None;
         let (outcome, reason, features, message) = match result {

@@ -27,7 +27,11 @@
 //! (the heading per tone, `|G S| E_i`, grows as `b / w^2`) the tones carry the heading error
 //! to `safety.max-heading-error-deg`. In the same window, when the error is past
 //! `clfrt.resize-heading-fraction` of that limit and heading for it, every tone is lowered by
-//! `clfrt.resize-heading-factor` ([`ToneSizing::on_heading`]).
+//! `clfrt.resize-heading-factor` ([`ToneSizing::on_heading`]). The guard is armed per vessel
+//! by what its tests find: after a CLFRT test that ended on the heading limit, and for as
+//! long as each armed test needs it (the guard lowered its tones); a test it did not act in
+//! disarms it. A hull whose peaks come near the limit and turn (KVLCC2's 7-9 deg in a
+//! moderate sea) keeps its tones: lowered there for nothing, they cost detection.
 //!
 //! ## HBT: the relay ([`RelaySizing`])
 //!
@@ -136,6 +140,10 @@ pub(super) struct ToneSizing {
     heading_limit_rad: f64,
     heading_fraction: f64,
     heading_factor: f64,
+    /// Whether the heading guard is armed for this test (the vessel's last CLFRT test hit
+    /// the heading limit, or needed the guard), and whether it lowered the tones.
+    heading_armed: bool,
+    heading_cut: bool,
     heading_rate: Option<(f64, f64, f64)>,
     /// Tone frequencies [rad/s] (the multisine's) and its amplitude [rad].
     omegas: Vec<f64>,
@@ -163,6 +171,7 @@ impl ToneSizing {
         multisine: &Multisine,
         t0_s: f64,
         window: (f64, f64),
+        heading_armed: bool,
     ) -> Self {
         let c = &cfg.clfrt;
         let omegas = multisine.omegas().to_vec();
@@ -183,6 +192,8 @@ impl ToneSizing {
             heading_limit_rad: cfg.safety.max_heading_error_deg.to_radians(),
             heading_fraction: c.resize_heading_fraction,
             heading_factor: c.resize_heading_factor,
+            heading_armed: heading_armed && c.resize_heading_fraction < 1.0,
+            heading_cut: false,
             heading_rate: None,
             confidence: c.resize_confidence,
             correlation_s: c.resize_correlation_s,
@@ -221,6 +232,11 @@ impl ToneSizing {
     /// Whether any tone was lowered.
     pub(super) fn resized(&self) -> bool {
         self.to.iter().any(|&s| s < 1.0)
+    }
+
+    /// Whether the heading guard lowered the tones in this test.
+    pub(super) fn heading_guarded(&self) -> bool {
+        self.heading_cut
     }
 
     /// The loop's gain from excitation to rudder at each tone, `|Delta(w_i)| / |E(w_i)|`, and
@@ -301,8 +317,8 @@ impl ToneSizing {
         Some((gain, se))
     }
 
-    /// A heading sample, `error_rad` the heading error against the test's course. Inside the
-    /// window, every tone is lowered by `clfrt.resize-heading-factor` when the error is
+    /// A heading sample, `error_rad` the heading error against the test's course. When the
+    /// guard is armed (module doc), inside the window every tone is lowered by `clfrt.resize-heading-factor` when the error is
     /// beyond `clfrt.resize-heading-fraction` `f` of the heading limit and heading for it:
     /// its growth rate (low-passed over [`RATE_FILTER_S`]) would carry it past the limit
     /// within the time a cut takes to act (`resize-ramp-s + resize-wait-s`), or it is past
@@ -316,7 +332,7 @@ impl ToneSizing {
     /// otherwise end on the heading limit.
     pub(super) fn on_heading(&mut self, t: f64, error_rad: f64) {
         let (start, end) = self.window;
-        if !self.on || !error_rad.is_finite() || t < start || t >= end {
+        if !self.on || !self.heading_armed || !error_rad.is_finite() || t < start || t >= end {
             return;
         }
         // The error's rate, low-passed over RATE_FILTER_S (the wave's heading rate, at
@@ -353,6 +369,7 @@ impl ToneSizing {
         self.at_s = t;
         self.look_s = t;
         self.resizes += 1;
+        self.heading_cut = true;
     }
 
     /// A rudder sample. Every `wait_s` inside the window, each tone whose rudder amplitude

@@ -9,7 +9,7 @@ fn run(gains: [f64; 3], noise_rad: f64) -> (ToneSizing, Multisine) {
     let cfg = CoreConfig::default();
     let ms = Monitor::design_multisine(&cfg).unwrap();
     let t0 = 1000.0;
-    let mut sizing = ToneSizing::new(&cfg, &ms, t0, (t0, t0 + 400.0));
+    let mut sizing = ToneSizing::new(&cfg, &ms, t0, (t0, t0 + 400.0), false);
     let mut rng_state = 7u64;
     let mut noise = || {
         // xorshift, uniform in [-1, 1].
@@ -81,7 +81,7 @@ fn sizing_off_leaves_the_tones() {
     let mut cfg = CoreConfig::default();
     cfg.clfrt.resize_max = 0;
     let ms = Monitor::design_multisine(&cfg).unwrap();
-    let mut sizing = ToneSizing::new(&cfg, &ms, 0.0, (0.0, 400.0));
+    let mut sizing = ToneSizing::new(&cfg, &ms, 0.0, (0.0, 400.0), false);
     for n in 0..4000 {
         let t = n as f64 * 0.1;
         sizing.on_rudder(t, 0.4 * (ms.omegas()[2] * t).sin(), 1.0);

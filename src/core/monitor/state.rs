@@ -26,6 +26,9 @@ pub struct VesselState {
     /// [rad] (absent in states of earlier releases: not known).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sea_wave_yaw_rad: Option<f64>,
+    /// The next CLFRT test's heading guard is armed (absent: not armed).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub clfrt_heading_guard: bool,
 }
 
 impl VesselState {
@@ -44,6 +47,7 @@ impl Monitor {
             next_method: self.next_method,
             test_seq: self.test_seq,
             sea_wave_yaw_rad: self.sea_wave_yaw_rad,
+            clfrt_heading_guard: self.clfrt_heading_guard,
         }
     }
 
@@ -69,6 +73,7 @@ impl Monitor {
         self.next_method = s.next_method % self.cfg.scheduler.methods.len().max(1);
         self.test_seq = s.test_seq;
         self.sea_wave_yaw_rad = s.sea_wave_yaw_rad.filter(|w| w.is_finite() && *w >= 0.0);
+        self.clfrt_heading_guard = s.clfrt_heading_guard;
         Ok(discarded)
     }
 
