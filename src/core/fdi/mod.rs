@@ -276,10 +276,15 @@ impl Fdi {
 
     /// Every method has its own reference, or commissioning is off.
     pub fn commissioned(&self) -> bool {
-        let s = self.settings();
-        self.commissioning
+        [Method::Clfrt, Method::Hbt]
             .iter()
-            .all(|c| s.tests == 0 || c.phase == Phase::Learning)
+            .all(|&m| self.method_commissioned(m))
+    }
+
+    /// `method` has its own reference, or commissioning is off.
+    pub fn method_commissioned(&self, method: Method) -> bool {
+        self.settings().tests == 0
+            || self.commissioning[method_index(method)].phase == Phase::Learning
     }
 
     /// One line per method: "CLFRT commissioning 2 of 5, HBT commissioned (...)".

@@ -93,6 +93,11 @@ impl Monitor {
         self.fdi.commissioned()
     }
 
+    /// `method` is commissioned (or commissioning is off).
+    pub fn method_commissioned(&self, method: crate::core::wire::Method) -> bool {
+        self.fdi.method_commissioned(method)
+    }
+
     /// "CLFRT commissioning 2 of 5, HBT commissioned (...)".
     pub fn commissioning_text(&self) -> String {
         self.fdi.commissioning_text()

@@ -26,7 +26,10 @@
 //!
 //! With `in_turn` the methods take turns on each ship, as the daemon runs them: the
 //! commissioning and the tests count tests of each method, and so do the windows (within N
-//! tests of each method: N times the number of methods tests of the ship). Each report is
+//! tests of each method: N times the number of methods tests of the ship). Commissioning
+//! (classic and envelope sets) goes on past its tests while a method has no reference (an
+//! aborted test is no commissioning test), for at most as many tests of the ship again: what
+//! follows "after commissioning" follows the vessel's commissioning. Each report is
 //! the vessel's (its alarm is the worse track's, its naming the vessel's: `crate::core::fdi`).
 //!
 //! `scenarios` (`--scenarios`) selects the sets: the classic ones above (the default), the

@@ -324,12 +324,24 @@ pub fn run_one(
     let mut out = Vec::new();
     let mut next = ls.time_s() + o.warmup_s;
     let max_test_s = cfg.safety.max_test_duration_s + 120.0;
+    // Commissioning goes on until every method has its reference (an aborted test is no
+    // commissioning test), for at most as many tests of the ship again; the schedule after it
+    // moves with it. Not in the commissioning set, whose faults arise inside it.
+    let mut extra = 0;
     loop {
         let done = run.commissioning.len() + run.tests.len();
+        if sc.group != ScenarioSet::Commissioning
+            && done - extra == plan.commissioning
+            && extra < plan.commissioning
+            && !methods.iter().all(|&m| ls.monitor.method_commissioned(m))
+        {
+            extra += 1;
+        }
+        let method = methods.get(done % methods.len()).copied().unwrap_or(first);
+        let done = done - extra;
         if done >= plan.total {
             break;
         }
-        let method = methods.get(done % methods.len()).copied().unwrap_or(first);
         if plan.change_at == Some(done) && !changed {
             changed = true;
             let c = change.unwrap_or(super::scenarios::DrawnChange {

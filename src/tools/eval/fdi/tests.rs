@@ -240,6 +240,38 @@ fn an_envelope_run_changes_the_operating_point_as_scheduled() {
     }
 }
 
+/// An aborted test is no commissioning test: the fault of a classic scenario arises when
+/// every method has its reference, however many of the ship's tests that took. HBT in a rough
+/// sea, its first relay sized before the sea is known: some commissioning tests chatter and
+/// abort; commissioning then holds as many tests of the ship as it needed for 5 completed, and
+/// the fault's first test is measured against the vessel's commissioned reference.
+#[test]
+fn commissioning_waits_for_the_methods_references_past_aborted_tests() {
+    let (cfg, mut o, est) = cheap();
+    o.seas = vec![SeaState::Rough];
+    let sc = by_name(scenarios(), "displacement +10 %");
+    let mut aborted = 0;
+    for seed in 1..=3 {
+        let r = run_one(&cfg, &sc, SeaState::Rough, &o.methods, seed, &est, &o, None);
+        assert_eq!(r.error, None);
+        let completed = r.commissioning.iter().filter(|t| t.completed).count();
+        aborted += r.commissioning.len() - completed;
+        assert_eq!(completed, 5, "{:?}", r.commissioning);
+        assert!(r.commissioning.last().is_some_and(|t| t.completed));
+        assert!(r.commissioning.iter().all(|t| !t.fault_present));
+        assert_eq!(r.tests.len(), 1);
+        let t = &r.tests[0];
+        assert!(t.fault_present && t.phase == Phase::Test, "{t:?}");
+        if t.completed {
+            assert_eq!(t.reference_kind.as_deref(), Some("commissioned"), "{t:?}");
+        }
+    }
+    assert!(
+        aborted > 0,
+        "no commissioning test aborted: the check saw nothing"
+    );
+}
+
 /// The sea rises a state at commissioning's end (calm to moderate, moderate to rough, a rough
 /// sea stays; no speed or loading change): the test after it measures the new sea's wave yaw
 /// (the sea index, the wave yaw on the heading in deg: calm 0.05, moderate 0.2 by the
