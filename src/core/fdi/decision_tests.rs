@@ -470,8 +470,7 @@ fn monte_carlo(
                 generation: 0,
                 raw,
             });
-            let learned_point = matches!(basis, Basis::Vessel(p) if p.nearest <= 1.0);
-            for h in after_decision(&mut pending, &mut s, held, l.window, learned_point)
+            for h in after_decision(&mut pending, &mut s, held, l.window)
                 .into_iter()
                 .flatten()
             {
