@@ -283,7 +283,7 @@ impl Fdi {
 
     /// `method` has its own reference, or commissioning is off.
     pub fn method_commissioned(&self, method: Method) -> bool {
-        self.settings().tests == 0
+        self.cfg.commissioning_tests == 0
             || self.commissioning[method_index(method)].phase == Phase::Learning
     }
 

@@ -318,8 +318,9 @@ impl ToneSizing {
     }
 
     /// A heading sample, `error_rad` the heading error against the test's course. When the
-    /// guard is armed (module doc), inside the window every tone is lowered by `clfrt.resize-heading-factor` when the error is
-    /// beyond `clfrt.resize-heading-fraction` `f` of the heading limit and heading for it:
+    /// guard is armed (module doc), inside the window every tone is lowered by
+    /// `clfrt.resize-heading-factor` when the error is beyond `clfrt.resize-heading-fraction`
+    /// `f` of the heading limit and heading for it:
     /// its growth rate (low-passed over [`RATE_FILTER_S`]) would carry it past the limit
     /// within the time a cut takes to act (`resize-ramp-s + resize-wait-s`), or it is past
     /// `(1 + f) / 2` of the limit whatever its rate. A peak that turns short of the limit
