@@ -470,7 +470,8 @@ fn monte_carlo(
                 generation: 0,
                 raw,
             });
-            for h in after_decision(&mut pending, &mut s, held, l.window)
+            let learned_point = matches!(basis, Basis::Vessel(p) if p.nearest <= 1.0);
+            for h in after_decision(&mut pending, &mut s, held, l.window, learned_point)
                 .into_iter()
                 .flatten()
             {

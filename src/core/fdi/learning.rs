@@ -24,14 +24,30 @@
 //! held tests are measured again at every test against their method's newest reference
 //! (`decision::Sequential::remeasure`), which never contains them.
 //!
+//! A quiet decision is not enough on its own: with a reference learned from few tests the
+//! look's Hotelling factor makes a test that sits 6-8 of its scatter's standard deviations
+//! off in the gain alone (a 12 % loading change on KVLCC2 in a moderate sea) a quiet one, and
+//! learned at once it inflates the scatter the next tests are judged by (their gain's score
+//! fell from 7-8 to 2-3 and the window never reached its limit). So at a point the reference
+//! has learned (a learned test within one bandwidth: the report's `commissioned`) a quiet
+//! test is learned at once only when it is typical of the healthy scatter: each of its own
+//! looks (the newest entry alone: the free shift's at its dof, each cause's at 1) has a tail
+//! probability of at least [`LEARN_TAIL`], 1 %; an atypical one is held as under an alert.
+//! Holding costs only time (a healthy ship's atypical 1 % are learned N tests later), never a
+//! false alarm: the decision's looks do not change. At a new point (`predicted`) a quiet
+//! test is learned at once whatever its tail: there the prediction's own error is what the
+//! test measures (held, a new point 2.6 standard deviations off its prediction stayed
+//! unlearned, and a 10 % loading change four tests later moved the tests back towards the
+//! biased prediction instead of away from the point's offset).
+//!
 //! The price: an alerting new operating point is learned N tests later than it could be,
 //! its tests meanwhile judged against the prediction's wider interval.
 
 use super::changepoint;
-use super::decision::{Sequential, Step};
+use super::decision::{param_statistics, Sequential, Step};
 use super::measured::measure_entry;
 use super::reference::{Added, Basis, Raw, Settings};
-use super::stats::{dot, P};
+use super::stats::{chi2_sf, dot, P};
 use super::{method_index, Fdi};
 use crate::core::wire::residuals::TrackState;
 use serde::{Deserialize, Serialize};
@@ -106,18 +122,43 @@ impl Pending {
     }
 }
 
+/// The tail probability under which a test's own look makes it atypical of the healthy
+/// scatter: learned only as it leaves the window, never at once (module doc).
+pub const LEARN_TAIL: f64 = 0.01;
+
+/// Whether the newest test's own looks (its free shift's and each cause's, the window's
+/// newest entry alone) all lie inside the healthy scatter's `1 - LEARN_TAIL` region.
+fn typical(seq: &Sequential) -> bool {
+    let Some(t) = param_statistics(&seq.window, 1) else {
+        return true;
+    };
+    chi2_sf(t.free, t.dof.max(1) as f64) >= LEARN_TAIL
+        && t.along
+            .iter()
+            .zip(t.along_dof)
+            .all(|(&a, d)| chi2_sf(a, d.max(1) as f64) >= LEARN_TAIL)
+}
+
 /// After the decision on a test (`seq` updated with it): the tests to learn now, `held` the
-/// test itself if eligible. A test learned at once stays in the window as it was measured.
+/// test itself if eligible, `learned_point` whether it was measured at a point the reference
+/// has learned (`Basis::Vessel` with a learned test within one bandwidth; at a new point the
+/// prediction's own error is what the test tells). A test learned at once stays in the
+/// window as it was measured.
 pub fn after_decision(
     pending: &mut Pending,
     seq: &mut Sequential,
     held: Option<Held>,
     window: usize,
+    learned_point: bool,
 ) -> [Option<Held>; 2] {
-    let after = After::from(seq.state);
+    let mut after = After::from(seq.state);
     if after == After::Quiet && held.is_some() {
-        if let Some(e) = seq.window.back_mut() {
-            e.source = None;
+        if !learned_point || typical(seq) {
+            if let Some(e) = seq.window.back_mut() {
+                e.source = None;
+            }
+        } else {
+            after = After::Alert;
         }
     }
     pending.push(held, after, window)
@@ -162,11 +203,13 @@ impl Fdi {
             }
         }
         if step.is_some() {
+            let learned_point = matches!(basis, Some(Basis::Vessel(p)) if p.nearest <= 1.0);
             for h in after_decision(
                 &mut self.pending,
                 &mut self.sequential,
                 held,
                 self.limits.window,
+                learned_point,
             )
             .into_iter()
             .flatten()
@@ -229,6 +272,60 @@ mod tests {
                 loading_slope: [0.0; 3],
             },
         }
+    }
+
+    /// At a learned point a quiet decision learns a typical test at once and holds an
+    /// atypical one (its own look's tail under `LEARN_TAIL`: 3.5 standard deviations in the
+    /// gain, chi-square 12.25 at 3 dof, 0.66 %, under the alert limit's 15.4) until it leaves
+    /// the window; at a new point it learns it at once.
+    #[test]
+    fn a_quiet_but_atypical_test_is_held_for_the_window() {
+        use crate::core::fdi::decision::{Entry, Limits};
+        use crate::core::wire::Method;
+        let limits = Limits::new(0.1, 3720.0, 4);
+        let entry = |zb: f64| Entry {
+            method: Method::Clfrt,
+            z: Some([0.0, 0.0, zb]),
+            dim: P,
+            offset_var: Some(0.1),
+            epoch: 0,
+            directions: [[-1.0, 0.0, 0.0], [0.0, 1.0, -1.0]],
+            z_rate: None,
+            source: None,
+        };
+        let mut seq = Sequential::default();
+        let mut pending = Pending::default();
+        seq.update(&limits, entry(1.0));
+        assert_eq!(seq.state, TrackState::Normal);
+        assert_eq!(
+            after_decision(&mut pending, &mut seq, Some(held(1)), 4, true),
+            [None, Some(held(1))]
+        );
+        seq.update(&limits, entry(3.5));
+        assert_eq!(seq.state, TrackState::Normal, "quiet");
+        assert_eq!(
+            after_decision(&mut pending, &mut seq, Some(held(2)), 4, true),
+            [None, None]
+        );
+        for i in 3..6 {
+            seq.update(&limits, entry(0.5));
+            assert_eq!(
+                after_decision(&mut pending, &mut seq, Some(held(i)), 4, true),
+                [None, Some(held(i))]
+            );
+        }
+        seq.update(&limits, entry(0.5));
+        assert_eq!(
+            after_decision(&mut pending, &mut seq, Some(held(6)), 4, true),
+            [Some(held(2)), Some(held(6))]
+        );
+        // At a new point the same test is learned at once.
+        seq.update(&limits, entry(3.5));
+        assert_eq!(seq.state, TrackState::Normal);
+        assert_eq!(
+            after_decision(&mut pending, &mut seq, Some(held(7)), 4, false),
+            [None, Some(held(7))]
+        );
     }
 
     /// A quiet test is learned at once; one under an alert leaves N tests later; a test
