@@ -123,12 +123,27 @@ async fn commissioning_survives_a_restart_then_a_fault_raises_the_alarm() {
     );
     let last = &reports[1];
     assert_eq!(last["decision"], "fault", "{last}");
+    // Two CLFRT tests against a five-test reference cannot yet tell a loading change from a
+    // speed-log bias: in CLFRT's whitened residuals the two causes' directions are a few
+    // degrees apart (its speed estimate is the noisy one), their costs near-tie (0.05-0.4
+    // each, the order changing with the tick the trigger lands on), and the report keeps the
+    // other in `not_ruled_out`. The displacement must be among the suspects: named, or not
+    // ruled out beside the name.
+    let suspects: Vec<&Value> = last["isolation"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .chain(
+            last["residuals"]["decision"]["not_ruled_out"]
+                .as_array()
+                .into_iter()
+                .flatten(),
+        )
+        .collect();
     assert!(
-        last["isolation"]
-            .as_array()
-            .unwrap()
+        suspects
             .iter()
-            .any(|c| c == "displacement_or_rudder_effectiveness"),
+            .any(|c| *c == "displacement_or_rudder_effectiveness"),
         "{last}"
     );
     let n = obs
