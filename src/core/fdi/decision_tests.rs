@@ -251,9 +251,20 @@ fn a_test_on_wide_limits_counts_alone_and_is_left_out_of_longer_windows() {
     // A commissioned test after them: the wide ones are left out of its windows.
     let st = s.update(&l, entry(Method::Clfrt, [0.0, 1.0], Some(0.125)));
     assert!(st.param.unwrap().look.statistic <= 1.0 + 1e-12);
-    // A gross fault on wide limits still alarms at once.
-    let st = s.update(&l, entry(Method::Hbt, [0.0, 6.0], None));
+    // Over the limit on wide limits: an alert, not an alarm (a model that does not fit the
+    // ship and a gross fault look alike there); the same residual against a reference alarms.
+    let over = entry(Method::Hbt, [0.0, 6.0], None);
+    let st = s.update(&l, over);
+    let p = st.param.unwrap();
+    assert!(p.look.statistic > p.look.threshold, "{p:?}");
+    assert_eq!(st.state, TrackState::Alert);
+    let st = s.update(&l, entry(Method::Hbt, [0.0, 6.0], Some(0.125)));
     assert_eq!(st.state, TrackState::Alarm);
+    // The servo channel alarms on wide limits as anywhere.
+    let mut slow = over;
+    slow.z_rate = Some(6.0);
+    let mut s = Sequential::default();
+    assert_eq!(s.update(&l, slow).state, TrackState::Alarm);
 }
 
 #[test]

@@ -166,8 +166,7 @@ pub fn after_decision(
 
 impl Fdi {
     /// Learns what the test just decided lets the vessel learn (see the module doc): while
-    /// commissioning at once, under the wide limits' single-test alarm limit; after, by
-    /// `Pending`.
+    /// commissioning every completed test at once; after, by `Pending`.
     pub(super) fn learn(
         &mut self,
         i: usize,
@@ -182,7 +181,9 @@ impl Fdi {
         if let (true, Some(r), Some(b), Some((z, dim))) = (self.cfg.enabled, raw, basis, z) {
             let q = dot(z, z);
             match b {
-                Basis::Commissioning { .. } if q <= self.limits.param[dim] => {
+                // Every completed test joins the sample, one beyond the wide limits too
+                // (`decision`: there a misfit model reads the ship so, from its first test).
+                Basis::Commissioning { .. } => {
                     let order = changepoint::next_order(&self.commissioning);
                     added = self.commissioning[i].add(settings, &r, order);
                     if added == Added::Completed {

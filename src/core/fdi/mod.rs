@@ -52,8 +52,7 @@ use crate::core::model::ShipConfig;
 pub use crate::core::model::{displacement_from_b, speed_from_a};
 use crate::core::monitor::config::CoreConfig;
 use crate::core::wire::residuals::{
-    CauseCosts, DecisionReport, ParameterResiduals, RawResiduals, ReferenceKind, ReferenceReport,
-    Residuals, TrackState,
+    CauseCosts, DecisionReport, RawResiduals, ReferenceKind, ReferenceReport, Residuals, TrackState,
 };
 use crate::core::wire::{AlarmState, Cause, Decision, Estimate, Features, Method, Notification};
 use decision::{Entry, Limits, Sequential, Source};
@@ -61,7 +60,7 @@ use learning::Pending;
 use measured::measure_entry;
 pub use raw::sea_index;
 use raw::{lerp, sea_fraction};
-use reference::{Added, Basis, Commissioning, Measured, Phase};
+use reference::{Added, Basis, Commissioning, Phase};
 pub use report::{Fingerprint, MISMATCH_ADVICE};
 use serde::{Deserialize, Serialize};
 use shape::LoopShape;
@@ -403,7 +402,7 @@ impl Fdi {
         let measured = measured_basis.map(|(_, m, _)| m);
         let z = measured.and_then(|m| m.whitened());
         let parameters = match (measured, z) {
-            (Some(m), Some(z)) => Some(parameter_report(&m, z, d_nom_t)),
+            (Some(m), Some(z)) => Some(report::parameter_report(&m, z, d_nom_t)),
             _ => None,
         };
         let entry = measured_basis.map(|(_, _, e)| e).unwrap_or(Entry {
@@ -503,8 +502,15 @@ impl Fdi {
                 self.commissioning[i].describe(&settings)
             )),
             (Some(Basis::Commissioning { .. }), _) => Some(format!(
-                "{} (wide design limits)",
-                self.commissioning[i].describe(&settings)
+                "{} (wide design limits{})",
+                self.commissioning[i].describe(&settings),
+                // Beyond them: an alert, never an alarm (`decision`).
+                match step.as_ref().and_then(|s| s.param) {
+                    Some(p) if p.look.statistic > p.look.threshold => {
+                        "; beyond them: the models do not fit this vessel here, or its declared displacement is wrong; learned as its normal"
+                    }
+                    _ => "",
+                }
             )),
             (Some(Basis::Vessel(p)), _) if p.nearest > 1.0 => Some(format!(
                 "operating point {:.1} m/s, {:.0} t not yet learned: reference predicted from {:.1} tests' worth",
@@ -570,26 +576,6 @@ impl Fdi {
             correlation: r.map(|r| r.covariance.correlation(0, 1)),
             speed_log_mps: r.map(|r| r.speed_log_mps),
         }
-    }
-}
-
-/// The report's parameter residuals of a measured test (`z` its whitened residual).
-fn parameter_report(m: &Measured, z: [f64; stats::P], d_nom_t: f64) -> ParameterResiduals {
-    let sd = m.cov.variances().map(f64::sqrt);
-    let with_gain = m.dim > 2;
-    ParameterResiduals {
-        speed_mps: m.r[0],
-        speed_sigma_mps: sd[0],
-        z_speed: m.r[0] / sd[0],
-        displacement_t: m.r[1] * d_nom_t,
-        displacement_sigma_t: sd[1] * d_nom_t,
-        z_displacement: m.r[1] / sd[1],
-        ln_gain: with_gain.then_some(m.r[2]),
-        ln_gain_sigma: with_gain.then_some(sd[2]),
-        z_ln_gain: with_gain.then_some(m.r[2] / sd[2]),
-        correlation: m.cov.correlation(0, 1),
-        chi2: stats::dot(z, z),
-        dof: m.dim,
     }
 }
 

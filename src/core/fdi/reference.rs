@@ -23,10 +23,12 @@
 //! ## Commissioning: the first tests of each method
 //!
 //! Decisions use the design reference with wide limits (`fdi.commissioning-spread-*`,
-//! uncorrelated): no ship of the family alarms on its own structural bias, a gross fault
-//! still does. Each test under those limits' single-test alarm limit joins the sample (a
-//! hull whose own bias alerts on them still commissions; a fault arising in the sample is
-//! the change-point test's, `changepoint`). Commissioning
+//! uncorrelated): no ship of the family alerts on its own structural bias; a test beyond
+//! them alerts, never alarms (a ship unlike the family, or declared wrong, and a gross fault
+//! look alike before the vessel has a reference: `crate::core::fdi::decision`). Every
+//! completed test joins the sample (a hull whose own bias is beyond the wide limits still
+//! commissions; a fault arising in the sample is the change-point test's, `changepoint`).
+//! Commissioning
 //! ends as soon as the evidence allows (`resolved`): at `n >= 6` tests (5 when
 //! `fdi.commissioning-tests` is 5) when the reference resolves the faults it must
 //! (`reference.resolve-speed-mps`, `reference.resolve-displacement`): per component,

@@ -4,6 +4,8 @@
 use super::decision::Limits;
 use super::fit::ModelFit;
 use super::lerp;
+use super::reference::Measured;
+use super::stats::{dot, P};
 use crate::core::baseline::config::BaselineConfig;
 use crate::core::model::ShipConfig;
 use crate::core::monitor::config::CoreConfig;
@@ -310,5 +312,25 @@ impl Fingerprint {
             ));
         }
         (!why.is_empty()).then(|| why.join("; "))
+    }
+}
+
+/// The report's parameter residuals of a measured test (`z` its whitened residual).
+pub(super) fn parameter_report(m: &Measured, z: [f64; P], d_nom_t: f64) -> ParameterResiduals {
+    let sd = m.cov.variances().map(f64::sqrt);
+    let with_gain = m.dim > 2;
+    ParameterResiduals {
+        speed_mps: m.r[0],
+        speed_sigma_mps: sd[0],
+        z_speed: m.r[0] / sd[0],
+        displacement_t: m.r[1] * d_nom_t,
+        displacement_sigma_t: sd[1] * d_nom_t,
+        z_displacement: m.r[1] / sd[1],
+        ln_gain: with_gain.then_some(m.r[2]),
+        ln_gain_sigma: with_gain.then_some(sd[2]),
+        z_ln_gain: with_gain.then_some(m.r[2] / sd[2]),
+        correlation: m.cov.correlation(0, 1),
+        chi2: dot(z, z),
+        dof: m.dim,
     }
 }

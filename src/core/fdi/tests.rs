@@ -291,3 +291,41 @@ fn a_test_without_an_estimate_is_decided_on_its_servo_check_alone() {
     let d = a.residuals.decision.unwrap();
     assert!(d.servo.unwrap().statistic > d.servo.unwrap().threshold);
 }
+
+/// A commissioning test beyond the wide limits (HBT reading the displacement 1.3 D_nom high,
+/// as models trained on the Mariner's own particulars do at its fast and light corner) joins
+/// the sample: a misfit model reads the ship so from its first test, and the vessel's own
+/// reference is what judges it (`decision`: on wide limits it alerts, never alarms).
+#[test]
+fn a_commissioning_test_beyond_the_wide_limits_joins_the_sample() {
+    let cfg = CoreConfig::default();
+    let mut fdi = Fdi::new(&cfg);
+    let s = fdi.settings();
+    let raw = super::reference::Raw {
+        speed_mps: -0.2,
+        displacement: 1.3,
+        speed_sigma_mps: 0.3,
+        displacement_sigma: 0.03,
+        speed_log_mps: 10.0,
+        displacement_declared_t: 4000.0,
+        excitation_scale: 0.5,
+        ln_gain: Some(-5.0),
+        ln_damping: None,
+        speed_slope: [0.0; 3],
+        loading_slope: [0.0; 3],
+    };
+    let (basis, m) = fdi.commissioning[1].measure(&s, &raw);
+    assert!(
+        matches!(basis, Basis::Commissioning { done: 0, .. }),
+        "{basis:?}"
+    );
+    let z = m.whitened().unwrap();
+    let q = stats::dot(z, z);
+    assert!(
+        q > fdi.limits.param[m.dim],
+        "{q} under the single-test limit"
+    );
+    let added = fdi.learn(1, Some(raw), Some(&basis), Some((z, m.dim)), None, &s);
+    assert_eq!(added, Added::Sample);
+    assert_eq!(fdi.commissioning[1].tests, 1);
+}
