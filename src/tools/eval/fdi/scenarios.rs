@@ -92,7 +92,8 @@ pub struct FdiScenario {
     pub drift: bool,
     /// The cause the isolation must name (`None`: nominal, nothing to detect).
     pub expected: Option<Cause>,
-    /// Range of u [m/s] and D [t] to draw from (`None`: the configured range).
+    /// Range of u [m/s] and D [t] to draw from, stated on the family's box and mapped onto
+    /// the configured one (`on_box`; `None`: the configured range).
     pub speed_mps: Option<[f64; 2]>,
     /// As above for D.
     pub displacement_t: Option<[f64; 2]>,
@@ -268,7 +269,8 @@ pub fn envelope_scenarios() -> Vec<FdiScenario> {
         sea_rises: true,
     };
     let after = Onset::AfterCommissioning;
-    // D (1 + x) stays in the configured 4000..10000 t for every x drawn or faulted.
+    // D (1 + x) stays in the family's 4000..10000 t for every x drawn or faulted (on another
+    // class's box, mapped linearly by `on_box`, within a few per cent of it).
     let loaded = Some([4000.0 / (1.0 + LOADING[0]), 10000.0 / (1.0 + LOADING[1])]);
     let d_pm10 = Some([4000.0 / 0.9, 10000.0 / 1.1]);
     let d_pm25 = Some([4000.0 / 0.75, 10000.0 / 1.25]);
@@ -468,6 +470,17 @@ pub struct Drawn {
     pub onset_test: Option<usize>,
 }
 
+/// A scenario's range, stated on the family's box (DOMAIN's 4..10 m/s, 4000..10000 t: the
+/// default `ship.*-range`), mapped linearly onto the configured box (a vessel of another
+/// class, `train --vessel`); the same numbers when the configured box is the family's.
+fn on_box(range: [f64; 2], family: [f64; 2], configured: [f64; 2]) -> [f64; 2] {
+    if configured == family {
+        return range;
+    }
+    let k = (configured[1] - configured[0]) / (family[1] - family[0]);
+    range.map(|x| configured[0] + (x - family[0]) * k)
+}
+
 /// Draws the run's ship and fault list. With `corner = Some(k)` the ship sits at corner
 /// `k % 4` of the scenario's (u, D) box (low/high speed, low/high displacement) instead of a
 /// random point. The classic draws (u, D, drift, the ship's seed) come first, so the classic
@@ -480,8 +493,19 @@ pub fn draw(
     corner: Option<usize>,
 ) -> Result<Drawn, String> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let [u_lo, u_hi] = sc.speed_mps.unwrap_or(cfg.ship.speed_range_mps);
-    let [d_lo, d_hi] = sc.displacement_t.unwrap_or(cfg.ship.displacement_range_t);
+    let family = crate::core::model::ShipConfig::default();
+    let [u_lo, u_hi] = sc.speed_mps.map_or(cfg.ship.speed_range_mps, |r| {
+        on_box(r, family.speed_range_mps, cfg.ship.speed_range_mps)
+    });
+    let [d_lo, d_hi] = sc
+        .displacement_t
+        .map_or(cfg.ship.displacement_range_t, |r| {
+            on_box(
+                r,
+                family.displacement_range_t,
+                cfg.ship.displacement_range_t,
+            )
+        });
     let mut u = rng.gen_range(u_lo..=u_hi);
     let mut d = rng.gen_range(d_lo..=d_hi);
     if let Some(k) = corner {

@@ -183,6 +183,37 @@ fn envelope_draws_stay_in_the_envelope() {
     }
 }
 
+/// A vessel of another class (its own `ship.*-range`): every scenario draws inside its box
+/// (the family's ranges mapped onto it), its corners at the mapped ends; on the family's box
+/// the numbers are the scenarios' own. (Before the mapping, every displacement scenario
+/// drew the family's 4444-9091 t on a 18 000-32 000 t class and its runs broke.)
+#[test]
+fn another_class_draws_inside_its_own_box() {
+    let mut cfg = Config::default();
+    cfg.ship.length_m = 175.0;
+    cfg.ship.nominal_speed_mps = 9.0;
+    cfg.ship.nominal_displacement_t = 25000.0;
+    cfg.ship.speed_range_mps = [6.0, 12.0];
+    cfg.ship.displacement_range_t = [18000.0, 32000.0];
+    let all = [scenarios(), envelope_scenarios(), commissioning_scenarios()].concat();
+    for sc in &all {
+        for seed in 0..8 {
+            let corner = (seed % 2 == 0).then_some(seed as usize / 2);
+            let d = scenarios::draw(&cfg, sc, SeaState::Calm, seed, corner)
+                .unwrap_or_else(|e| panic!("{}: {e}", sc.name));
+            let (u, dt) = (d.scenario.speed_mps, d.scenario.displacement_t);
+            assert!((6.0..=12.0).contains(&u), "{}: {u}", sc.name);
+            assert!((18000.0..=32000.0).contains(&dt), "{}: {dt}", sc.name);
+        }
+    }
+    let sc = by_name(scenarios(), "displacement +10 %");
+    let lo = scenarios::draw(&cfg, &sc, SeaState::Calm, 0, Some(0)).unwrap();
+    // The family's 5000 t (1000 t over its 4000) maps to 18 000 + 1000 x 14 000 / 6000.
+    assert!((lo.scenario.displacement_t - (18000.0 + 1000.0 * 14.0 / 6.0)).abs() < 1e-6);
+    let family = scenarios::draw(&Config::default(), &sc, SeaState::Calm, 0, Some(0)).unwrap();
+    assert_eq!(family.scenario.displacement_t, 5000.0);
+}
+
 /// A cheap configuration: five commissioning tests of HBT, one test after commissioning.
 fn cheap() -> (Config, FdiEvalOptions, Arc<Estimator>) {
     let mut cfg = Config::default();
