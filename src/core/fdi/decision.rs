@@ -44,9 +44,9 @@
 //! only its own look, `n = 1`: its residual is the model's bias on this ship, the same at
 //! every test, and no average shrinks it. Over its limit it raises an **alert, never an
 //! alarm**: the wide limits bound how far the networks may misread a ship of the family they
-//! were trained for, and a test beyond them (its displacement read 1.25 times the declared
-//! off or more: no loading or rudder fault does that) says the ship is unlike that family at
-//! this operating point, or was declared wrong, steadily from its first test. A fault and a
+//! were trained for, and a test beyond them (its displacement read about 1.3 D_nom off, or
+//! its speed about 11 m/s: no loading, rudder or log fault does that) says the ship is unlike
+//! that family at this operating point, or was declared wrong, steadily from its first test. A fault and a
 //! model that does not fit cannot be told apart before the vessel has a reference of its
 //! own; the test joins the commissioning sample (`crate::core::fdi::learning`), whose
 //! change-point test catches a change inside it, and the vessel's own reference judges the
