@@ -64,8 +64,20 @@ pub struct Change {
     /// Range of the loading change, a fraction of the displacement (`set_loading_t`, declared
     /// as `design/displacement`); `None`: the loading stays.
     pub loading: Option<[f64; 2]>,
-    /// The sea rises one state (calm to moderate, moderate to rough; a rough sea stays).
-    pub sea_rises: bool,
+    /// How the sea changes.
+    pub sea: SeaChange,
+}
+
+/// How the sea changes at an envelope run's change.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SeaChange {
+    /// It stays.
+    Stays,
+    /// It rises one state (calm to moderate, moderate to rough; a rough sea stays).
+    Rises,
+    /// It falls one state (rough to moderate, moderate to calm; a calm sea stays): a
+    /// reference learned in a rougher sea judges tests in a calmer one.
+    Falls,
 }
 
 /// When the scenario's fault arises.
@@ -242,7 +254,7 @@ const LOADING: [f64; 2] = [-0.3, 0.2];
 
 /// The envelope scenarios: a healthy ship whose speed and/or declared loading changes after
 /// commissioning, then displacement faults after a speed change (4 tests later, or with it);
-/// then the same for a sea that rises a state. A row's seeds follow its place in the list:
+/// then the same for a sea that rises a state, then for one that falls. A row's seeds follow its place in the list:
 /// new rows go at its end.
 pub fn envelope_scenarios() -> Vec<FdiScenario> {
     let disp = Some(Cause::DisplacementOrRudderEffectiveness);
@@ -261,12 +273,16 @@ pub fn envelope_scenarios() -> Vec<FdiScenario> {
     let speed = |speed_mps| Change {
         speed_mps,
         loading: None,
-        sea_rises: false,
+        sea: SeaChange::Stays,
     };
     let sea = Change {
         speed_mps: &[],
         loading: None,
-        sea_rises: true,
+        sea: SeaChange::Rises,
+    };
+    let calmer = Change {
+        sea: SeaChange::Falls,
+        ..sea
     };
     let after = Onset::AfterCommissioning;
     // D (1 + x) stays in the family's 4000..10000 t for every x drawn or faulted (on another
@@ -292,7 +308,7 @@ pub fn envelope_scenarios() -> Vec<FdiScenario> {
             Change {
                 speed_mps: &[],
                 loading: Some(LOADING),
-                sea_rises: false,
+                sea: SeaChange::Stays,
             },
             after,
             None,
@@ -305,7 +321,7 @@ pub fn envelope_scenarios() -> Vec<FdiScenario> {
             Change {
                 speed_mps: ENVELOPE_SPEEDS_MPS,
                 loading: Some(LOADING),
-                sea_rises: false,
+                sea: SeaChange::Stays,
             },
             after,
             None,
@@ -374,6 +390,24 @@ pub fn envelope_scenarios() -> Vec<FdiScenario> {
             Onset::AfterChange(4),
             Some(3),
         ),
+        e(
+            "envelope: the sea falls a state",
+            None,
+            None,
+            None,
+            calmer,
+            after,
+            None,
+        ),
+        e(
+            "envelope: the sea falls, D +10 % 4 tests later",
+            Some("displacement_pct:10@0"),
+            disp,
+            d_pm10,
+            calmer,
+            Onset::AfterChange(4),
+            Some(3),
+        ),
     ]
 }
 
@@ -431,7 +465,7 @@ pub fn commissioning_scenarios() -> Vec<FdiScenario> {
             change: Some(Change {
                 speed_mps: &[1.0, 1.5],
                 loading: None,
-                sea_rises: false,
+                sea: SeaChange::Stays,
             }),
             ..c(
                 "commissioning: healthy, speed +-1..1.5 m/s at test k",
@@ -565,7 +599,7 @@ pub fn draw(
 
 /// Draws a change from (u [m/s], D [t]): a magnitude of `c.speed_mps`, its sign among those
 /// that keep the speed in `range`, a loading fraction in `c.loading`, and the sea one state
-/// above `sea` when it rises (no draw).
+/// above or below `sea` when it rises or falls (no draw).
 fn draw_change(
     rng: &mut ChaCha8Rng,
     c: &Change,
@@ -599,10 +633,13 @@ fn draw_change(
         }
     };
     let displacement_t = c.loading.map(|[a, b]| d * (1.0 + rng.gen_range(a..=b)));
-    let sea = c.sea_rises.then_some(match sea {
-        SeaState::Calm => SeaState::Moderate,
-        SeaState::Moderate | SeaState::Rough => SeaState::Rough,
-    });
+    let sea = match (c.sea, sea) {
+        (SeaChange::Stays, _) => None,
+        (SeaChange::Rises, SeaState::Calm) => Some(SeaState::Moderate),
+        (SeaChange::Rises, SeaState::Moderate | SeaState::Rough) => Some(SeaState::Rough),
+        (SeaChange::Falls, SeaState::Calm | SeaState::Moderate) => Some(SeaState::Calm),
+        (SeaChange::Falls, SeaState::Rough) => Some(SeaState::Moderate),
+    };
     Ok(DrawnChange {
         speed_mps,
         displacement_t,

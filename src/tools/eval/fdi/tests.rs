@@ -338,6 +338,39 @@ fn an_envelope_run_whose_sea_rises_measures_the_new_sea() {
     }
 }
 
+/// The sea falls a state at commissioning's end (rough to moderate, moderate to calm, a calm
+/// sea stays): a reference learned in the rougher sea judges the test in the calmer one.
+#[test]
+fn an_envelope_run_whose_sea_falls_measures_the_calmer_sea() {
+    let cfg = Config::default();
+    let sc = by_name(envelope_scenarios(), "envelope: the sea falls a state");
+    for (from, to) in [
+        (SeaState::Rough, SeaState::Moderate),
+        (SeaState::Moderate, SeaState::Calm),
+        (SeaState::Calm, SeaState::Calm),
+    ] {
+        let c = scenarios::draw(&cfg, &sc, from, 3, None)
+            .unwrap()
+            .change
+            .unwrap();
+        assert_eq!(
+            (c.sea, c.speed_mps, c.displacement_t),
+            (Some(to), None, None)
+        );
+    }
+    let (cfg, o, est) = cheap();
+    let r = run_one(&cfg, &sc, SeaState::Moderate, &o.methods, 11, &est, &o, None);
+    assert_eq!(r.error, None);
+    for t in &r.commissioning {
+        assert!(t.sea_index > 0.15 && t.sea_index < 0.3, "{t:?}");
+    }
+    assert_eq!(r.tests.len(), 1);
+    for t in &r.tests {
+        assert_eq!(t.phase, Phase::AfterChange);
+        assert!(t.sea_index > 0.03 && t.sea_index < 0.1, "{t:?}");
+    }
+}
+
 /// The commissioning run of seed 5 with D +12 % in a calm sea: the onset's test of the ship
 /// and the run (which completed).
 fn displacement_during_commissioning(
