@@ -198,6 +198,7 @@ pub(crate) fn eval_fdi(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
     o.outcomes = a.outcomes.clone();
     o.in_turn = a.in_turn;
     o.scenarios = a.scenarios;
+    o.onset_after = a.onset_after;
     if let Some(m) = a.method {
         o.methods = vec![m];
     }

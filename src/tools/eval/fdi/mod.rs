@@ -97,6 +97,10 @@ pub struct FdiEvalOptions {
     pub in_turn: bool,
     /// Which scenario sets run (`--scenarios`).
     pub scenarios: ScenarioSet,
+    /// Classic scenarios: the fault arises this many tests of the ship after commissioning
+    /// ends (the vessel learning its healthy tests meanwhile), not at its end
+    /// (`--onset-after`).
+    pub onset_after: usize,
 }
 
 impl Default for FdiEvalOptions {
@@ -116,6 +120,7 @@ impl Default for FdiEvalOptions {
             outcomes: None,
             in_turn: false,
             scenarios: ScenarioSet::Classic,
+            onset_after: 0,
         }
     }
 }

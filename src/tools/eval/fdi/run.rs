@@ -230,6 +230,7 @@ fn schedule(
     commissioning: usize,
     after: usize,
     onset: Option<usize>,
+    onset_after: usize,
 ) -> Schedule {
     let window = sc.window_tests.unwrap_or(0);
     match (sc.group, sc.onset) {
@@ -249,6 +250,12 @@ fn schedule(
             change_at: sc.change.map(|_| commissioning),
             inject_at: commissioning + n,
         },
+        (ScenarioSet::Classic, _) => Schedule {
+            commissioning,
+            total: commissioning + onset_after + after.max(window),
+            change_at: None,
+            inject_at: commissioning + onset_after,
+        },
         _ => Schedule {
             commissioning,
             total: commissioning + after.max(window),
@@ -260,7 +267,8 @@ fn schedule(
 
 /// Runs one run of `methods` (in turn) on the drawn ship: `fdi.commissioning-tests` tests
 /// of each method (the heading drift, when the scenario has one, from the start), then
-/// `o.tests` tests of each. Classic scenarios: the fault arises when commissioning ends.
+/// `o.tests` tests of each. Classic scenarios: the fault arises when commissioning ends, or
+/// `o.onset_after` tests of the ship later.
 /// Envelope scenarios: the operating point changes when commissioning ends, the fault arises
 /// with it or `n` tests of the ship later, and at least the detection window's tests follow
 /// it. Commissioning scenarios: the fault arises before commissioning test `k` of the ship,
@@ -302,6 +310,7 @@ pub fn run_one(
         cfg.fdi.commissioning_tests as usize * methods.len(),
         o.tests * methods.len(),
         drawn.onset_test,
+        o.onset_after,
     );
     let classic = sc.group == ScenarioSet::Classic;
     // A classic fault is present from the start when commissioning is off.

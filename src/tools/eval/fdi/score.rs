@@ -68,7 +68,13 @@ pub fn score(runs: &[RunOutcome], expected: Option<Cause>, within: usize, baseli
         } else {
             &[]
         };
-        for (k, t) in before.iter().chain(r.tests.iter()).enumerate() {
+        // A fault run's tests before the onset (`eval --fdi --onset-after`) are not its
+        // detection's: the healthy rows count false alarms.
+        let after = r
+            .tests
+            .iter()
+            .skip_while(|t| expected.is_some() && !t.fault_present);
+        for (k, t) in before.iter().chain(after).enumerate() {
             if !t.completed {
                 c.aborted += 1;
                 continue;

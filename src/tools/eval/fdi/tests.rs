@@ -230,6 +230,24 @@ fn cheap() -> (Config, FdiEvalOptions, Arc<Estimator>) {
     (cfg, o, est)
 }
 
+/// `--onset-after 2`: a classic fault arises two tests of the ship after commissioning ends;
+/// the tests before it are healthy (`fault_present` false) and not the run's detection's,
+/// which counts from the onset: a gross step (+20 %) is detected at the first test with it.
+#[test]
+fn a_classic_fault_can_arise_after_the_vessel_has_learned_more() {
+    let (cfg, mut o, est) = cheap();
+    o.onset_after = 2;
+    let sc = by_name(scenarios(), "displacement +20 %");
+    let r = run_one(&cfg, &sc, SeaState::Calm, &o.methods, 3, &est, &o, None);
+    assert_eq!(r.error, None);
+    assert_eq!(r.commissioning.len(), 5);
+    let present: Vec<bool> = r.tests.iter().map(|t| t.fault_present).collect();
+    assert_eq!(present, [false, false, true]);
+    assert!(r.tests[..2].iter().all(|t| t.decision != Decision::Fault));
+    let c = score(std::slice::from_ref(&r), sc.expected, 1, false);
+    assert_eq!((c.detected, c.delay_sum), (1, 1));
+}
+
 /// One healthy envelope run: commissioning at the drawn point (its D the nominal one), then the
 /// speed and the declared loading change: the test after it is tagged `after change`, its
 /// speed log within 0.3 m/s of the new speed, its nominal displacement the declared one.
@@ -359,7 +377,16 @@ fn an_envelope_run_whose_sea_falls_measures_the_calmer_sea() {
         );
     }
     let (cfg, o, est) = cheap();
-    let r = run_one(&cfg, &sc, SeaState::Moderate, &o.methods, 11, &est, &o, None);
+    let r = run_one(
+        &cfg,
+        &sc,
+        SeaState::Moderate,
+        &o.methods,
+        11,
+        &est,
+        &o,
+        None,
+    );
     assert_eq!(r.error, None);
     for t in &r.commissioning {
         assert!(t.sea_index > 0.15 && t.sea_index < 0.3, "{t:?}");
