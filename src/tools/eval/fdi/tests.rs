@@ -321,81 +321,73 @@ fn commissioning_waits_for_the_methods_references_past_aborted_tests() {
     );
 }
 
-/// The sea rises a state at commissioning's end (calm to moderate, moderate to rough, a rough
-/// sea stays; no speed or loading change): the test after it measures the new sea's wave yaw
-/// (the sea index, the wave yaw on the heading in deg: calm 0.05, moderate 0.2 by the
-/// simulator's levels, the gyro's noise in the band on top).
-#[test]
-fn an_envelope_run_whose_sea_rises_measures_the_new_sea() {
+/// Wave yaw bands of the sea index [deg] by the simulator's levels (calm 0.05, moderate 0.2,
+/// the gyro's noise in the band on top).
+const CALM_INDEX: (f64, f64) = (0.03, 0.1);
+const MODERATE_INDEX: (f64, f64) = (0.15, 0.3);
+
+/// Checks an envelope row whose sea changes at commissioning's end (no speed or loading
+/// change): the draw from each sea of `steps` gives its sea after, and a run from `from`
+/// measures its commissioning in the band `before` and the test after the change in `after`.
+fn check_sea_change(
+    row: &str,
+    steps: [(SeaState, SeaState); 3],
+    from: SeaState,
+    before: (f64, f64),
+    after: (f64, f64),
+) {
     let cfg = Config::default();
-    let sc = by_name(envelope_scenarios(), "envelope: the sea rises a state");
-    for (from, to) in [
-        (SeaState::Calm, SeaState::Moderate),
-        (SeaState::Moderate, SeaState::Rough),
-        (SeaState::Rough, SeaState::Rough),
-    ] {
-        let c = scenarios::draw(&cfg, &sc, from, 3, None)
+    let sc = by_name(envelope_scenarios(), row);
+    for (a, b) in steps {
+        let c = scenarios::draw(&cfg, &sc, a, 3, None)
             .unwrap()
             .change
             .unwrap();
         assert_eq!(
             (c.sea, c.speed_mps, c.displacement_t),
-            (Some(to), None, None)
+            (Some(b), None, None)
         );
     }
     let (cfg, o, est) = cheap();
-    let r = run_one(&cfg, &sc, SeaState::Calm, &o.methods, 11, &est, &o, None);
+    let r = run_one(&cfg, &sc, from, &o.methods, 11, &est, &o, None);
     assert_eq!(r.error, None);
+    let inside = |x: f64, (lo, hi): (f64, f64)| x > lo && x < hi;
     for t in &r.commissioning {
-        assert!(t.sea_index > 0.03 && t.sea_index < 0.1, "{t:?}");
+        assert!(inside(t.sea_index, before), "{t:?}");
     }
     assert_eq!(r.tests.len(), 1);
     for t in &r.tests {
         assert_eq!(t.phase, Phase::AfterChange);
-        assert!(t.sea_index > 0.15 && t.sea_index < 0.3, "{t:?}");
+        assert!(inside(t.sea_index, after), "{t:?}");
     }
+}
+
+/// The sea rises a state at commissioning's end (calm to moderate, moderate to rough, a rough
+/// sea stays): the test after it measures the new sea's wave yaw.
+#[test]
+fn an_envelope_run_whose_sea_rises_measures_the_new_sea() {
+    use SeaState::{Calm, Moderate, Rough};
+    check_sea_change(
+        "envelope: the sea rises a state",
+        [(Calm, Moderate), (Moderate, Rough), (Rough, Rough)],
+        Calm,
+        CALM_INDEX,
+        MODERATE_INDEX,
+    );
 }
 
 /// The sea falls a state at commissioning's end (rough to moderate, moderate to calm, a calm
 /// sea stays): a reference learned in the rougher sea judges the test in the calmer one.
 #[test]
 fn an_envelope_run_whose_sea_falls_measures_the_calmer_sea() {
-    let cfg = Config::default();
-    let sc = by_name(envelope_scenarios(), "envelope: the sea falls a state");
-    for (from, to) in [
-        (SeaState::Rough, SeaState::Moderate),
-        (SeaState::Moderate, SeaState::Calm),
-        (SeaState::Calm, SeaState::Calm),
-    ] {
-        let c = scenarios::draw(&cfg, &sc, from, 3, None)
-            .unwrap()
-            .change
-            .unwrap();
-        assert_eq!(
-            (c.sea, c.speed_mps, c.displacement_t),
-            (Some(to), None, None)
-        );
-    }
-    let (cfg, o, est) = cheap();
-    let r = run_one(
-        &cfg,
-        &sc,
-        SeaState::Moderate,
-        &o.methods,
-        11,
-        &est,
-        &o,
-        None,
+    use SeaState::{Calm, Moderate, Rough};
+    check_sea_change(
+        "envelope: the sea falls a state",
+        [(Rough, Moderate), (Moderate, Calm), (Calm, Calm)],
+        Moderate,
+        MODERATE_INDEX,
+        CALM_INDEX,
     );
-    assert_eq!(r.error, None);
-    for t in &r.commissioning {
-        assert!(t.sea_index > 0.15 && t.sea_index < 0.3, "{t:?}");
-    }
-    assert_eq!(r.tests.len(), 1);
-    for t in &r.tests {
-        assert_eq!(t.phase, Phase::AfterChange);
-        assert!(t.sea_index > 0.03 && t.sea_index < 0.1, "{t:?}");
-    }
 }
 
 /// The commissioning run of seed 5 with D +12 % in a calm sea: the onset's test of the ship
