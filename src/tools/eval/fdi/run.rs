@@ -250,18 +250,20 @@ fn schedule(
             change_at: sc.change.map(|_| commissioning),
             inject_at: commissioning + n,
         },
-        (ScenarioSet::Classic, _) => Schedule {
-            commissioning,
-            total: commissioning + onset_after + after.max(window),
-            change_at: None,
-            inject_at: commissioning + onset_after,
-        },
-        _ => Schedule {
-            commissioning,
-            total: commissioning + after.max(window),
-            change_at: sc.change.map(|_| commissioning),
-            inject_at: commissioning,
-        },
+        _ => {
+            // A classic fault may arise later (`--onset-after`); the others with the change.
+            let delay = if sc.group == ScenarioSet::Classic {
+                onset_after
+            } else {
+                0
+            };
+            Schedule {
+                commissioning,
+                total: commissioning + delay + after.max(window),
+                change_at: sc.change.map(|_| commissioning),
+                inject_at: commissioning + delay,
+            }
+        }
     }
 }
 

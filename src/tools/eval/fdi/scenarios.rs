@@ -254,8 +254,8 @@ const LOADING: [f64; 2] = [-0.3, 0.2];
 
 /// The envelope scenarios: a healthy ship whose speed and/or declared loading changes after
 /// commissioning, then displacement faults after a speed change (4 tests later, or with it);
-/// then the same for a sea that rises a state, then for one that falls. A row's seeds follow its place in the list:
-/// new rows go at its end.
+/// then the same for a sea that rises a state, then for one that falls. A row's seeds follow
+/// its place in the list: new rows go at its end.
 pub fn envelope_scenarios() -> Vec<FdiScenario> {
     let disp = Some(Cause::DisplacementOrRudderEffectiveness);
     let e = |name, fault, expected, displacement_t, change, onset, window_tests| FdiScenario {
