@@ -88,10 +88,10 @@
 //! arithmetic covers").
 
 use super::isolation;
-use super::reference::Raw;
 use super::stats::{chi2_isf, dot, normal_isf, P};
+pub use super::window::{method_sums, Entry, MethodSums, Source};
 use crate::core::wire::residuals::{Look, TrackState};
-use crate::core::wire::{Cause, Method};
+use crate::core::wire::Cause;
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
 
@@ -177,46 +177,6 @@ pub fn effective_lengths(n: usize) -> f64 {
         })
         .sum();
     m.clamp(1.0, n as f64)
-}
-
-/// One test in the vessel's window.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Entry {
-    /// Its method.
-    pub method: Method,
-    /// The whitened parameter residual (`None`: none measured).
-    pub z: Option<[f64; P]>,
-    /// Its measured components (2: no `e_b`).
-    #[serde(default = "all_components")]
-    pub dim: usize,
-    /// The reference offset error's share `c` of the residual's variance (`None`: wide
-    /// design limits).
-    pub offset_var: Option<f64>,
-    /// The reference it was measured against (a new one for the method drops its older
-    /// tests from the window).
-    pub epoch: u32,
-    /// The whitened directions of the parameter causes (speed log, displacement).
-    pub directions: [[f64; P]; 2],
-    /// The servo check's score (`None`: no servo check).
-    pub z_rate: Option<f64>,
-    /// What it was measured from, to measure it again against a newer reference of its
-    /// method (`None`: as it stands).
-    #[serde(default)]
-    pub source: Option<Source>,
-}
-
-/// A test's raw residuals and its cause directions before whitening (speed log,
-/// displacement), from which its entry is measured against the method's reference.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Source {
-    /// Its raw residuals against the design.
-    pub raw: Raw,
-    /// The causes' directions in `(e_u, e_D, e_b)`.
-    pub directions: [[f64; P]; 2],
-}
-
-fn all_components() -> usize {
-    P
 }
 
 /// Which tests of the window a look covers, and its statistic.
@@ -437,93 +397,6 @@ impl Sequential {
 /// `T / h` of a look (0 without one).
 fn ratio(s: Option<Scored>) -> f64 {
     s.map_or(0.0, |s| s.look.statistic / s.look.threshold)
-}
-
-/// One method's part of a look: the sums over its tests in the look.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MethodSums {
-    /// The method.
-    pub method: Method,
-    /// Sum of its whitened residuals.
-    pub sum: [f64; P],
-    /// Sum of its tests' unit cause directions (speed log, displacement).
-    pub directions: [[f64; P]; 2],
-    /// Per cause, the sum of its tests' whitened directions as they are (per unit of the
-    /// cause: m/s of log bias, the displacement's step).
-    pub along_sum: [[f64; P]; 2],
-    /// Per cause, `sum_k v_k . z_k`.
-    pub projection: [f64; 2],
-    /// Per cause, `sum_k |v_k|^2`.
-    pub norm2: [f64; 2],
-    /// Its tests in the look.
-    pub tests: usize,
-    /// The most components among them.
-    pub dim: usize,
-    /// Its reference offset error's share `c` (the largest among its tests in the look).
-    pub offset_var: f64,
-}
-
-impl MethodSums {
-    /// The sum's variance bound in units of one test's: `n_m (1 + (n_m - 1) c_m)`.
-    pub fn scale(&self) -> f64 {
-        let k = self.tests as f64;
-        k * (1.0 + (k - 1.0) * self.offset_var)
-    }
-
-    /// The sum's component along cause `j`'s unit mean direction, `u_mj . s_m`.
-    pub fn along(&self, j: usize) -> f64 {
-        dot(isolation::unit(self.directions[j]), self.sum)
-    }
-}
-
-/// The per-method sums of the newest `n` entries (`n = 1`: the newest alone, wide or not;
-/// `n > 1`: entries on wide limits left out).
-pub fn method_sums(window: &VecDeque<Entry>, n: usize) -> Vec<MethodSums> {
-    let mut out: Vec<MethodSums> = Vec::new();
-    for e in window.iter().rev().take(n) {
-        let Some(z) = e.z else { continue };
-        let c = match (e.offset_var, n) {
-            (Some(c), _) => c,
-            (None, 1) => 0.0,
-            (None, _) => continue,
-        };
-        let d = e.directions.map(isolation::unit);
-        let v = e.directions;
-        let projection = v.map(|v| dot(v, z));
-        let norm2 = v.map(|v| dot(v, v));
-        match out.iter_mut().find(|o| o.method == e.method) {
-            Some(o) => {
-                o.offset_var = o.offset_var.max(c);
-                for i in 0..P {
-                    o.sum[i] += z[i];
-                    for (acc, di) in o.directions.iter_mut().zip(&d) {
-                        acc[i] += di[i];
-                    }
-                    for (acc, vi) in o.along_sum.iter_mut().zip(&v) {
-                        acc[i] += vi[i];
-                    }
-                }
-                for j in 0..2 {
-                    o.projection[j] += projection[j];
-                    o.norm2[j] += norm2[j];
-                }
-                o.tests += 1;
-                o.dim = o.dim.max(e.dim);
-            }
-            None => out.push(MethodSums {
-                method: e.method,
-                sum: z,
-                directions: d,
-                along_sum: v,
-                projection,
-                norm2,
-                tests: 1,
-                dim: e.dim,
-                offset_var: c,
-            }),
-        }
-    }
-    out
 }
 
 /// Per cause of `isolation::PARAMETER_CAUSES`, whether its size is one for every method. A

@@ -5,6 +5,7 @@ use super::*;
 use crate::core::fdi::config::{FdiConfig, ReferenceConfig};
 use crate::core::fdi::learning::{after_decision, Held, Pending};
 use crate::core::fdi::reference::{self, Basis, Commissioning, Raw};
+use crate::core::wire::Method;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;

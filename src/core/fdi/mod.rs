@@ -44,6 +44,7 @@ mod report;
 pub mod sensitivity;
 pub mod shape;
 pub mod stats;
+pub mod window;
 
 use crate::core::baseline::config::BaselineConfig;
 use crate::core::estimator::{Estimator, EstimatorScratch};
