@@ -203,6 +203,11 @@ pub struct Sequential {
     /// The other parameter causes that evidence had not ruled out
     /// (`isolation::not_ruled_out`), kept with the name.
     pub open: Vec<Cause>,
+    /// The speed log's reading at the ship's last test that had one [m/s].
+    pub last_log_mps: Option<f64>,
+    /// While an alarm holds, the log's reading before the look that raised it: the later
+    /// looks' step is taken from it (`isolation::costs`).
+    pub onset_log_mps: Option<f64>,
 }
 
 /// What one test did to the decision.
@@ -239,7 +244,12 @@ impl Sequential {
     }
 
     /// Takes one completed test; `limits` from the budget.
-    pub fn update(&mut self, limits: &Limits, entry: Entry) -> Step {
+    pub fn update(&mut self, limits: &Limits, mut entry: Entry) -> Step {
+        // The reading before this test is the last test's (`isolation::LogReading`).
+        if let Some(log) = entry.log.as_mut() {
+            log.before_mps = self.last_log_mps;
+            self.last_log_mps = Some(log.now_mps);
+        }
         // One reference per method in the window.
         self.window
             .retain(|e| e.method != entry.method || e.epoch == entry.epoch);
@@ -254,10 +264,11 @@ impl Sequential {
             |s: Option<Scored>| s.is_some_and(|s| s.look.statistic > s.look.alert_threshold);
         // On wide design limits the parameter look alerts, never alarms (module doc).
         let wide = self.window.back().is_some_and(|e| e.offset_var.is_none());
-        let (p_over, s_over) = (over(param) && !wide, over(servo));
-        let window_costs = param.map(|p| isolation::costs(&self.window, p.n));
-        let costs = window_costs.map(|c| c.j);
         let before = self.state;
+        let (p_over, s_over) = (over(param) && !wide, over(servo));
+        let onset = self.onset_log_mps.filter(|_| before == TrackState::Alarm);
+        let window_costs = param.map(|p| isolation::costs(&self.window, p.n, onset));
+        let costs = window_costs.map(|c| c.j);
         let mut raised_by_servo = None;
         // The cause the current evidence names: the channel nearest (or furthest over) its
         // limit; the parameter causes from the same tests as the parameter look.
@@ -273,6 +284,7 @@ impl Sequential {
         if p_over || s_over {
             if before != TrackState::Alarm {
                 raised_by_servo = Some((s_over && !p_over) || ratio(servo) > ratio(param));
+                self.onset_log_mps = isolation::reading_before(&self.window);
             }
             self.named = current.clone();
             self.open = current_open.clone();
@@ -295,6 +307,7 @@ impl Sequential {
             TrackState::Normal => {
                 self.named.clear();
                 self.open.clear();
+                self.onset_log_mps = None;
                 (Vec::new(), Vec::new())
             }
             TrackState::Alert => (current, current_open),

@@ -21,6 +21,7 @@ pub(crate) fn entry(method: Method, z: [f64; 2], c: Option<f64>) -> Entry {
         directions: [[-1.0, 0.3, 0.0], [0.0, 1.0, 0.0]],
         z_rate: None,
         source: None,
+        log: None,
     }
 }
 
@@ -313,7 +314,7 @@ fn isolation_tells_the_speed_log_from_the_displacement_by_direction() {
     assert_eq!(st.isolation, vec![Cause::DisplacementOrRudderEffectiveness]);
     // The cost by hand: off the log line (-1, 0.3) of (0.4, 6): |z|^2 - (u.z)^2.
     let w: std::collections::VecDeque<Entry> = [entry(Method::Hbt, [0.4, 6.0], Some(0.0))].into();
-    let costs = isolation::costs(&w, 1);
+    let costs = isolation::costs(&w, 1, None);
     let j = costs.j;
     let u = [-1.0 / 1.09f64.sqrt(), 0.3 / 1.09f64.sqrt()];
     let along = u[0] * 0.4 + u[1] * 6.0;
@@ -335,7 +336,7 @@ fn isolation_reads_a_log_bias_from_both_methods_in_the_ratio_it_predicts() {
         e.directions = [[0.0, log, 0.0], [0.0, d, 0.0]];
         e
     };
-    let costs_of = |a: Entry, b: Entry| isolation::costs(&[a, b].into(), 2);
+    let costs_of = |a: Entry, b: Entry| isolation::costs(&[a, b].into(), 2, None);
     // The log: CLFRT 2 x 4, HBT 1 x 4 (exact, and with a little noise off the line).
     for noise in [0.0, 0.3] {
         let c = costs_of(
@@ -365,6 +366,59 @@ fn isolation_reads_a_log_bias_from_both_methods_in_the_ratio_it_predicts() {
     let st = s.update(&l, with(Method::Hbt, [0.0, 8.0], 1.0, 2.0));
     assert_eq!(st.state, TrackState::Alarm);
     assert_eq!(st.isolation, vec![Cause::DisplacementOrRudderEffectiveness]);
+}
+
+/// The log's step names an alarm whose one test cannot (the causes' directions 3 degrees
+/// apart, the residual between them) and keeps naming it while the alarm holds: the reading
+/// jumped 0.5 m/s at the alarm's test and stays there, so the later looks take their step from
+/// the reading before the alarm (the window since emptied), not from the test before theirs.
+/// The same tests with the reading steady name the displacement throughout.
+#[test]
+fn the_log_step_names_an_alarm_while_it_holds() {
+    let l = Limits::new(0.1, 3720.0, 4);
+    let a = 3f64.to_radians();
+    let test = |now: f64| {
+        let mut e = entry(Method::Clfrt, [-8.0, 0.2], Some(0.0));
+        // Per m/s of log bias 16 whitened units; the displacement's unit 3 degrees off.
+        e.directions = [[-16.0, 0.0, 0.0], [-a.cos(), a.sin(), 0.0]];
+        e.log = Some(isolation::LogReading {
+            now_mps: now,
+            before_mps: None,
+            sigma_mps: 0.05,
+        });
+        e
+    };
+    for (jump, cause) in [
+        (0.5, Cause::SpeedLog),
+        (0.0, Cause::DisplacementOrRudderEffectiveness),
+    ] {
+        let mut s = Sequential::default();
+        for _ in 0..3 {
+            let st = s.update(
+                &l,
+                Entry {
+                    z: Some([0.1, -0.2, 0.0]),
+                    ..test(7.0)
+                },
+            );
+            assert_eq!(st.state, TrackState::Normal);
+        }
+        for k in 0..4 {
+            let st = s.update(&l, test(7.0 + jump));
+            assert_eq!(st.state, TrackState::Alarm, "{jump} {k}");
+            assert_eq!(st.isolation, vec![cause], "{jump} {k}: {:?}", st.costs);
+        }
+        // Without the reading the residual alone names both the log (its lean).
+        let mut bare = Sequential::default();
+        let st = bare.update(
+            &l,
+            Entry {
+                log: None,
+                ..test(7.0)
+            },
+        );
+        assert_eq!(st.isolation, vec![Cause::SpeedLog], "{:?}", st.costs);
+    }
 }
 
 /// A vessel per the decision's own model: K healthy commissioning tests per method, whose
@@ -468,6 +522,7 @@ fn monte_carlo(
                         raw,
                         directions: [[-1.0, 0.0, 0.0], [0.0, 1.0, -1.0]],
                     }),
+                    log: None,
                 },
             );
             decided += 1;

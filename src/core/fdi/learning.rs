@@ -44,7 +44,7 @@
 //! its tests meanwhile judged against the prediction's wider interval.
 
 use super::changepoint;
-use super::decision::{param_statistics, Sequential, Step};
+use super::decision::{param_statistics, Entry, Sequential, Step};
 use super::measured::measure_entry;
 use super::reference::{Added, Basis, Raw, Settings};
 use super::stats::{chi2_sf, dot, P};
@@ -246,7 +246,7 @@ impl Fdi {
                     )
                 })
                 .filter(|(b, _, _)| matches!(b, Basis::Vessel(_)))
-                .map(|(_, _, n)| n)
+                .map(|(_, _, n)| Entry { log: e.log, ..n })
         });
     }
 }
@@ -293,6 +293,7 @@ mod tests {
             directions: [[-1.0, 0.0, 0.0], [0.0, 1.0, -1.0]],
             z_rate: None,
             source: None,
+            log: None,
         };
         let mut seq = Sequential::default();
         let mut pending = Pending::default();

@@ -186,6 +186,7 @@ pub(super) fn measure_entry(
         directions: directions.map(|d| m.cov.whiten(d).unwrap_or([0.0; P])),
         z_rate,
         source: Some(source),
+        log: None,
     };
     (basis, m, entry)
 }

@@ -406,16 +406,27 @@ impl Fdi {
             (Some(m), Some(z)) => Some(report::parameter_report(&m, z, d_nom_t)),
             _ => None,
         };
-        let entry = measured_basis.map(|(_, _, e)| e).unwrap_or(Entry {
-            method,
-            z: None,
-            dim: 2,
-            offset_var: None,
-            epoch,
-            directions: [[0.0; stats::P]; 2],
-            z_rate,
-            source: None,
+        // The log's reading, and its wander over the vessel's learned tests.
+        let samples = self.commissioning.iter().flat_map(|c| &c.samples);
+        let sigma_mps = isolation::log_wander(samples, self.cfg.floor_speed_mps);
+        let log = raw.map(|(r, _, _)| isolation::LogReading {
+            now_mps: r.speed_log_mps,
+            before_mps: None,
+            sigma_mps,
         });
+        let entry = measured_basis
+            .map(|(_, _, e)| Entry { log, ..e })
+            .unwrap_or(Entry {
+                method,
+                z: None,
+                dim: 2,
+                offset_var: None,
+                epoch,
+                directions: [[0.0; stats::P]; 2],
+                z_rate,
+                source: None,
+                log: None,
+            });
         let step = self.cfg.enabled.then(|| {
             self.remeasure_window(&settings);
             self.sequential.update(&self.limits, entry)

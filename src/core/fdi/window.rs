@@ -32,6 +32,11 @@ pub struct Entry {
     /// method (`None`: as it stands).
     #[serde(default)]
     pub source: Option<Source>,
+    /// The speed log's reading at the test and before it (`None`: not known): a speed-log
+    /// bias is a jump of the reading, a change of loading leaves it where it was
+    /// (`isolation`).
+    #[serde(default)]
+    pub log: Option<isolation::LogReading>,
 }
 
 /// A test's raw residuals and its cause directions before whitening (speed log,
