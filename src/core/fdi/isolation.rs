@@ -156,19 +156,19 @@ pub fn step_cost(x: f64, sigma: f64) -> f64 {
     (2.0 * (ln_density(0.0) - ln_density(x))).max(0.0)
 }
 
-/// The entries of the newest `n` that a look takes (those `method_sums` takes), newest first.
+/// The entries of the newest `n` that a look takes, newest first.
 fn taken(window: &VecDeque<Entry>, n: usize) -> Vec<&Entry> {
     window
         .iter()
         .rev()
         .take(n)
-        .filter(|e| e.z.is_some() && (e.offset_var.is_some() || n == 1))
+        .filter(|e| e.in_look(n))
         .collect()
 }
 
-/// The log's reading before the window's oldest test that has one: before any fault that arose within
-/// the window (the look nearest its limit may be shorter than the fault's age: a test that
-/// alerted, then one that alarmed).
+/// The log's reading before the window's oldest test that has one: before any fault that
+/// arose within the window (the look nearest its limit may be shorter than the fault's age:
+/// a test that alerted, then one that alarmed).
 pub fn reading_before(window: &VecDeque<Entry>) -> Option<f64> {
     window.iter().find_map(|e| e.log?.before_mps)
 }

@@ -49,6 +49,14 @@ pub struct Source {
     pub directions: [[f64; P]; 2],
 }
 
+impl Entry {
+    /// Whether a look over the newest `n` entries takes it: one with a parameter residual, on
+    /// the vessel's reference (`n > 1`) or any (`n = 1`, the newest alone).
+    pub fn in_look(&self, n: usize) -> bool {
+        self.z.is_some() && (self.offset_var.is_some() || n == 1)
+    }
+}
+
 fn all_components() -> usize {
     P
 }
@@ -94,12 +102,9 @@ impl MethodSums {
 /// `n > 1`: entries on wide limits left out).
 pub fn method_sums(window: &VecDeque<Entry>, n: usize) -> Vec<MethodSums> {
     let mut out: Vec<MethodSums> = Vec::new();
-    for e in window.iter().rev().take(n) {
-        let Some(z) = e.z else { continue };
-        let c = match (e.offset_var, n) {
-            (Some(c), _) => c,
-            (None, 1) => 0.0,
-            (None, _) => continue,
+    for e in window.iter().rev().take(n).filter(|e| e.in_look(n)) {
+        let (Some(z), c) = (e.z, e.offset_var.unwrap_or(0.0)) else {
+            continue;
         };
         let d = e.directions.map(isolation::unit);
         let v = e.directions;
