@@ -95,6 +95,7 @@ fn full() -> Residuals {
                 speed_log: 0.4,
                 displacement_or_rudder_effectiveness: 1.2,
             }),
+            log_step_mps: Some(0.5),
             not_ruled_out: vec![Cause::SpeedLog],
         }),
         baseline: Some(BaselineReport {

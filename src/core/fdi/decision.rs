@@ -229,6 +229,8 @@ pub struct Step {
     /// The parameter causes' costs `J_c` over the parameter look's window (speed log,
     /// displacement; `isolation`), before an alarm spends it.
     pub costs: Option<[f64; 2]>,
+    /// The speed log's step those costs took (`isolation::costs`) [m/s].
+    pub log_step_mps: Option<f64>,
 }
 
 impl Sequential {
@@ -269,6 +271,7 @@ impl Sequential {
         let onset = self.onset_log_mps.filter(|_| before == TrackState::Alarm);
         let window_costs = param.map(|p| isolation::costs(&self.window, p.n, onset));
         let costs = window_costs.map(|c| c.j);
+        let log_step_mps = window_costs.and_then(|c| c.log_step_mps);
         let mut raised_by_servo = None;
         // The cause the current evidence names: the channel nearest (or furthest over) its
         // limit; the parameter causes from the same tests as the parameter look.
@@ -321,6 +324,7 @@ impl Sequential {
             isolation,
             open,
             costs,
+            log_step_mps,
         }
     }
 

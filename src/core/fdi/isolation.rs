@@ -88,6 +88,8 @@ pub struct Costs {
     pub j: [f64; 2],
     /// Its degrees of freedom: the look's components less the sizes the model fitted.
     pub dof: [f64; 2],
+    /// The log's step the costs took in [m/s] (`None`: none known).
+    pub log_step_mps: Option<f64>,
 }
 
 /// The speed log's reading at a test and before it.
@@ -245,6 +247,7 @@ pub fn costs(window: &VecDeque<Entry>, n: usize, onset: Option<f64>) -> Costs {
     let mut out = Costs {
         j: [j_log_min, j_d],
         dof: [dof - 1.0, dof - per.len() as f64],
+        log_step_mps: None,
     };
     // The log's reading: one more component in each model (module doc, "The log's step").
     if let Some((step, sigma)) = look_step(window, n, onset).filter(|_| !per.is_empty()) {
@@ -252,6 +255,7 @@ pub fn costs(window: &VecDeque<Entry>, n: usize, onset: Option<f64>) -> Costs {
         out.j[0] = j_log_min + fit_log_size(var, beta_hat, step, sigma);
         out.j[1] += step_cost(step, sigma);
         out.dof = out.dof.map(|d| d + 1.0);
+        out.log_step_mps = Some(step);
     }
     out
 }
@@ -261,7 +265,7 @@ pub fn costs(window: &VecDeque<Entry>, n: usize, onset: Option<f64>) -> Costs {
 /// under the smallest double), the one nearer its chi-square's bulk by the Wilson-Hilferty
 /// normal score, and then the one with more degrees of freedom (fewer sizes fitted).
 pub fn name(costs: Costs) -> Vec<Cause> {
-    let Costs { j, dof } = costs;
+    let Costs { j, dof, .. } = costs;
     if !(j.iter().chain(&dof).all(|x| x.is_finite()) && dof.iter().all(|d| *d > 0.0)) {
         return Vec::new();
     }
@@ -290,7 +294,7 @@ pub const RULE_OUT_CONFIDENCE: f64 = 0.95;
 /// - J_named <= chi2_{p_named}(RULE_OUT_CONFIDENCE)`, `p_named` the sizes its model fitted
 /// (the log 1, the displacement one per method: `dof_log - dof_D + 1`).
 pub fn not_ruled_out(costs: Costs, named: Cause) -> Vec<Cause> {
-    let Costs { j, dof } = costs;
+    let Costs { j, dof, .. } = costs;
     let Some(k) = PARAMETER_CAUSES.iter().position(|c| *c == named) else {
         return Vec::new();
     };

@@ -500,6 +500,7 @@ impl Fdi {
                     speed_log: l,
                     displacement_or_rudder_effectiveness: d,
                 }),
+                log_step_mps: s.log_step_mps,
                 not_ruled_out: s.open.clone(),
             }),
             baseline: Some(baseline),

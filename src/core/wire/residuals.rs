@@ -249,6 +249,11 @@ pub struct DecisionReport {
     /// degrees of freedom names it: `crate::core::fdi::isolation`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cause_costs: Option<CauseCosts>,
+    /// The speed log's step those costs took: the mean reading over the look's tests less the
+    /// reading before the fault [m/s] (a log bias is a jump of the reading, a loading change
+    /// none; absent when not known).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub log_step_mps: Option<f64>,
     /// The other parameter causes the evidence behind the report's `isolation` does not rule
     /// out at 95 % (`crate::core::fdi::isolation::not_ruled_out`; absent when none).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
