@@ -385,6 +385,7 @@ fn the_log_step_names_an_alarm_while_it_holds() {
             now_mps: now,
             before_mps: None,
             sigma_mps: 0.05,
+            learned_point: true,
         });
         e
     };

@@ -413,6 +413,7 @@ impl Fdi {
             now_mps: r.speed_log_mps,
             before_mps: None,
             sigma_mps,
+            learned_point: matches!(basis, Some(Basis::Vessel(p)) if p.nearest <= 1.0),
         });
         let entry = measured_basis
             .map(|(_, _, e)| Entry { log, ..e })
