@@ -251,7 +251,7 @@ pub struct DecisionReport {
     pub cause_costs: Option<CauseCosts>,
     /// The speed log's step those costs took: the mean reading over the look's tests less the
     /// reading before the fault [m/s] (a log bias is a jump of the reading, a loading change
-    /// none; absent when not known).
+    /// none; absent when not known, or at a point the vessel has not learned).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub log_step_mps: Option<f64>,
     /// The other parameter causes the evidence behind the report's `isolation` does not rule
