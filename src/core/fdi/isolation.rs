@@ -266,7 +266,7 @@ pub fn costs(window: &VecDeque<Entry>, n: usize, onset: Option<f64>) -> Costs {
         log_step_mps: None,
     };
     // The log's reading: one more component in each model (module doc, "The log's step").
-    if let Some((step, sigma)) = look_step(window, n, onset).filter(|_| !per.is_empty()) {
+    if let Some((step, sigma)) = look_step(window, n, onset) {
         let beta_hat = if var > 0.0 { proj / var } else { step };
         out.j[0] = j_log_min + fit_log_size(var, beta_hat, step, sigma);
         out.j[1] += step_cost(step, sigma);

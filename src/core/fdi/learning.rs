@@ -204,7 +204,7 @@ impl Fdi {
             }
         }
         if step.is_some() {
-            let learned_point = matches!(basis, Some(Basis::Vessel(p)) if p.nearest <= 1.0);
+            let learned_point = basis.is_some_and(Basis::at_learned_point);
             for h in after_decision(
                 &mut self.pending,
                 &mut self.sequential,

@@ -144,13 +144,19 @@ pub fn kappa(nu: f64) -> f64 {
 }
 
 impl Basis {
+    /// Whether it is the vessel's reference at a point it has learned (a learned test
+    /// within one bandwidth: the report's `commissioned`), not a prediction.
+    pub fn at_learned_point(&self) -> bool {
+        matches!(self, Basis::Vessel(p) if p.nearest <= 1.0)
+    }
+
     /// Name in the report's `residuals.reference.kind`.
     pub fn name(&self) -> &'static str {
         match self {
             Basis::Design => "design",
             Basis::Commissioning { .. } => "commissioning",
             Basis::Inconsistent { .. } => "commissioning_inconsistent",
-            Basis::Vessel(p) if p.nearest <= 1.0 => "commissioned",
+            b if b.at_learned_point() => "commissioned",
             Basis::Vessel(_) => "predicted",
         }
     }

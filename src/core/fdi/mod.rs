@@ -413,7 +413,7 @@ impl Fdi {
             now_mps: r.speed_log_mps,
             before_mps: None,
             sigma_mps,
-            learned_point: matches!(basis, Some(Basis::Vessel(p)) if p.nearest <= 1.0),
+            learned_point: basis.as_ref().is_some_and(Basis::at_learned_point),
         });
         let entry = measured_basis
             .map(|(_, _, e)| Entry { log, ..e })
@@ -566,7 +566,7 @@ impl Fdi {
             Basis::Design => ReferenceKind::Design,
             Basis::Commissioning { .. } => ReferenceKind::Commissioning,
             Basis::Inconsistent { .. } => ReferenceKind::CommissioningInconsistent,
-            Basis::Vessel(p) if p.nearest <= 1.0 => ReferenceKind::Commissioned,
+            b if b.at_learned_point() => ReferenceKind::Commissioned,
             Basis::Vessel(_) => ReferenceKind::Predicted,
         };
         let r = c.reference;
