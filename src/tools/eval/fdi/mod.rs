@@ -216,7 +216,7 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
             }
         });
     println!(
-        "# FDI scenario suite{}: seed {}, {} runs per fault scenario, {} per nominal one, {} commissioning tests then {} tests per run{}",
+        "# FDI scenario suite{}: seed {}, {} runs per fault scenario, {} per nominal one, commissioning (at most {} tests of each method) then {} tests per run{}",
         if o.family { " on the family of real ships" } else { "" },
         o.seed,
         o.runs,

@@ -335,21 +335,26 @@ pub fn run_one(
     let mut out = Vec::new();
     let mut next = ls.time_s() + o.warmup_s;
     let max_test_s = cfg.safety.max_test_duration_s + 120.0;
-    // Commissioning goes on until every method has its reference (an aborted test is no
-    // commissioning test), for at most as many tests of the ship again; the schedule after it
-    // moves with it. Not in the commissioning set, whose faults arise inside it.
-    let mut extra = 0;
+    // Commissioning ends when the vessel's does: as soon as every method has its reference
+    // (`fdi.commissioning-tests` is the latest; the sample may resolve the design's faults
+    // sooner), and it goes on until then (an aborted test is no commissioning test), for at
+    // most as many tests of the ship again. The schedule after it moves with it. Not in the
+    // commissioning set, whose faults arise inside it.
+    let mut extra: isize = 0;
     loop {
-        let done = run.commissioning.len() + run.tests.len();
-        if sc.group != ScenarioSet::Commissioning
-            && done - extra == plan.commissioning
-            && extra < plan.commissioning
-            && !methods.iter().all(|&m| ls.monitor.method_commissioned(m))
-        {
-            extra += 1;
+        let raw = run.commissioning.len() + run.tests.len();
+        let planned = raw as isize - extra;
+        let commissioned = || methods.iter().all(|&m| ls.monitor.method_commissioned(m));
+        if sc.group != ScenarioSet::Commissioning {
+            let end = plan.commissioning as isize;
+            if planned < end && raw > 0 && commissioned() {
+                extra = raw as isize - end;
+            } else if planned == end && extra < end && !commissioned() {
+                extra += 1;
+            }
         }
-        let method = methods.get(done % methods.len()).copied().unwrap_or(first);
-        let done = done - extra;
+        let method = methods.get(raw % methods.len()).copied().unwrap_or(first);
+        let done = (raw as isize - extra).max(0) as usize;
         if done >= plan.total {
             break;
         }

@@ -248,6 +248,26 @@ fn a_classic_fault_can_arise_after_the_vessel_has_learned_more() {
     assert_eq!((c.detected, c.delay_sum), (1, 1));
 }
 
+/// The suite's commissioning ends when the vessel's does: with room for 12 tests, this calm
+/// sea's CLFRT sample resolves the design's faults sooner (`reference.resolve-*`), and the
+/// fault arises at the first test on the vessel's own reference (the last commissioning
+/// test still on the design's, the first after it not), not after the 12.
+#[test]
+fn a_classic_fault_arises_when_the_vessels_commissioning_ends() {
+    let (mut cfg, mut o, est) = cheap();
+    cfg.fdi.commissioning_tests = 12;
+    o.methods = vec![Method::Clfrt];
+    let sc = by_name(scenarios(), "displacement +20 %");
+    let r = run_one(&cfg, &sc, SeaState::Calm, &o.methods, 2, &est, &o, None);
+    assert_eq!(r.error, None);
+    let n = r.commissioning.len();
+    assert!((6..12).contains(&n), "{n}");
+    let kind = |t: &TestOutcome| t.reference_kind.clone().unwrap_or_default();
+    assert_eq!(kind(&r.commissioning[n - 1]), "commissioning");
+    assert_ne!(kind(&r.tests[0]), "commissioning");
+    assert!(r.tests[0].fault_present);
+}
+
 /// One healthy envelope run: commissioning at the drawn point (its D the nominal one), then the
 /// speed and the declared loading change: the test after it is tagged `after change`, its
 /// speed log within 0.3 m/s of the new speed, its nominal displacement the declared one.
