@@ -272,9 +272,10 @@ pub(crate) struct EvalArgs {
     /// arising during commissioning), or `all` (docs/fdi.md, "Operating points").
     #[arg(long, value_name = "SET", default_value = "classic")]
     pub(crate) scenarios: crate::tools::eval::fdi::ScenarioSet,
-    /// With --fdi, classic scenarios: the fault arises N tests of the ship after
-    /// commissioning ends, the vessel learning its healthy tests meanwhile (detection counts
-    /// from the onset; false alarms are the healthy rows'), not at its end.
+    /// With --fdi, classic and envelope scenarios: the fault (envelope: the change of
+    /// operating point or sea, and its fault with or after it) arises N tests of the ship
+    /// after commissioning ends, the vessel learning its healthy tests meanwhile (detection
+    /// counts from the onset; false alarms are the healthy rows'), not at its end.
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub(crate) onset_after: usize,
 }

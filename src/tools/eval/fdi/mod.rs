@@ -97,9 +97,9 @@ pub struct FdiEvalOptions {
     pub in_turn: bool,
     /// Which scenario sets run (`--scenarios`).
     pub scenarios: ScenarioSet,
-    /// Classic scenarios: the fault arises this many tests of the ship after commissioning
-    /// ends (the vessel learning its healthy tests meanwhile), not at its end
-    /// (`--onset-after`).
+    /// Classic and envelope scenarios: the fault (envelope: the change, and its fault with
+    /// or after it) arises this many tests of the ship after commissioning ends (the vessel
+    /// learning its healthy tests meanwhile), not at its end (`--onset-after`).
     pub onset_after: usize,
 }
 

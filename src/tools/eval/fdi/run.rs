@@ -244,26 +244,20 @@ fn schedule(
                 inject_at: at,
             }
         }
+        // A classic fault, or an envelope's change (and its fault with or after it), may
+        // arise later (`--onset-after`), the vessel learning its healthy tests meanwhile.
         (_, Onset::AfterChange(n)) => Schedule {
             commissioning,
-            total: commissioning + n + after.max(window),
-            change_at: sc.change.map(|_| commissioning),
-            inject_at: commissioning + n,
+            total: commissioning + onset_after + n + after.max(window),
+            change_at: sc.change.map(|_| commissioning + onset_after),
+            inject_at: commissioning + onset_after + n,
         },
-        _ => {
-            // A classic fault may arise later (`--onset-after`); the others with the change.
-            let delay = if sc.group == ScenarioSet::Classic {
-                onset_after
-            } else {
-                0
-            };
-            Schedule {
-                commissioning,
-                total: commissioning + delay + after.max(window),
-                change_at: sc.change.map(|_| commissioning),
-                inject_at: commissioning + delay,
-            }
-        }
+        _ => Schedule {
+            commissioning,
+            total: commissioning + onset_after + after.max(window),
+            change_at: sc.change.map(|_| commissioning + onset_after),
+            inject_at: commissioning + onset_after,
+        },
     }
 }
 

@@ -268,6 +268,26 @@ fn a_classic_fault_arises_when_the_vessels_commissioning_ends() {
     assert!(r.tests[0].fault_present);
 }
 
+/// `--onset-after 2` on an envelope run: the operating point changes two tests of the ship
+/// after commissioning ends; the tests before it are at the commissioned point.
+#[test]
+fn an_envelope_change_can_arise_after_the_vessel_has_learned_more() {
+    let (cfg, mut o, est) = cheap();
+    o.onset_after = 2;
+    let sc = by_name(envelope_scenarios(), "envelope: speed and loading");
+    let r = run_one(&cfg, &sc, SeaState::Calm, &o.methods, 11, &est, &o, None);
+    assert_eq!(r.error, None);
+    let phases: Vec<Phase> = r.tests.iter().map(|t| t.phase).collect();
+    assert_eq!(
+        phases,
+        [Phase::BeforeChange, Phase::BeforeChange, Phase::AfterChange]
+    );
+    for t in &r.tests[..2] {
+        assert!((t.speed_log_mps - r.speed_mps).abs() < 0.3, "{t:?}");
+    }
+    assert!((r.tests[2].speed_log_mps - r.speed_after_mps).abs() < 0.3);
+}
+
 /// One healthy envelope run: commissioning at the drawn point (its D the nominal one), then the
 /// speed and the declared loading change: the test after it is tagged `after change`, its
 /// speed log within 0.3 m/s of the new speed, its nominal displacement the declared one.
