@@ -458,6 +458,7 @@ fn a_state_file_plots_the_learned_reference_with_one_point_per_learned_test() {
         speed_log_mps: u,
         displacement_declared_t: 7000.0,
         excitation_scale: 1.0,
+        sea_index: None,
         ln_gain: Some(-5.0 + w / 10.0),
         ln_damping: None,
         speed_slope: [0.0; 3],

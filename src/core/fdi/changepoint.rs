@@ -462,7 +462,7 @@ struct Sums {
 impl Sums {
     fn plus(self, s: &Sample) -> Self {
         let finite = |x: f64| if x.is_finite() { x } else { 0.0 };
-        let x = s.point().x();
+        let x = s.point().x3();
         Self {
             n: self.n + 1.0,
             e: std::array::from_fn(|i| self.e[i] + s.e[i]),

@@ -39,6 +39,7 @@ fn sample(rng: &mut ChaCha8Rng, shift: [f64; 2], u: f64, sd: f64, order: u64) ->
         speed_mps: u,
         displacement_t: 7000.0,
         excitation_scale: 1.0,
+        sea_index: None,
         speed_slope: [0.0; 3],
         loading_slope: [0.0; 3],
         order,
@@ -301,6 +302,7 @@ fn change_point_false_flags() {
                         sd * (0.5 * b + 0.866 * c) + g,
                     ],
                     excitation_scale: scale,
+                    sea_index: None,
                     ..sample(&mut ChaCha8Rng::seed_from_u64(0), [0.0; 2], 7.0, sd, order)
                 }
             };

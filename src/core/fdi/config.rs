@@ -32,6 +32,13 @@ pub struct ReferenceConfig {
     /// Prior standard deviation of the offset's slope in the excitation's scale: `[e_u,
     /// e_D]` [m/s, fraction of D, per unit of ln s].
     pub slope_excitation: [f64; 2],
+    /// Kernel width in the sea [ln of the sea index]: the sea index (the test's wave yaw)
+    /// this factor `e^b` apart lends half its weight; a calm and a moderate sea are 1.3 apart
+    /// at the default anchors.
+    pub bandwidth_sea: f64,
+    /// Prior standard deviation of the offset's slope in the sea: `[e_u, e_D]` [m/s,
+    /// fraction of D, per unit of ln of the sea index].
+    pub slope_sea: [f64; 2],
     /// At most this many learned tests per method.
     pub memory_tests: u32,
     /// Commissioning ends when a speed-log bias of this size would cross the single-test
@@ -51,6 +58,8 @@ impl Default for ReferenceConfig {
             slope_loading: [4.0, 0.3],
             bandwidth_excitation: 0.1,
             slope_excitation: [3.0, 0.3],
+            bandwidth_sea: 0.5,
+            slope_sea: [0.5, 0.04],
             memory_tests: 200,
             resolve_speed_mps: 0.5,
             resolve_displacement: 0.1,
@@ -101,6 +110,8 @@ impl ReferenceConfig {
             self.slope_excitation,
             [100.0, 10.0],
         )?;
+        check_range_open_low("reference.bandwidth-sea", self.bandwidth_sea, 0.0, 5.0)?;
+        pair("reference.slope-sea", self.slope_sea, [10.0, 1.0])?;
         check_count("reference.memory-tests", self.memory_tests, 6, 5000)?;
         check_range_open_low(
             "reference.resolve-speed-mps",

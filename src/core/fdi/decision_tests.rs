@@ -472,6 +472,7 @@ fn monte_carlo(
             speed_log_mps: 7.0,
             displacement_declared_t: 7000.0,
             excitation_scale: 1.0,
+            sea_index: None,
             speed_slope: [0.0; 3],
             loading_slope: [0.0; 3],
         }

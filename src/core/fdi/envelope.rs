@@ -3,10 +3,13 @@
 //!
 //! ## Model
 //!
-//! A healthy test of one method at the operating point `x = (u, l, g)` (`u` the speed log
-//! [m/s], `l = ln D_decl` the declared displacement's logarithm, `g = ln s` the logarithm of
-//! the excitation's scale against its design: HBT's relay scale, CLFRT's tones' geometric
-//! mean, 0 when the test played as designed) has the raw residual
+//! A healthy test of one method at the operating point `x = (u, l, g, w)` (`u` the speed
+//! log [m/s], `l = ln D_decl` the declared displacement's logarithm, `g = ln s` the logarithm
+//! of the excitation's scale against its design: HBT's relay scale, CLFRT's tones' geometric
+//! mean, 0 when the test played as designed; `w = ln(max(i, i_calm) / i_calm)` of the test's
+//! sea index `i`, its measured wave yaw [deg], `i_calm` the calm anchor
+//! `fdi.sea-wave-yaw-deg[0]`: 0 in a calm sea, 1.3 in a moderate one, 2.3 in a rough one at
+//! the defaults) has the raw residual
 //! (`crate::core::fdi::reference`) `e = m(x) + eps`, with
 //!
 //! - `m(x)` the networks' structural bias on this ship: smooth in `x`, unknown, learned.
@@ -14,28 +17,40 @@
 //!   found (`crate::core::monitor::sizing`) is read back to the design by the describing
 //!   function of a linear ship: on a nonlinear hull the read-back is biased, by as much as
 //!   0.4 m/s of HBT's speed for a relay at 0.83 of its design (KVLCC2, 9.5 m/s), and a
-//!   ship near the sizing's threshold plays one scale or the other from test to test;
+//!   ship near the sizing's threshold plays one scale or the other from test to test. The
+//!   sea is part of it because the wave-induced yaw biases what a test reads (the relay
+//!   switches early on a wave, the tones' gains gather the waves' power at their
+//!   frequencies), and the networks' bias per sea (the model files' calm and moderate
+//!   means) is the training ship's, not this hull's: measured on the family, a matured
+//!   reference met a sea one state rougher with HBT's `e_u` moved by 0.1-1.5 m/s per unit
+//!   of `w` and `e_D` by up to 0.1;
 //! - `eps ~ N(0, S_sea S~ S_sea)`: the test-to-test scatter, its *shape* `S~` (a 3 x 3
-//!   covariance in units of the design spreads) the same over the envelope, carried to a
-//!   test's sea by that test's design spreads `S_sea = diag(s_u, s_D, s_D)` (`e_b`, the ln
-//!   of the test's own high-frequency gain, is a relative quantity like `e_D`).
+//!   covariance in units of the design spreads) carried to a test's sea by that test's
+//!   design spreads `S_sea = diag(s_u, s_D, s_D)` (`e_b`, the ln of the test's own
+//!   high-frequency gain, is a relative quantity like `e_D`). The shape is the same over
+//!   the envelope but for the sea: in another sea only the tests there vouch for it
+//!   (`local_shape`), the design spreads carrying it there as a prior worth `CARRIED_DOF`.
 //!
-//! Near a point `x*`, `m(x) ~ a_0 + a_u (u - u*) + a_l (l - l*) + a_g (g - g*)` per
-//! component. Each
+//! Near a point `x*`, `m(x) ~ a_0 + a_u (u - u*) + a_l (l - l*) + a_g (g - g*) + a_w
+//! step(w - w*)` per component (`step` the part beyond half the sea's bandwidth: one sea's
+//! own scatter of the sea index is no change of sea, `sea_step`). Each
 //! component is fitted by weighted least squares over the learned tests, each test weighted
 //! by its noise (`1 / (s_ij^2 S~_jj)`) and by a kernel of its distance from `x*`,
 //!
 //! ```text
-//! w = 1 / (1 + d^2),   d^2 = ((u - u*) / b_u)^2 + ((l - l*) / b_l)^2 + ((g - g*) / b_g)^2
+//! w = 1 / (1 + d^2),
+//! d^2 = ((u - u*) / b_u)^2 + ((l - l*) / b_l)^2 + ((g - g*) / b_g)^2 + ((w - w*) / b_w)^2
 //! ```
 //!
-//! (`reference.bandwidth-speed-mps`, `-loading`, `-excitation`): a soft bin, the method
+//! (`reference.bandwidth-speed-mps`, `-loading`, `-excitation`, `-sea`; a test that does not
+//! know its sea adds no distance in it): a soft bin, the method
 //! of bins of wind-turbine power curves (IEC 61400-12) made continuous, and ISO 19030's
 //! reference conditions made local. The slopes carry a Gaussian prior with standard
-//! deviations `reference.slope-speed`, `-loading` and `-excitation` (per component, `e_b`
-//! taking the displacement's: both are fractions of the ship's own value): how
+//! deviations `reference.slope-speed`, `-loading`, `-excitation` and `-sea` (per component,
+//! `e_b` taking the displacement's: both are fractions of the ship's own value): how
 //! fast a network's bias on a ship unlike its training model may change across the
-//! envelope beyond what physics predicts. The prior's mean is 0, except in declared loading,
+//! envelope beyond what physics predicts. The prior's mean is 0 (in the sea: the model
+//! files' per-sea bias is already removed), except in declared loading,
 //! where it is the learned tests' own slope of `b` scaling by `1 / D` (`Sample::loading_slope`,
 //! `crate::core::fdi::sensitivity::scale_b`), and in speed: there it is the **similarity
 //! law's slope**, the kernel-weighted mean of the learned tests' own
@@ -64,8 +79,9 @@
 //! fitted halfway to the first's, the unit test
 //! `a_second_point_is_fitted_at_its_own_offset_when_the_offset_moved_far`).
 
+pub use super::point::{Point, Sample, Settings, X};
 use super::stats::{Cov, P};
-use nalgebra::{Matrix4, Vector4};
+use nalgebra::{Matrix5, Vector5};
 use serde::{Deserialize, Serialize};
 
 /// Smallest noise variance in design-spread units (a sample with no scatter at all).
@@ -75,107 +91,16 @@ const MIN_SHAPE_VAR: f64 = 1e-8;
 /// the residuals about the fits), stopping early at its fixed point.
 const SHAPE_PASSES: usize = 12;
 
+/// The degrees of freedom the shape carried to another sea by the design spreads is worth
+/// there: an inverse-Wishart prior about
+/// it, `P + 2`, the weakest whose mean exists. Measured on the family (`eval --fdi --family
+/// --scenarios envelope`, the seas' commissioning samples), the scatter in design-spread
+/// units moves between a calm and a moderate sea by up to 3 times in standard deviation,
+/// which this prior's 1 % tail (9 times the variance) covers.
+pub const CARRIED_DOF: f64 = P as f64 + 2.0;
+
 /// How much wider the slope prior is in the shape's first pass.
 const LOOSE: f64 = 1000.0;
-
-/// One learned healthy test.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Sample {
-    /// Raw residual `(e_u [m/s], e_D [fraction of D_nom], e_b [ln])`.
-    pub e: [f64; P],
-    /// Design spreads at its sea `(s_u [m/s], s_D [fraction], s_D)`.
-    pub s: [f64; P],
-    /// Speed log [m/s].
-    pub speed_mps: f64,
-    /// Declared displacement [t].
-    pub displacement_t: f64,
-    /// The excitation's scale against its design (1: as designed).
-    #[serde(default = "as_designed")]
-    pub excitation_scale: f64,
-    /// How its residual moves per m/s of the ship's own speed by the similarity law
-    /// (`crate::core::fdi::sensitivity::scale_speed`): the speed slope's prior mean.
-    #[serde(default)]
-    pub speed_slope: [f64; P],
-    /// How it moves per unit of `ln D` of a declared loading, `b` scaling by `1 / D`
-    /// (`crate::core::fdi::sensitivity::scale_b`): the loading slope's prior mean.
-    #[serde(default)]
-    pub loading_slope: [f64; P],
-    /// The vessel's test number it came from (both methods count): orders the methods'
-    /// samples in time for the commissioning's change-point test. 0 in a state saved
-    /// before it was kept: those samples are one moment to the test (no split among them).
-    #[serde(default)]
-    pub order: u64,
-}
-
-fn as_designed() -> f64 {
-    1.0
-}
-
-impl Sample {
-    /// Its operating point.
-    pub fn point(&self) -> Point {
-        Point {
-            speed_mps: self.speed_mps,
-            displacement_t: self.displacement_t,
-            excitation_scale: self.excitation_scale,
-        }
-    }
-
-    fn x(&self) -> [f64; 3] {
-        self.point().x()
-    }
-}
-
-/// An operating point: what a test's healthy residual depends on besides the ship.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Point {
-    /// Speed log [m/s].
-    pub speed_mps: f64,
-    /// Declared displacement [t].
-    pub displacement_t: f64,
-    /// The excitation's scale against its design (1: as designed).
-    pub excitation_scale: f64,
-}
-
-impl Point {
-    /// `(u, ln D, ln s)`.
-    pub fn x(&self) -> [f64; 3] {
-        [
-            self.speed_mps,
-            self.displacement_t.max(1e-9).ln(),
-            self.excitation_scale.max(1e-9).ln(),
-        ]
-    }
-}
-
-/// The regression's settings (from `[reference]`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Settings {
-    /// Kernel widths `(b_u [m/s], b_l [ln D], b_g [ln s])`.
-    pub bandwidth: [f64; 3],
-    /// Prior standard deviation of the slopes in speed `(e_u [m/s per m/s], e_D [per m/s])`.
-    pub slope_speed: [f64; 2],
-    /// Prior standard deviation of the slopes in `ln D` `(e_u [m/s], e_D [fraction])`.
-    pub slope_loading: [f64; 2],
-    /// Prior standard deviation of the slopes in `ln s` `(e_u [m/s], e_D [fraction])`.
-    pub slope_excitation: [f64; 2],
-}
-
-impl Settings {
-    /// The settings of `[reference]`.
-    pub fn of(r: &super::config::ReferenceConfig) -> Self {
-        Self {
-            bandwidth: [
-                r.bandwidth_speed_mps,
-                r.bandwidth_loading,
-                r.bandwidth_excitation,
-            ],
-            slope_speed: r.slope_speed,
-            slope_loading: r.slope_loading,
-            slope_excitation: r.slope_excitation,
-        }
-    }
-}
 
 /// The shape of the healthy scatter, in units of the design spreads.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
@@ -197,18 +122,58 @@ pub struct Prediction {
     pub support: f64,
     /// Distance to the nearest learned test, in bandwidths.
     pub nearest: f64,
-    /// Distance in declared loading and excitation alone (speed left out) to the nearest
-    /// learned test, in bandwidths.
-    pub nearest_loading_excitation: f64,
+    /// Distance in declared loading, excitation and sea alone (speed left out) to the
+    /// nearest learned test, in bandwidths.
+    pub nearest_conditions: f64,
     /// The slope prior's share of each component's variance in `cov` (0 where the tests
     /// span the point).
     pub prior_share: [f64; P],
 }
 
+/// The difference `a - b` per coordinate, 0 where either is NaN (a test at every sea).
+fn delta(a: X, b: X) -> X {
+    std::array::from_fn(|i| {
+        let d = a[i] - b[i];
+        if d.is_nan() {
+            0.0
+        } else {
+            d
+        }
+    })
+}
+
+/// Whether two operating points are the same (a NaN sea the same as a NaN sea).
+fn same(a: &X, b: &X) -> bool {
+    a.iter()
+        .zip(b)
+        .all(|(p, q)| p == q || (p.is_nan() && q.is_nan()))
+}
+
+/// The distance between two operating points in their conditions alone (declared loading,
+/// excitation and sea; speed left out), in bandwidths.
+fn condition_distance(st: &Settings, a: X, b: X) -> f64 {
+    let d = delta(a, b);
+    (1..4)
+        .map(|i| (d[i] / st.bandwidth[i]).powi(2))
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// The sea's regressor for a difference `dw` in `w`: the part beyond half a bandwidth. One
+/// test's sea index is its wave yaw over that test, which scatters by about 0.1 in `w`
+/// within one sea (measured on the family: calm 0.02 +- 0.05, moderate 1.34 +- 0.1, rough
+/// 2.27 +- 0.1); a slope fitted to that scatter is noise, and the next sea would be
+/// predicted along it. Within half a bandwidth the offset is one sea's.
+fn sea_step(st: &Settings, dw: f64) -> f64 {
+    let dead = 0.5 * st.bandwidth[3];
+    dw.signum() * (dw.abs() - dead).max(0.0)
+}
+
 /// The kernel weight and squared distance between two operating points.
-fn kernel(st: &Settings, a: [f64; 3], b: [f64; 3]) -> (f64, f64) {
-    let d2 = (0..3)
-        .map(|i| ((a[i] - b[i]) / st.bandwidth[i]).powi(2))
+fn kernel(st: &Settings, a: X, b: X) -> (f64, f64) {
+    let d = delta(a, b);
+    let d2 = (0..4)
+        .map(|i| (d[i] / st.bandwidth[i]).powi(2))
         .sum::<f64>();
     (1.0 / (1.0 + d2), d2)
 }
@@ -218,24 +183,25 @@ fn kernel(st: &Settings, a: [f64; 3], b: [f64; 3]) -> (f64, f64) {
 fn fit_component(
     samples: &[Sample],
     st: &Settings,
-    at: [f64; 3],
+    at: X,
     j: usize,
     noise: f64,
 ) -> Option<(f64, f64, f64)> {
     let prior = |sd: [f64; 2]| 1.0 / sd[j.min(1)].max(1e-12).powi(2);
-    let p0 = Matrix4::from_diagonal(&Vector4::new(
+    let p0 = Matrix5::from_diagonal(&Vector5::new(
         0.0,
         prior(st.slope_speed),
         prior(st.slope_loading),
         prior(st.slope_excitation),
+        prior(st.slope_sea),
     ));
     let mut a = p0;
-    let mut b = Vector4::zeros();
+    let mut b = Vector5::zeros();
     // The slopes' prior means in speed and loading: the physical slopes (the similarity law,
     // `b` scaling by `1 / D`) of the tests near `at`.
     let (mut sw, mut ss, mut sl) = (0.0, 0.0, 0.0);
     for smp in samples {
-        let (w, _) = kernel(st, smp.x(), at);
+        let (w, _) = kernel(st, smp.x(st), at);
         if smp.speed_slope[j].is_finite() && smp.loading_slope[j].is_finite() {
             sw += w;
             ss += w * smp.speed_slope[j];
@@ -247,13 +213,14 @@ fn fit_component(
         b[2] = a[(2, 2)] * sl / sw;
     }
     for smp in samples {
-        let x = smp.x();
+        let x = smp.x(st);
         let (w, _) = kernel(st, x, at);
         let var = smp.s[j] * smp.s[j] * noise.max(MIN_SHAPE_VAR);
         if var.is_nan() || var <= 0.0 {
             continue;
         }
-        let phi = Vector4::new(1.0, x[0] - at[0], x[1] - at[1], x[2] - at[2]);
+        let d = delta(x, at);
+        let phi = Vector5::new(1.0, d[0], d[1], d[2], sea_step(st, d[3]));
         a += phi * phi.transpose() * (w / var);
         b += phi * (w * smp.e[j] / var);
     }
@@ -270,7 +237,7 @@ fn fit_component(
 type Fit = [(f64, f64, f64); P];
 
 /// Every component's local fit at `at`, with the noise variances `noise` (`S~_jj`).
-fn fit(samples: &[Sample], st: &Settings, at: [f64; 3], noise: [f64; P]) -> Option<Fit> {
+fn fit(samples: &[Sample], st: &Settings, at: X, noise: [f64; P]) -> Option<Fit> {
     let mut out = [(0.0, 0.0, 0.0); P];
     for (j, o) in out.iter_mut().enumerate() {
         *o = fit_component(samples, st, at, j, noise[j])?;
@@ -316,12 +283,12 @@ pub fn shape(samples: &[Sample], st: &Settings) -> Option<Shape> {
     }
     // The fit at each distinct operating point, once (a commissioning sample is often at
     // one point: one fit for all).
-    let mut points: Vec<[f64; 3]> = Vec::new();
+    let mut points: Vec<X> = Vec::new();
     let index: Vec<usize> = samples
         .iter()
         .map(|s| {
-            let x = s.x();
-            points.iter().position(|p| *p == x).unwrap_or_else(|| {
+            let x = s.x(st);
+            points.iter().position(|p| same(p, &x)).unwrap_or_else(|| {
                 points.push(x);
                 points.len() - 1
             })
@@ -332,6 +299,7 @@ pub fn shape(samples: &[Sample], st: &Settings) -> Option<Shape> {
         slope_speed: st.slope_speed.map(|v| v * LOOSE),
         slope_loading: st.slope_loading.map(|v| v * LOOSE),
         slope_excitation: st.slope_excitation.map(|v| v * LOOSE),
+        slope_sea: st.slope_sea.map(|v| v * LOOSE),
         ..*st
     };
     let mut out: Option<Shape> = None;
@@ -371,27 +339,37 @@ pub fn shape(samples: &[Sample], st: &Settings) -> Option<Shape> {
     out
 }
 
-/// The shape of the scatter near `at`: the learned tests' residuals about the fit at their
-/// own points (with `global`'s noise weights), each weighted by the kernel from `at`,
+/// The shape of the scatter near `at`: the residuals about the fit at their own points (with
+/// `global`'s noise weights) of the learned tests in `at`'s sea (within one bandwidth in `w`:
+/// the shape carried to another sea by the design spreads is a guess, which the tests there
+/// must vouch for), each weighted by the kernel from `at`,
 ///
 /// ```text
 /// S~(x*) = sum w_i r_i r_i' / sum w_i (1 - h_i),   nu(x*) = (sum a_i)^2 / sum a_i^2,
 /// a_i = w_i (1 - h_i)
 /// ```
 ///
-/// (Satterthwaite's dof of a weighted variance, at most `global`'s). Where every test is
-/// near `at` it is `global`; where the ship has been tested a few times at a point whose
+/// (Satterthwaite's dof of a weighted variance, at most `global`'s), pooled, where some
+/// learned tests are in other seas, with `global` as a prior worth `CARRIED_DOF`
+/// (`global` itself, at that dof, where no test is in this sea or none has a residual of
+/// its own yet). Where every test is near `at` it is `global`; where the ship has been tested a few times at a point whose
 /// scatter is not the commissioning point's (an estimator pressed against its training
 /// box's edge scatters less there than inside it), the tests at that point speak for it,
 /// with the few dof they are worth.
 pub fn local_shape(samples: &[Sample], st: &Settings, global: &Shape, at: &Point) -> Shape {
     let noise = global.cov.variances();
-    let at = at.x();
-    let mut fits: Vec<([f64; 3], Fit)> = Vec::new();
+    let at = at.x(st);
+    let mut fits: Vec<(X, Fit)> = Vec::new();
     let (mut acc, mut den, mut den2) = ([[0.0; P]; P], 0.0, 0.0);
+    let mut here = 0;
     for s in samples {
-        let x = s.x();
-        let f = match fits.iter().find(|(p, _)| *p == x) {
+        let x = s.x(st);
+        // Only the tests in the point's sea vouch for its scatter.
+        if (delta(x, at)[3] / st.bandwidth[3]).abs() > 1.0 {
+            continue;
+        }
+        here += 1;
+        let f = match fits.iter().find(|(p, _)| same(p, &x)) {
             Some((_, f)) => *f,
             None => {
                 let Some(f) = fit(samples, st, x, noise) else {
@@ -408,32 +386,50 @@ pub fn local_shape(samples: &[Sample], st: &Settings, global: &Shape, at: &Point
         den += w * keep;
         den2 += (w * keep).powi(2);
     }
-    if den <= 0.0 || den2 <= 0.0 {
-        return *global;
+    let own = (den > 0.0 && den2 > 0.0)
+        .then(|| Cov(acc).times(1.0 / den))
+        .filter(|c| c.is_finite() && c.variances().iter().all(|v| *v > 0.0))
+        .map(|cov| Shape {
+            cov,
+            dof: (den * den / den2).min(global.dof),
+        });
+    if here == samples.len() {
+        // Every learned test is in this sea: the scatter is theirs.
+        return own.unwrap_or(*global);
     }
-    let cov = Cov(acc).times(1.0 / den);
-    if !cov.is_finite() || cov.variances().iter().any(|v| *v <= 0.0) {
-        return *global;
-    }
-    Shape {
-        cov,
-        dof: (den * den / den2).min(global.dof),
+    // Elsewhere, the tests here pooled with the shape carried from the others by the design
+    // spreads, an inverse-Wishart prior worth `CARRIED_DOF`.
+    let carried = global.dof.min(CARRIED_DOF);
+    match own {
+        None => Shape {
+            dof: carried,
+            ..*global
+        },
+        Some(o) => {
+            let k = o.dof / (o.dof + carried);
+            Shape {
+                cov: o.cov.times(k).plus(global.cov.times(1.0 - k)),
+                dof: (o.dof + carried).min(global.dof),
+            }
+        }
     }
 }
 
 /// The predicted offset at the operating point `at`.
 pub fn predict(samples: &[Sample], st: &Settings, shape: &Shape, at: &Point) -> Option<Prediction> {
-    let at = at.x();
+    let at = at.x(st);
     let f = fit(samples, st, at, shape.cov.variances())?;
-    let (support, nearest, nearest_loading_excitation) =
+    let (support, nearest, nearest_conditions) =
         samples
             .iter()
             .fold((0.0, f64::INFINITY, f64::INFINITY), |(w, d, l), s| {
-                let x = s.x();
+                let x = s.x(st);
                 let (wi, d2) = kernel(st, x, at);
-                let b = st.bandwidth;
-                let dl = ((x[1] - at[1]) / b[1]).hypot((x[2] - at[2]) / b[2]);
-                (w + wi, d.min(d2.sqrt()), l.min(dl))
+                (
+                    w + wi,
+                    d.min(d2.sqrt()),
+                    l.min(condition_distance(st, x, at)),
+                )
             });
     // The components' errors: the tests' part correlates as their scatter does; the slope
     // prior's part is each component's own (the priors are independent).
@@ -452,22 +448,28 @@ pub fn predict(samples: &[Sample], st: &Settings, shape: &Shape, at: &Point) -> 
         cov,
         support,
         nearest,
-        nearest_loading_excitation,
+        nearest_conditions,
         prior_share: f.map(|c| if c.1 > 0.0 { c.2 / c.1 } else { 0.0 }),
     })
 }
 
 /// Keeps at most `memory` tests: the oldest of the most populated soft bin (a bandwidth of
-/// speed by one of declared loading) goes.
+/// speed by one of declared loading by one of sea) goes.
 pub fn forget(samples: &mut Vec<Sample>, st: &Settings, memory: usize) {
     while samples.len() > memory {
         let bin = |x: &Sample| {
+            let w = x.x(st)[3];
             (
                 (x.speed_mps / st.bandwidth[0]).round() as i64,
                 (x.displacement_t.max(1e-9).ln() / st.bandwidth[1]).round() as i64,
+                if w.is_nan() {
+                    -1
+                } else {
+                    (w / st.bandwidth[3]).round() as i64
+                },
             )
         };
-        let mut counts: Vec<((i64, i64), usize)> = Vec::new();
+        let mut counts: Vec<((i64, i64, i64), usize)> = Vec::new();
         for x in samples.iter() {
             let b = bin(x);
             match counts.iter_mut().find(|(k, _)| *k == b) {

@@ -6,10 +6,12 @@ use super::*;
 /// The settings of the unit tests here and in `changepoint`.
 pub(in crate::core::fdi) fn st() -> Settings {
     Settings {
-        bandwidth: [1.0, 0.1, 0.1],
+        bandwidth: [1.0, 0.1, 0.1, 0.5],
         slope_speed: [0.5, 0.03],
         slope_loading: [4.0, 0.3],
         slope_excitation: [3.0, 0.3],
+        slope_sea: [0.3, 0.03],
+        sea_calm_deg: 0.05,
     }
 }
 
@@ -21,17 +23,28 @@ fn smp(e: [f64; 2], u: f64, d: f64) -> Sample {
         speed_mps: u,
         displacement_t: d,
         excitation_scale: 1.0,
+        sea_index: None,
         speed_slope: [0.0; 3],
         loading_slope: [0.0; 3],
         order: 0,
     }
 }
 
+/// Five tests' `(e_u, e_D)` at one point, anti-correlated.
+const FIVE: [(f64, f64); 5] = [
+    (1.0, -0.20),
+    (1.2, -0.22),
+    (0.8, -0.18),
+    (1.1, -0.20),
+    (0.9, -0.21),
+];
+
 fn at(u: f64, d: f64) -> Point {
     Point {
         speed_mps: u,
         displacement_t: d,
         excitation_scale: 1.0,
+        sea_index: None,
     }
 }
 
@@ -98,16 +111,10 @@ fn a_second_point_is_fitted_at_its_own_offset_when_the_offset_moved_far() {
 
 #[test]
 fn away_from_the_learned_point_the_interval_grows_by_the_kernel_and_the_slope_prior() {
-    let samples: Vec<Sample> = [
-        (1.0, -0.20),
-        (1.2, -0.22),
-        (0.8, -0.18),
-        (1.1, -0.20),
-        (0.9, -0.21),
-    ]
-    .iter()
-    .map(|&(a, b)| smp([a, b], 7.0, 7000.0))
-    .collect();
+    let samples: Vec<Sample> = FIVE
+        .iter()
+        .map(|&(a, b)| smp([a, b], 7.0, 7000.0))
+        .collect();
     let sh = shape(&samples, &st()).unwrap();
     let du = 1.5;
     let p = predict(&samples, &st(), &sh, &at(7.0 + du, 7000.0)).unwrap();
@@ -142,6 +149,7 @@ fn an_excitation_sized_down_is_another_operating_point() {
     let sh = shape(&samples, &st()).unwrap();
     let scaled = Point {
         excitation_scale: 0.83,
+        sea_index: None,
         ..at(9.5, 7000.0)
     };
     let p = predict(&samples, &st(), &sh, &scaled).unwrap();
@@ -313,4 +321,215 @@ fn a_declared_loading_is_predicted_along_the_loading_slope() {
     let p = predict(&samples, &st(), &sh, &at(7.0, 7700.0)).unwrap();
     let want = mean_d - 0.5 * (1.1f64).ln();
     assert!((p.offset[1] - want).abs() < 1e-6, "{:?} {want}", p.offset);
+}
+
+/// The sea's coordinate: 0 in a calm sea or calmer, `ln(i / i_calm)` above it, NaN for a test
+/// whose sea is not known.
+#[test]
+fn the_sea_coordinate_is_the_log_of_the_index_over_the_calm_one() {
+    let st = st();
+    let sea = |i: Option<f64>| {
+        Point {
+            sea_index: i,
+            ..at(7.0, 7000.0)
+        }
+        .x(&st)[3]
+    };
+    assert_eq!(sea(Some(0.05)), 0.0);
+    assert_eq!(sea(Some(0.01)), 0.0);
+    assert!((sea(Some(0.18)) - (0.18f64 / 0.05).ln()).abs() < 1e-12);
+    assert!(sea(None).is_nan() && sea(Some(f64::NAN)).is_nan());
+}
+
+/// Learned in a calm sea, a test in a moderate one is predicted from the calm tests with
+/// the slope prior's interval over the sea's distance (by hand, as in speed above); a test
+/// that does not know its sea adds no distance.
+#[test]
+fn a_new_sea_is_predicted_with_the_slope_prior_over_its_distance() {
+    let calm = |smp: Sample| Sample {
+        sea_index: Some(0.05),
+        ..smp
+    };
+    let samples: Vec<Sample> = FIVE
+        .iter()
+        .map(|&(a, b)| calm(smp([a, b], 7.0, 7000.0)))
+        .collect();
+    let sh = shape(&samples, &st()).unwrap();
+    let moderate = Point {
+        sea_index: Some(0.18),
+        ..at(7.0, 7000.0)
+    };
+    let p = predict(&samples, &st(), &sh, &moderate).unwrap();
+    let dw = (0.18f64 / 0.05).ln();
+    let w = 1.0 / (1.0 + (dw / 0.5).powi(2));
+    for (j, (var, tau)) in [
+        (sh.cov.at(0, 0) * 0.01, 0.3),
+        (sh.cov.at(1, 1) * 1e-4, 0.03),
+    ]
+    .iter()
+    .enumerate()
+    {
+        // The sea's regressor is the part beyond half a bandwidth (0.25).
+        let step = dw - 0.25;
+        let want = var / (5.0 * w) + step * step * tau * tau;
+        let got = [p.cov.at(0, 0), p.cov.at(1, 1)][j];
+        assert!((got - want).abs() < 1e-9 * want, "{j}: {got} vs {want}");
+        let share = step * step * tau * tau / want;
+        assert!(
+            (p.prior_share[j] - share).abs() < 1e-9,
+            "{:?}",
+            p.prior_share
+        );
+    }
+    assert!((p.offset[0] - 1.0).abs() < 1e-12);
+    assert!((p.nearest - dw / 0.5).abs() < 1e-12, "{}", p.nearest);
+    // The sea is a condition (its scatter's shape is new there too), unlike speed.
+    assert!((p.nearest_conditions - dw / 0.5).abs() < 1e-12);
+    // Tests saved before the sea was kept are at every sea.
+    let unknown: Vec<Sample> = samples
+        .iter()
+        .map(|s| Sample {
+            sea_index: None,
+            ..*s
+        })
+        .collect();
+    let q = predict(&unknown, &st(), &sh, &moderate).unwrap();
+    let home = predict(&samples, &st(), &sh, &at(7.0, 7000.0)).unwrap();
+    assert_eq!(q.nearest, 0.0);
+    assert!((q.cov.at(0, 0) - home.cov.at(0, 0)).abs() < 1e-15);
+}
+
+/// Learned in two seas whose offsets differ, each sea is predicted at its own offset, and a
+/// sea between them between the two.
+#[test]
+fn each_learned_sea_keeps_its_own_offset() {
+    let wob = [0.01, -0.01, 0.005, -0.005, 0.0, 0.002];
+    let mut samples: Vec<Sample> = Vec::new();
+    for (i, off) in [(0.05, 0.3), (0.18, 0.9)] {
+        samples.extend(wob.iter().map(|w| Sample {
+            sea_index: Some(i * (1.0 + w)),
+            ..smp([off + w, -0.1 + w / 10.0], 7.0, 7000.0)
+        }));
+    }
+    let sh = shape(&samples, &st()).unwrap();
+    let sea = |i: f64| {
+        predict(
+            &samples,
+            &st(),
+            &sh,
+            &Point {
+                sea_index: Some(i),
+                ..at(7.0, 7000.0)
+            },
+        )
+        .unwrap()
+    };
+    let (c, m, mid) = (sea(0.05), sea(0.18), sea((0.05f64 * 0.18).sqrt()));
+    assert!((c.offset[0] - 0.3).abs() < 0.02, "{:?}", c.offset);
+    assert!((m.offset[0] - 0.9).abs() < 0.02, "{:?}", m.offset);
+    assert!(
+        mid.offset[0] > 0.45 && mid.offset[0] < 0.75,
+        "{:?}",
+        mid.offset
+    );
+    // The scatter is the tests' about their own sea's offset, not the move between seas.
+    assert!(sh.cov.at(0, 0) < 0.1, "{:?}", sh.cov);
+}
+
+/// The scatter at another sea is the tests' there, the calm sea's carried by the design
+/// spreads only as a prior worth `CARRIED_DOF`: none there (or one, with no residual of its
+/// own), that prior; one, that prior and its one dof; several, their own scatter pooled
+/// with it.
+#[test]
+fn only_the_tests_at_a_sea_vouch_for_its_scatter() {
+    let wob = [0.01, -0.01, 0.005, -0.005, 0.0, 0.008, -0.008, 0.0];
+    let sea = |i: f64| {
+        move |smp: Sample| Sample {
+            sea_index: Some(i),
+            ..smp
+        }
+    };
+    let mut samples: Vec<Sample> = wob
+        .iter()
+        .map(|w| sea(0.05)(smp([1.0 + w, -0.2 + w / 10.0], 7.0, 7000.0)))
+        .collect();
+    let moderate = Point {
+        sea_index: Some(0.18),
+        ..at(7.0, 7000.0)
+    };
+    let sh = shape(&samples, &st()).unwrap();
+    let none = local_shape(&samples, &st(), &sh, &moderate);
+    assert_eq!(none.cov, sh.cov);
+    assert_eq!(none.dof, CARRIED_DOF);
+    assert!(
+        predict(&samples, &st(), &sh, &moderate)
+            .unwrap()
+            .nearest_conditions
+            > 1.0
+    );
+    samples.push(sea(0.18)(smp([1.3 + 0.03, -0.2 + 0.003], 7.0, 7000.0)));
+    let sh = shape(&samples, &st()).unwrap();
+    let one = local_shape(&samples, &st(), &sh, &moderate);
+    assert!((one.dof - CARRIED_DOF - 1.0).abs() < 1e-9, "{one:?}");
+    // Seven more there: three times the calm tests' deviations about their own offset.
+    for w in &wob[1..] {
+        samples.push(sea(0.18)(smp(
+            [1.3 + 3.0 * w, -0.2 + 3.0 * w / 10.0],
+            7.0,
+            7000.0,
+        )));
+    }
+    let sh = shape(&samples, &st()).unwrap();
+    let there = local_shape(&samples, &st(), &sh, &moderate);
+    let calm_point = Point {
+        sea_index: Some(0.05),
+        ..at(7.0, 7000.0)
+    };
+    let calm = local_shape(&samples, &st(), &sh, &calm_point);
+    // Three times the scatter: nine times the variance, each sea's own (the slope in the
+    // sea joins the two offsets, so each sea's residuals are about its own), pooled with
+    // the shape of all sixteen (by hand: nu_own S_own + 5 S_global over nu_own + 5).
+    let own = |c: &Shape| (c.dof - CARRIED_DOF, c.cov.at(0, 0));
+    let (nu_t, _) = own(&there);
+    let (nu_c, _) = own(&calm);
+    assert!(
+        nu_t > 6.0 && nu_t < 9.0 && nu_c > 6.0 && nu_c < 9.0,
+        "{there:?} {calm:?}"
+    );
+    let unpool = |c: &Shape, nu: f64| (c.cov.at(0, 0) * (nu + 5.0) - 5.0 * sh.cov.at(0, 0)) / nu;
+    let ratio = unpool(&there, nu_t) / unpool(&calm, nu_c);
+    assert!(ratio > 8.5 && ratio < 9.5, "{ratio}: {there:?} vs {calm:?}");
+    // Pooled, the sea's own still shows: more than twice the calm sea's variance.
+    assert!(
+        there.cov.at(0, 0) > 2.0 * calm.cov.at(0, 0),
+        "{there:?} vs {calm:?}"
+    );
+}
+
+/// One sea's scatter of the sea index (its wave yaw over each test) teaches next to no
+/// slope: tests whose residual happens to follow that scatter are predicted in the next sea
+/// near their mean, not along it (the fit at their own points reads the sea only beyond
+/// half a bandwidth, so the scatter is noise to the shape, which outweighs it against the
+/// slope prior).
+#[test]
+fn one_seas_scatter_of_the_sea_index_teaches_no_slope() {
+    let jitter = [0.1, -0.1, 0.05, -0.05, 0.0, 0.08, -0.08, 0.02];
+    let samples: Vec<Sample> = jitter
+        .iter()
+        .map(|j: &f64| Sample {
+            sea_index: Some(0.18 * j.exp()),
+            // 2 m/s per unit of w, exactly: a slope a free fit would carry to the next sea.
+            ..smp([1.0 + 2.0 * j, -0.2], 7.0, 7000.0)
+        })
+        .collect();
+    let sh = shape(&samples, &st()).unwrap();
+    let rough = Point {
+        sea_index: Some(0.18 * 1.0f64.exp()),
+        ..at(7.0, 7000.0)
+    };
+    let mean = 1.0 + 2.0 * jitter.iter().sum::<f64>() / 8.0;
+    let p = predict(&samples, &st(), &sh, &rough).unwrap();
+    // Along the scatter's slope the next sea would be at 1 + 2 x (1 - 0.25) = 2.5.
+    assert!((p.offset[0] - mean).abs() < 0.1, "{:?} vs {mean}", p.offset);
+    assert!(p.offset[0] > mean, "{:?} vs {mean}", p.offset);
 }

@@ -157,6 +157,7 @@ fn the_wander_is_read_through_changes_of_speed() {
         speed_mps,
         displacement_t: 5000.0,
         excitation_scale: 1.0,
+        sea_index: None,
         speed_slope: [0.0; P],
         loading_slope: [0.0; P],
         order,

@@ -267,6 +267,7 @@ mod tests {
                 speed_log_mps: 7.0,
                 displacement_declared_t: 7000.0,
                 excitation_scale: 1.0,
+                sea_index: None,
                 ln_gain: Some(-5.0),
                 ln_damping: None,
                 speed_slope: [0.0; 3],

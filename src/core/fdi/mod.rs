@@ -38,6 +38,7 @@ mod fit;
 pub mod isolation;
 pub mod learning;
 pub mod measured;
+pub mod point;
 mod raw;
 pub mod reference;
 mod report;

@@ -179,6 +179,7 @@ impl Fdi {
             speed_log_mps: u_log,
             displacement_declared_t: d_nom_t,
             excitation_scale: features.excitation_scale(),
+            sea_index: super::sea_index(features),
             ln_gain,
             ln_damping: sensitivity::ln_damping(features).map(|a| a - u_log.ln()),
         };
@@ -221,6 +222,9 @@ pub struct Raw {
     pub displacement_declared_t: f64,
     /// The excitation's scale against its design (`Features::excitation_scale`).
     pub excitation_scale: f64,
+    /// The test's sea index [deg] (`sea_index`; `None`: the features do not say).
+    #[serde(default)]
+    pub sea_index: Option<f64>,
     /// `e_b`: the ln of the test's own high-frequency gain
     /// (`crate::core::fdi::sensitivity::ln_gain`; `None`: the features do not say).
     #[serde(default)]
@@ -275,6 +279,7 @@ impl Raw {
             speed_mps: self.speed_log_mps,
             displacement_t: self.displacement_declared_t,
             excitation_scale: self.excitation_scale,
+            sea_index: self.sea_index,
             speed_slope: self.speed_slope,
             loading_slope: self.loading_slope,
             order: 0,

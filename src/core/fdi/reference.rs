@@ -72,15 +72,18 @@
 //!   `nu_eff = nu / (the learned part's share of the residual's variance in its own
 //!   direction)`, that share at a visited point at its 95 % upper confidence bound
 //!   (`Measured::effective_dof`; the conservative root of Satterthwaite's approximation, as
-//!   in `changepoint`), with `nu` the shape's dof. At a new speed at a learned loading and
-//!   excitation (within one bandwidth of a learned test's in those two) that holds as it
-//!   is: the similarity law carries the offset, whose error is in the prediction's `c`, and
-//!   the scatter's shape is the vessel's. At a declared loading or an excitation farther
-//!   than one bandwidth from every learned test's, `nu` is the learned tests' kernel
-//!   weight there less one if smaller, the share unbounded: there the prediction rests on
-//!   the slope priors, which a hull can break (KVLCC2's HBT speed estimate moved 0.7 m/s
-//!   with its relay resized to 0.83 at +20 % loading), so the tail is Hotelling's with few
-//!   dof until the point's own tests are learned.
+//!   in `changepoint`), with `nu` the shape's dof. At a new speed at a learned loading,
+//!   excitation and sea (within one bandwidth of a learned test's in those three) that
+//!   holds as it is: the similarity law carries the offset, whose error is in the
+//!   prediction's `c`, and the scatter's shape is the vessel's there (`envelope::local_shape`:
+//!   the tests in that sea, pooled, where the vessel has been in others too, with the
+//!   shape carried by the design spreads as a prior worth `envelope::CARRIED_DOF`). At
+//!   a declared loading, an excitation or a sea farther than one bandwidth from every
+//!   learned test's, `nu` is at most that prior's and the learned tests' kernel weight there
+//!   less one, the share unbounded: there the prediction rests on the slope priors, which a
+//!   hull can break (KVLCC2's HBT speed estimate moved 0.7 m/s with its relay resized to
+//!   0.83 at +20 % loading), so the tail is Hotelling's with few dof until the point's own
+//!   tests are learned.
 //! - `kappa = nu / (nu - p - 1)` (the mean of Hotelling's over the chi-square's) sizes what
 //!   commissioning must resolve: 4 at K = 5, 1.75 at K = 8, 1.05 after 60 tests.
 //! - `S^ = (nu S~(x) + nu_0 diag S~) / (nu + nu_0)`: the shape near the point pooled with an
@@ -194,7 +197,7 @@ impl Settings {
             wide_displacement: fdi.commissioning_spread_displacement,
             floor_speed_mps: fdi.floor_speed_mps,
             floor_displacement: fdi.floor_displacement,
-            envelope: envelope::Settings::of(r),
+            envelope: envelope::Settings::of(r, fdi.sea_wave_yaw_deg[0]),
             learn: r.learn,
             memory: r.memory_tests as usize,
             resolve_speed_mps: r.resolve_speed_mps,
@@ -353,16 +356,16 @@ impl Commissioning {
                 let cov = scatter.plus(p.cov).plus(floors).leading(dim, 1.0);
                 let e = raw.e();
                 let r = std::array::from_fn(|j| if j < dim { e[j] - p.offset[j] } else { 0.0 });
-                // A learned loading and excitation (a visited point is at one:
-                // `nearest_loading_excitation <= nearest`).
-                let known_conditions = p.nearest_loading_excitation <= 1.0;
+                // A learned loading, excitation and sea (a visited point is at one:
+                // `nearest_conditions <= nearest`).
+                let known_conditions = p.nearest_conditions <= 1.0;
                 let m = Measured {
                     r,
                     cov,
                     offset_var: Some(p.cov.leading(dim, 0.0).max_ratio(cov)),
-                    // At a declared loading or an excitation not yet visited the prediction
-                    // is known only as well as the tests near it vouch for it (module doc);
-                    // at a new speed only the offset is new, in `p.cov`.
+                    // At a declared loading, an excitation or a sea not yet visited the
+                    // prediction is known only as well as the tests near it vouch for it
+                    // (module doc); at a new speed only the offset is new, in `p.cov`.
                     dof: if known_conditions {
                         shape.dof
                     } else {
@@ -494,6 +497,7 @@ impl Commissioning {
             speed_mps: u,
             displacement_t: mean(&|x| x.displacement_t.ln()).exp(),
             excitation_scale: mean(&|x| x.excitation_scale.ln()).exp(),
+            sea_index: super::point::log_mean(self.samples.iter().filter_map(|x| x.sea_index)),
         };
         let off = envelope::predict(&self.samples, &s.envelope, &sh, &at).map_or(
             [mean(&|x| x.e[0]), mean(&|x| x.e[1]), mean(&|x| x.e[2])],
@@ -531,6 +535,7 @@ impl Commissioning {
                     speed_mps: u,
                     displacement_t: d_t,
                     excitation_scale: 1.0,
+                    sea_index: None,
                 };
                 let p = envelope::predict(&self.samples, &s.envelope, &sh, &at)?;
                 let sd = |var: f64, pv: f64, floor: f64| (k * (var + pv) + floor * floor).sqrt();

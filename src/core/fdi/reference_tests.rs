@@ -32,6 +32,7 @@ fn raw_at(e_u: f64, e_d: f64, u: f64, d: f64) -> Raw {
         speed_log_mps: u,
         displacement_declared_t: d,
         excitation_scale: 1.0,
+        sea_index: None,
         // A gain whose scatter is its own (not a linear function of the others'), about the
         // displacement's size.
         ln_gain: Some(-5.0 + 0.002 * (37.0 * e_u + 91.0 * e_d).sin()),
