@@ -266,12 +266,17 @@ fn the_hotelling_limit_matches_tables_and_tends_to_the_chi_square() {
 }
 
 /// False "inconsistent" on healthy commissionings by Monte Carlo: both methods in turn,
-/// scatter at and above the floors, both evaluations of a commissioning of 8 tests of each
-/// (at the vessel's 15th and 16th tests) and the 16 of its confirmation (the vessel's 17th
-/// to 32nd) (`cargo test --profile ci --lib change_point_false_flags -- --ignored --nocapture`).
+/// scatter at and above the floors, both evaluations of a commissioning of the default
+/// `fdi.commissioning-tests` K of each (at the vessel's `2K - 1`th and `2K`th tests) and the
+/// `2K` of its confirmation (the vessel's `2K + 1`th to `4K`th), at the budget of that K
+/// (`cargo test --profile ci --lib change_point_false_flags -- --ignored --nocapture`).
 #[test]
 #[ignore]
 fn change_point_false_flags() {
+    let k = crate::core::fdi::config::FdiConfig::default().commissioning_tests;
+    let alpha = 2.7e-4 / 2.0 / looks(k) as f64;
+    let confirm = 2.7e-4 / 2.0 / confirmation_looks(k) as f64;
+    let k = u64::from(k);
     // The last two: CLFRT's (the even tests') excitation alternating between 1 and 0.63,
     // its offset moving by one slope-prior sd (0.3 per unit ln s in e_D and e_b).
     for (su, sd, slope) in [
@@ -284,7 +289,7 @@ fn change_point_false_flags() {
         (0.2, 0.02, 0.3),
     ] {
         let mut rng = ChaCha8Rng::seed_from_u64(11);
-        let runs = 100_000;
+        let runs = 20_000;
         let mut flagged = 0;
         for _ in 0..runs {
             let mut draw = |order: u64| {
@@ -306,29 +311,25 @@ fn change_point_false_flags() {
                     ..sample(&mut ChaCha8Rng::seed_from_u64(0), [0.0; 2], 7.0, sd, order)
                 }
             };
-            let v: Vec<Sample> = (0..32).map(&mut draw).collect();
+            let v: Vec<Sample> = (0..4 * k).map(&mut draw).collect();
             let pair: [Vec<Sample>; 2] = std::array::from_fn(|m| {
                 v.iter()
                     .filter(|s| s.order % 2 == m as u64)
                     .copied()
                     .collect()
             });
-            let any = (15..=32).any(|n| {
+            let any = (2 * k - 1..=4 * k).any(|n| {
                 let part = |m: usize| -> Vec<Sample> {
-                    pair[m]
-                        .iter()
-                        .filter(|s| s.order < n as u64)
-                        .copied()
-                        .collect()
+                    pair[m].iter().filter(|s| s.order < n).copied().collect()
                 };
                 let (clfrt, hbt) = (part(0), part(1));
-                let level = if n <= 16 { alpha() } else { confirm_alpha() };
+                let level = if n <= 2 * k { alpha } else { confirm };
                 joint_change_point([&clfrt, &hbt], &env(), FLOORS, level).is_some()
             });
             flagged += usize::from(any);
         }
         println!(
-            "scatter ({su}, {sd}), excitation slope {slope}: {flagged} of {runs} flagged: {:.2e} per commissioning and confirmation (budget 2.7e-4)",
+            "K = {k}, scatter ({su}, {sd}), excitation slope {slope}: {flagged} of {runs} flagged: {:.2e} per commissioning and confirmation (budget 2.7e-4)",
             flagged as f64 / runs as f64
         );
     }

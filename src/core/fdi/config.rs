@@ -178,7 +178,7 @@ impl Default for FdiConfig {
             enabled: true,
             false_alarms_per_year: 0.1,
             window_tests: 4,
-            commissioning_tests: 8,
+            commissioning_tests: 16,
             commissioning_spread_speed_mps: 2.2,
             commissioning_spread_displacement: 0.25,
             floor_speed_mps: 0.05,

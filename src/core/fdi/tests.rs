@@ -201,7 +201,7 @@ fn a_reference_is_kept_only_for_its_configuration_and_models() {
     assert_eq!(fresh.restore(old), None);
     assert!(fresh
         .commissioning_text()
-        .starts_with("CLFRT commissioning 0 of at most 8"));
+        .starts_with("CLFRT commissioning 0 of at most 16"));
 
     // Commissioning HBT again keeps CLFRT's loop shape; commissioning CLFRT again drops it.
     same.commission(Some(Method::Hbt));
