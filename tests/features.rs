@@ -757,15 +757,15 @@ fn responsive_ship() -> Config {
 /// CLFRT on a ship more responsive than its tones were sized for: the tones' heading
 /// (`|G S|` times the amplitude, growing as `b / w^2`) crosses the 10 deg limit during the
 /// settling and the vessel's first test ends there (the guard is not armed); armed, as after
-/// such a test, every tone is lowered by `clfrt.resize-heading-factor` when the heading error
-/// passes `clfrt.resize-heading-fraction` (0.7) of the limit heading for it, and the test
-/// completes. The cut leaves no trace in the measurement: the tones' gains and phases are
-/// those of the same ship and sea with the tones designed at the lowered size from the start
-/// (within 0.5 % and 0.005 rad), and the ship's (the slowest tone within 10 %: at 1 deg it
-/// competes with the calm sea's own slow bias, 3-7 % in these seeds with or without the
-/// cut; the others within 5 %).
+/// such a test, the tones' summed heading is lowered by `clfrt.resize-heading-factor` when
+/// the heading error passes `clfrt.resize-heading-fraction` (0.7) of the limit heading for
+/// it, and the test completes. The slower tones carry the heading and take the cut, alike;
+/// the fastest keeps its designed size. The cut leaves no trace in the
+/// measurement: every tone reads the ship's own response (the first-order model at the
+/// point; the slowest within 15 %: at a fraction of a degree it competes with the calm sea's
+/// own slow bias; the others within 5 %).
 #[test]
-fn clfrt_lowers_every_tone_where_the_heading_nears_its_limit() {
+fn clfrt_lowers_the_tones_that_carry_the_heading_where_it_nears_its_limit() {
     let cfg = responsive_ship();
     let (u, d) = (10.0, 4000.0);
     let probe = |c: &Config, seed: u64, armed: bool| {
@@ -780,22 +780,13 @@ fn clfrt_lowers_every_tone_where_the_heading_nears_its_limit() {
         opts.clfrt_heading_guard = armed;
         run_probe(&c.core(), &c.sim(), &sc, &opts).unwrap().report
     };
+    // Not armed (a fresh vessel), then armed.
     let runs = par_map(vec![1u64, 2], |seed| {
-        // Not armed (a fresh vessel): the safety check ends the test.
-        let on = probe(&cfg, seed, true);
-        // The same ship and sea with the tones designed at the size the guard left.
-        let scale = on
-            .features
-            .clfrt()
-            .and_then(|c| c.amplitude_scales.as_ref())
-            .map_or(1.0, |s| s[0]);
-        let mut small = cfg.clone();
-        small.clfrt.amplitude_deg *= scale;
-        (probe(&cfg, seed, false), on, probe(&small, seed, false))
+        (probe(&cfg, seed, false), probe(&cfg, seed, true))
     });
     let (a, b) = cfg.ship.nomoto(u, d);
     let factor = cfg.clfrt.resize_heading_factor;
-    for (off, on, small) in runs {
+    for (off, on) in runs {
         assert_eq!(off.outcome, Outcome::Aborted, "{:?}", off.reason);
         assert!(
             off.reason
@@ -806,7 +797,6 @@ fn clfrt_lowers_every_tone_where_the_heading_nears_its_limit() {
             off.reason
         );
         assert_eq!(on.outcome, Outcome::Completed, "{:?}", on.reason);
-        assert_eq!(small.outcome, Outcome::Completed, "{:?}", small.reason);
         let scales = on
             .features
             .clfrt()
@@ -814,27 +804,30 @@ fn clfrt_lowers_every_tone_where_the_heading_nears_its_limit() {
             .amplitude_scales
             .clone()
             .unwrap();
-        // Every tone lowered together, once or twice.
-        assert!(scales.iter().all(|&s| s == scales[0]), "{scales:?}");
+        // The slower tones cut alike, a little deeper than a cut of every tone would cut
+        // them, the fastest kept.
         assert!(
-            scales[0] == factor || scales[0] == factor * factor,
+            scales[0] < factor && scales[0] > 0.5 * factor * factor,
             "{scales:?}"
         );
-        assert!(small.features.clfrt().unwrap().amplitude_scales.is_none());
-        for (i, (tone, same)) in tones(&on).iter().zip(tones(&small)).enumerate() {
-            assert!(
-                (tone.gain / same.gain - 1.0).abs() < 0.005,
-                "{} vs {}",
-                tone.gain,
-                same.gain
-            );
-            assert!(dphase(tone.phase, same.phase).abs() < 0.005);
+        assert_eq!(scales[0], scales[1], "{scales:?}");
+        assert!(scales.windows(2).all(|p| p[0] <= p[1]), "{scales:?}");
+        assert_eq!(scales[scales.len() - 1], 1.0, "{scales:?}");
+        for (i, tone) in tones(&on).iter().enumerate() {
             let w = tone.omega;
             let g = b / (w * (w * w + a * a).sqrt());
             let p = -PI / 2.0 - (w / a).atan();
-            let tol = if i == 0 { 0.10 } else { 0.05 };
-            assert!((tone.gain / g - 1.0).abs() < tol, "{} vs {g}", tone.gain);
-            assert!(dphase(tone.phase, p).abs() < tol, "{} vs {p}", tone.phase);
+            let tol = if i == 0 { 0.15 } else { 0.05 };
+            assert!(
+                (tone.gain / g - 1.0).abs() < tol,
+                "{i}: {} vs {g}",
+                tone.gain
+            );
+            assert!(
+                dphase(tone.phase, p).abs() < tol,
+                "{i}: {} vs {p}",
+                tone.phase
+            );
         }
     }
 }

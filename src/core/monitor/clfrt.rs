@@ -421,6 +421,7 @@ impl ClfrtRun {
         t_start_s: f64,
         multisine: Multisine,
         heading_guard: bool,
+        speed_mps: Option<f64>,
     ) -> Self {
         let c = &cfg.clfrt;
         let rate = cfg.sensors.rate_hz;
@@ -442,6 +443,7 @@ impl ClfrtRun {
                 measure_start_s - c.resize_settle_s,
             ),
             heading_guard,
+            speed_mps,
         );
         Self {
             multisine,

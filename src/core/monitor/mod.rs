@@ -659,6 +659,7 @@ impl Monitor {
                     t,
                     ms,
                     self.clfrt_heading_guard,
+                    self.speed_smooth.map(|x| x.0),
                 )))
             }
         };

@@ -26,8 +26,21 @@
 //! The heading is the other limit: on a ship more responsive than the tones were sized for
 //! (the heading per tone, `|G S| E_i`, grows as `b / w^2`) the tones carry the heading error
 //! to `safety.max-heading-error-deg`. In the same window, when the error is past
-//! `clfrt.resize-heading-fraction` of that limit and heading for it, every tone is lowered by
-//! `clfrt.resize-heading-factor` ([`ToneSizing::on_heading`]). The guard is armed per vessel
+//! `clfrt.resize-heading-fraction` of that limit and heading for it, the tones' summed
+//! heading is lowered by `clfrt.resize-heading-factor` `f` and the fastest tone keeps its
+//! size ([`ToneSizing::on_heading`], [`spare_the_fastest`]): each tone's heading is its share
+//! `x_i = s_i g_i |G(jw_i)|` (its scale, the loop's gain from excitation to rudder as the
+//! rudder's fit reads it, 1 until it does, and the first-order ship's
+//! `1 / (w sqrt(w^2 + a^2))`, `a = a0 u / l` from the speed log at the test's start), and the
+//! other tones are lowered alike by `k = (f X - x_fast) / (X - x_fast)` (`X` the sum), so that
+//! the sum falls by `f`, as a cut of every tone would lower it; where the fastest alone
+//! carries more than `f X`, every tone is lowered by `f`. On a ship that responsive the
+//! slower tones carry the heading (`|G|` falls as `1 / w^2`: the design's tones an octave and
+//! more apart, the slowest's heading is 5-30 times the fastest tone's), so `k` is close to
+//! `f` and no tone sinks far below where the even cut would leave it, while the fastest,
+//! which reads the ship's gain `b` (`e_b`, `crate::core::fdi::sensitivity::ln_gain`) and most
+//! of what the networks read, keeps its
+//! size and its signal-to-noise. The guard is armed per vessel
 //! by what its tests find: after a CLFRT test that ended on the heading limit, and for as
 //! long as each armed test needs it (the guard lowered its tones); a test it did not act in
 //! disarms it. A hull whose peaks come near the limit and turn (KVLCC2's 7-9 deg in a
@@ -145,6 +158,9 @@ pub(super) struct ToneSizing {
     heading_armed: bool,
     heading_cut: bool,
     heading_rate: Option<(f64, f64, f64)>,
+    /// The first-order ship's yaw damping at the test's speed, `a0 u / l` [1/s]: the tones'
+    /// heading shares.
+    a_per_s: f64,
     /// Tone frequencies [rad/s] (the multisine's) and its amplitude [rad].
     omegas: Vec<f64>,
     amplitude_rad: f64,
@@ -172,8 +188,13 @@ impl ToneSizing {
         t0_s: f64,
         window: (f64, f64),
         heading_armed: bool,
+        speed_mps: Option<f64>,
     ) -> Self {
         let c = &cfg.clfrt;
+        let ship = &cfg.ship;
+        let u = speed_mps
+            .filter(|u| u.is_finite() && *u > 0.0)
+            .unwrap_or(ship.nominal_speed_mps);
         let omegas = multisine.omegas().to_vec();
         let n = omegas.len();
         // The slowest tone's period, and a second to spare.
@@ -195,6 +216,7 @@ impl ToneSizing {
             heading_armed: heading_armed && c.resize_heading_fraction < 1.0,
             heading_cut: false,
             heading_rate: None,
+            a_per_s: ship.yaw_damping_a0 * u / ship.length_m,
             confidence: c.resize_confidence,
             correlation_s: c.resize_correlation_s,
             dt_s: 1.0 / cfg.sensors.rate_hz,
@@ -318,9 +340,10 @@ impl ToneSizing {
     }
 
     /// A heading sample, `error_rad` the heading error against the test's course. When the
-    /// guard is armed (module doc), inside the window every tone is lowered by
-    /// `clfrt.resize-heading-factor` when the error is beyond `clfrt.resize-heading-fraction`
-    /// `f` of the heading limit and heading for it:
+    /// guard is armed (module doc), inside the window the tones' summed heading is lowered by
+    /// `clfrt.resize-heading-factor`, the fastest tone kept ([`Self::heading_cut_scales`]),
+    /// when the error is beyond `clfrt.resize-heading-fraction` `f` of the heading limit and
+    /// heading for it:
     /// its growth rate (low-passed over [`RATE_FILTER_S`]) would carry it past the limit
     /// within the time a cut takes to act (`resize-ramp-s + resize-wait-s`), or it is past
     /// `(1 + f) / 2` of the limit whatever its rate. A peak that turns short of the limit
@@ -330,7 +353,8 @@ impl ToneSizing {
     /// resize of the test's `max`. The tones' heading adds up (a multisine's peak is at
     /// most the sum of its tones'), and on a ship more responsive than the design the
     /// slowest tone's share, `|G S|` times its amplitude, grows as `b / w^2`: the test would
-    /// otherwise end on the heading limit.
+    /// otherwise end on the heading limit; the fastest tone, whose share is small, keeps its
+    /// size and its signal-to-noise.
     pub(super) fn on_heading(&mut self, t: f64, error_rad: f64) {
         let (start, end) = self.window;
         if !self.on || !self.heading_armed || !error_rad.is_finite() || t < start || t >= end {
@@ -362,15 +386,46 @@ impl ToneSizing {
             return;
         }
         let now = self.scales(t);
+        let cut = self.heading_cut_scales(&now);
         self.rudder.clear();
-        for ((f, to), n) in self.from.iter_mut().zip(self.to.iter_mut()).zip(now) {
-            *f = n;
-            *to = n * self.heading_factor;
+        for ((f, to), (n, c)) in self
+            .from
+            .iter_mut()
+            .zip(self.to.iter_mut())
+            .zip(now.iter().zip(cut))
+        {
+            *f = *n;
+            *to = c;
         }
         self.at_s = t;
         self.look_s = t;
         self.resizes += 1;
         self.heading_cut = true;
+    }
+
+    /// The scales a heading cut leaves from the scales `now`: the fastest tone kept and the
+    /// others lowered alike so that the summed heading share
+    /// `s_i g_i / (w_i sqrt(w_i^2 + a^2))` (module doc) falls by `heading_factor`
+    /// ([`spare_the_fastest`]). Shares that cannot be computed: every tone by the factor.
+    fn heading_cut_scales(&self, now: &[f64; MAX_TONES]) -> Vec<f64> {
+        let n = self.omegas.len().min(MAX_TONES);
+        let gains = self.tone_gains();
+        let a = self.a_per_s;
+        let shares: Vec<f64> = (0..n)
+            .map(|i| {
+                let w = self.omegas[i];
+                let g = gains[i].map_or(1.0, |(g, _)| g);
+                now[i] * g / (w * (w * w + a * a).sqrt())
+            })
+            .collect();
+        let fastest = (0..n).max_by(|&i, &j| self.omegas[i].total_cmp(&self.omegas[j]));
+        let factors = fastest
+            .filter(|_| shares.iter().all(|x| x.is_finite() && *x >= 0.0))
+            .and_then(|j| spare_the_fastest(&shares, j, self.heading_factor));
+        match factors {
+            Some(k) => (0..n).map(|i| now[i] * k[i]).collect(),
+            None => now[..n].iter().map(|s| s * self.heading_factor).collect(),
+        }
     }
 
     /// A rudder sample. Every `wait_s` inside the window, each tone whose rudder amplitude
@@ -428,6 +483,25 @@ impl ToneSizing {
         self.at_s = t;
         self.resizes += 1;
     }
+}
+
+/// The factors that lower the sum of `shares` (non-negative) by `factor` (in (0, 1)) while the
+/// share at `keep` keeps its size: the others' factor `k = (factor X - x_keep) / (X -
+/// x_keep)`, `X` the sum, 1 at `keep`. `None` when that cannot be done (the kept share alone
+/// is at least `factor X`, or every other share is 0): the caller lowers every share alike.
+pub(super) fn spare_the_fastest(shares: &[f64], keep: usize, factor: f64) -> Option<Vec<f64>> {
+    let total: f64 = shares.iter().sum();
+    let kept = *shares.get(keep)?;
+    let rest = total - kept;
+    let k = (factor * total - kept) / rest;
+    if !(rest > 0.0 && k > 0.0 && k < 1.0 && k.is_finite()) {
+        return None;
+    }
+    Some(
+        (0..shares.len())
+            .map(|i| if i == keep { 1.0 } else { k })
+            .collect(),
+    )
 }
 
 /// What the relay sizing predicted from the start of the relay's record.

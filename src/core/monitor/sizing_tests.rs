@@ -9,7 +9,13 @@ fn run(gains: [f64; 3], noise_rad: f64) -> (ToneSizing, Multisine) {
     let cfg = CoreConfig::default();
     let ms = Monitor::design_multisine(&cfg).unwrap();
     let t0 = 1000.0;
-    let mut sizing = ToneSizing::new(&cfg, &ms, t0, (t0, t0 + 400.0), false);
+    let mut sizing = ToneSizing::new(&cfg, &ms, t0, (t0, t0 + 400.0), false, None);
+    feed(&mut sizing, &ms, t0, gains, noise_rad);
+    (sizing, ms)
+}
+
+/// 400 s of the rudder `run` describes, from `t0`.
+fn feed(sizing: &mut ToneSizing, ms: &Multisine, t0: f64, gains: [f64; 3], noise_rad: f64) {
     let mut rng_state = 7u64;
     let mut noise = || {
         // xorshift, uniform in [-1, 1].
@@ -32,7 +38,6 @@ fn run(gains: [f64; 3], noise_rad: f64) -> (ToneSizing, Multisine) {
             + noise_rad * noise();
         sizing.on_rudder(t, rudder, 1.0);
     }
-    (sizing, ms)
 }
 
 #[test]
@@ -76,12 +81,96 @@ fn rudder_noise_does_not_lower_a_tone() {
     assert!(!sizing.resized(), "{:?}", sizing.scales(f64::INFINITY));
 }
 
+/// Sparing the fastest, against hand-worked answers: the sum falls by the factor, the kept
+/// share keeps its size and the others are lowered alike; `None` where the kept share alone
+/// is at or above the target.
+#[test]
+fn spare_the_fastest_known_answers() {
+    // 10.8 + 2.9 + 0.7 = 14.4, target 7.2: the others by (7.2 - 0.7) / 13.7.
+    let k = spare_the_fastest(&[10.8, 2.9, 0.7], 2, 0.5).unwrap();
+    let want = 6.5 / 13.7;
+    assert!(
+        (k[0] - want).abs() < 1e-15 && (k[1] - want).abs() < 1e-15,
+        "{k:?}"
+    );
+    assert_eq!(k[2], 1.0);
+    // The kept share is the middle one here: 1 + 1 + 2 = 4, target 2.4: others by 0.2.
+    let k = spare_the_fastest(&[1.0, 2.0, 1.0], 1, 0.6).unwrap();
+    assert!(
+        (k[0] - 0.2).abs() < 1e-15 && (k[2] - 0.2).abs() < 1e-15,
+        "{k:?}"
+    );
+    assert_eq!(spare_the_fastest(&[1.0, 1.0, 2.0], 2, 0.5), None);
+    assert_eq!(spare_the_fastest(&[0.0, 0.0, 2.0], 2, 0.5), None);
+    assert_eq!(spare_the_fastest(&[1.0, 2.0], 5, 0.5), None);
+    let mut x = 0.3f64;
+    for _ in 0..200 {
+        let v: Vec<f64> = (0..5)
+            .map(|_| {
+                x = (x * 997.0 + 0.123).fract();
+                0.1 + x * 10.0
+            })
+            .collect();
+        let total: f64 = v.iter().sum();
+        let f = 0.2 + 0.7 * x;
+        let Some(k) = spare_the_fastest(&v, 4, f) else {
+            assert!(v[4] >= f * total, "{v:?} {f}");
+            continue;
+        };
+        let got: f64 = v.iter().zip(&k).map(|(y, k)| y * k).sum();
+        assert!((got - f * total).abs() < 1e-9 * total, "{v:?} {f} {k:?}");
+        assert!(
+            k[..4].iter().all(|&c| c == k[0] && c > 0.0 && c < f),
+            "{k:?}"
+        );
+    }
+}
+
+/// The heading guard on a ship whose slowest tone carries the heading: the tones' summed
+/// heading share (scale x the loop's rudder gain the fit reads x the first-order ship's
+/// `1 / (w sqrt(w^2 + a^2))`, written out here) falls by `resize-heading-factor`, the
+/// slower tones are lowered alike, a little more than an even cut would, and the fastest
+/// keeps its size.
+#[test]
+fn the_heading_cut_spares_the_fastest_tone() {
+    let cfg = CoreConfig::default();
+    let ms = Monitor::design_multisine(&cfg).unwrap();
+    let t0 = 1000.0;
+    let u = 8.0;
+    let mut sizing = ToneSizing::new(&cfg, &ms, t0, (t0, t0 + 500.0), true, Some(u));
+    let gains = [0.5, 1.2, 1.5];
+    feed(&mut sizing, &ms, t0, gains, 0.0);
+    assert!(!sizing.resized());
+    let limit = cfg.safety.max_heading_error_deg.to_radians();
+    sizing.on_heading(t0 + 400.0, 0.9 * limit);
+    sizing.on_heading(t0 + 400.1, 0.9 * limit);
+    assert!(sizing.heading_guarded());
+    let after = sizing.scales(f64::INFINITY);
+    let a = cfg.ship.yaw_damping_a0 * u / cfg.ship.length_m;
+    let share = |i: usize, s: f64| {
+        let w = ms.omegas()[i];
+        s * gains[i] / (w * (w * w + a * a).sqrt())
+    };
+    let before: f64 = (0..3).map(|i| share(i, 1.0)).sum();
+    let now: f64 = (0..3).map(|i| share(i, after[i])).sum();
+    // The gains as the fit reads them (within 5 %, `the_fit_reads_each_tones_gain`).
+    let want = cfg.clfrt.resize_heading_factor * before;
+    assert!(
+        (now / want - 1.0).abs() < 0.05,
+        "{now} vs {want}: {after:?}"
+    );
+    let f = cfg.clfrt.resize_heading_factor;
+    assert!(after[0] < f && after[0] > 0.75 * f, "{after:?}");
+    assert!((after[1] / after[0] - 1.0).abs() < 1e-12, "{after:?}");
+    assert_eq!(after[2], 1.0, "{after:?}");
+}
+
 #[test]
 fn sizing_off_leaves_the_tones() {
     let mut cfg = CoreConfig::default();
     cfg.clfrt.resize_max = 0;
     let ms = Monitor::design_multisine(&cfg).unwrap();
-    let mut sizing = ToneSizing::new(&cfg, &ms, 0.0, (0.0, 400.0), false);
+    let mut sizing = ToneSizing::new(&cfg, &ms, 0.0, (0.0, 400.0), false, None);
     for n in 0..4000 {
         let t = n as f64 * 0.1;
         sizing.on_rudder(t, 0.4 * (ms.omegas()[2] * t).sin(), 1.0);
