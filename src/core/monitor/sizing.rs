@@ -39,9 +39,8 @@
 //! more apart, the slowest's heading is 5-30 times the fastest tone's), so `k` is close to
 //! `f` and no tone sinks far below where the even cut would leave it, while the fastest,
 //! which reads the ship's gain `b` (`e_b`, `crate::core::fdi::sensitivity::ln_gain`) and most
-//! of what the networks read, keeps its
-//! size and its signal-to-noise. The guard is armed per vessel
-//! by what its tests find: after a CLFRT test that ended on the heading limit, and for as
+//! of what the networks read, keeps its size and its signal-to-noise. The guard is armed per
+//! vessel by what its tests find: after a CLFRT test that ended on the heading limit, and for as
 //! long as each armed test needs it (the guard lowered its tones); a test it did not act in
 //! disarms it. A hull whose peaks come near the limit and turn (KVLCC2's 7-9 deg in a
 //! moderate sea) keeps its tones: lowered there for nothing, they cost detection.
