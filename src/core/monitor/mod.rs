@@ -60,7 +60,7 @@
 //! | `run.rs` | a test under way: its steps, its end (report, decision), the outputs, shutdown |
 //! | `safety.rs` | preconditions, steady course, the safety checks, the excitation gate |
 //! | `hbt.rs`, `clfrt.rs` | each method's run and analysis, and its typed features |
-//! | `sizing.rs` | the excitation sized to the loop: CLFRT's tones, HBT's relay |
+//! | `sizing.rs`, `sizing_relay.rs` | the excitation sized to the loop: CLFRT's tones; HBT's relay |
 //! | `input.rs`, `record.rs` | input validation and counters; bounded test records |
 //! | `abort.rs` | why a test stopped |
 //! | `state.rs` | what a vessel's monitor keeps across a restart |

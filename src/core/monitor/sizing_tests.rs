@@ -1,5 +1,7 @@
 //! Tests of the excitation's sizing (`super`).
+use super::relay::unexplained_heading;
 use super::*;
+use crate::core::dsp::spectrum::{band_rms, Spectrum};
 use crate::core::monitor::Monitor;
 
 /// A rudder that answers each tone `i` with gain `gains[i]` (a lag of 0.3 rad) plus a
