@@ -94,7 +94,11 @@
 //! the methods' samples as they are (each commissioned method's first `2 k`), and a change
 //! found makes the methods it splits inconsistent as at commissioning's end (at `nu = 14`,
 //! `T^2(2, 14)` at 2.7e-7 is 11 standard deviations). After that the reference is the
-//! vessel's.
+//! vessel's. Only moments inside a method's commissioning split it there: its learned tests
+//! join the changed segment, but a change among them is the decision's (it was called
+//! healthy test by test against the reference), and a split there would set the test's
+//! whole budget against the last one or two tests, where one estimator outlier (a CLFRT
+//! speed 2-3 m/s off, as on the Mariner in a moderate sea) looks like a change.
 //!
 //! Budget: one ship-day of the alarm budget per commissioning, `alpha_c = F / 365.25`
 //! (`fdi.false-alarms-per-year` = 0.1: 2.7e-4), half at its end and half in the
@@ -151,7 +155,8 @@ pub fn check(c: &mut [Commissioning; 2], i: usize, s: &Settings) -> Option<Chang
             _ => &[],
         }
     });
-    let change = joint_change_point(samples, &s.envelope, s.floors(), s.change_alpha)?;
+    let all = samples.map(<[Sample]>::len);
+    let change = joint_change_point(samples, all, &s.envelope, s.floors(), s.change_alpha)?;
     Some(mark(c, change))
 }
 
@@ -176,7 +181,13 @@ pub fn confirm(c: &mut [Commissioning; 2], i: usize, s: &Settings) -> Option<Cha
             _ => commissioning_tests(x),
         }
     });
-    let change = joint_change_point(samples, &s.envelope, s.floors(), s.confirm_alpha)?;
+    // The moments inside each method's commissioning: the tests it learned after only add
+    // to the changed segment (a change among them is the decision's).
+    let within: [usize; 2] = std::array::from_fn(|m| match c[m].phase {
+        Phase::Learning => (c[m].tests as usize).min(samples[m].len()),
+        _ => samples[m].len(),
+    });
+    let change = joint_change_point(samples, within, &s.envelope, s.floors(), s.confirm_alpha)?;
     Some(mark(c, change))
 }
 
@@ -230,11 +241,13 @@ pub struct Change {
 /// The vessel's change point over its methods' commissioning samples (each in the order
 /// of its tests, `Sample::order` the vessel's test number): for every moment between two of
 /// the vessel's tests, the methods whose sample it splits (with at least [`MIN_TESTS`]
-/// tests) combine their split's tail probabilities ([`split_tails`]) by Fisher's rule,
+/// tests) inside its commissioning (at least one of its first `within[m]` tests after the
+/// moment) combine their split's tail probabilities ([`split_tails`]) by Fisher's rule,
 /// `X = -2 sum_m ln p_m ~ chi2(2 M)` under a healthy sample (the methods' tests are
 /// independent); the moment whose combined tail is the smallest, if under `alpha`.
 pub fn joint_change_point(
     samples: [&[Sample]; 2],
+    within: [usize; 2],
     env: &Envelope,
     floors: [f64; P],
     alpha: f64,
@@ -254,7 +267,7 @@ pub fn joint_change_point(
         let (mut x, mut dof) = (0.0, 0.0);
         for m in 0..2 {
             let k = samples[m].iter().filter(|s| s.order < t).count();
-            if let Some(p) = tails[m].get(k).filter(|_| k >= 1) {
+            if let Some(p) = tails[m].get(k).filter(|_| k >= 1 && k < within[m]) {
                 splits[m] = Some(k);
                 x -= 2.0 * p.max(f64::MIN_POSITIVE).ln();
                 dof += 2.0;

@@ -11,6 +11,9 @@ use crate::core::fdi::envelope::tests::st as env;
 
 const FLOORS: [f64; 3] = [0.05, 0.004, 0.004];
 
+/// Every split counts: both samples are commissioning tests.
+const ALL: [usize; 2] = [usize::MAX; 2];
+
 /// The per-moment budget of a commissioning of up to 8 tests of each method (half of one
 /// ship-day's 2.7e-4).
 fn alpha() -> f64 {
@@ -48,7 +51,7 @@ fn sample(rng: &mut ChaCha8Rng, shift: [f64; 2], u: f64, sd: f64, order: u64) ->
 
 /// One method's sample alone: the split found, if any.
 fn alone(samples: &[Sample]) -> Option<usize> {
-    joint_change_point([samples, &[]], &env(), FLOORS, alpha()).map(|c| {
+    joint_change_point([samples, &[]], ALL, &env(), FLOORS, alpha()).map(|c| {
         assert_eq!(c.splits[1], None);
         c.splits[0].unwrap()
     })
@@ -133,7 +136,7 @@ fn a_slope_the_sample_itself_shows_is_taken_from_it() {
             .collect()
     };
     let found = |v: &[Sample]| {
-        joint_change_point([v, &[]], &env(), FLOORS, confirm_alpha()).map(|c| c.splits[0])
+        joint_change_point([v, &[]], ALL, &env(), FLOORS, confirm_alpha()).map(|c| c.splits[0])
     };
     assert_eq!(found(&run(&mut rng, 0.12)), Some(Some(1)));
     let flagged = (0..1000)
@@ -177,7 +180,7 @@ fn the_methods_add_up_their_evidence_at_the_same_moment() {
                 .collect()
         });
         single += usize::from(alone(&pair[0]).is_some() || alone(&pair[1]).is_some());
-        if let Some(c) = joint_change_point([&pair[0], &pair[1]], &env(), FLOORS, alpha()) {
+        if let Some(c) = joint_change_point([&pair[0], &pair[1]], ALL, &env(), FLOORS, alpha()) {
             joint += 1;
             right += usize::from(c.splits == [Some(3), Some(3)]);
         }
@@ -192,7 +195,7 @@ fn the_methods_add_up_their_evidence_at_the_same_moment() {
                 .collect()
         });
         flagged += usize::from(
-            joint_change_point([&pair[0], &pair[1]], &env(), FLOORS, alpha()).is_some(),
+            joint_change_point([&pair[0], &pair[1]], ALL, &env(), FLOORS, alpha()).is_some(),
         );
     }
     assert_eq!(flagged, 0);
@@ -323,8 +326,12 @@ fn change_point_false_flags() {
                     pair[m].iter().filter(|s| s.order < n).copied().collect()
                 };
                 let (clfrt, hbt) = (part(0), part(1));
-                let level = if n <= 2 * k { alpha } else { confirm };
-                joint_change_point([&clfrt, &hbt], &env(), FLOORS, level).is_some()
+                let (level, within) = if n <= 2 * k {
+                    (alpha, ALL)
+                } else {
+                    (confirm, [k as usize; 2])
+                };
+                joint_change_point([&clfrt, &hbt], within, &env(), FLOORS, level).is_some()
             });
             flagged += usize::from(any);
         }

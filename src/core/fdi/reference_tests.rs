@@ -497,3 +497,47 @@ fn a_change_commissioning_could_not_prove_is_proven_by_the_tests_after_it() {
     }
     assert!(both.iter().all(|c| c.state(&s) == "commissioned"));
 }
+
+/// Two outliers at the end of a healthy method's confirmation (its last two learned tests
+/// read the speed 0.5 m/s high, ten floors): no change inside its commissioning, so not
+/// inconsistent; the same step from its fourth commissioning test is (at commissioning's
+/// end).
+#[test]
+fn outliers_after_commissioning_are_no_change_inside_it() {
+    let s = settings(8);
+    let run = |from: u64, to: u64| {
+        let mut both: [Commissioning; 2] = Default::default();
+        let mut found = None;
+        for order in 0..40u64 {
+            let m = (order % 2) as usize;
+            let x = order as f64;
+            let step = if m == 0 && (from..=to).contains(&order) {
+                0.5
+            } else {
+                0.0
+            };
+            let t = raw(
+                1.0 + 0.01 * (2.3 * x).sin() + step,
+                -0.2 + 0.01 * (1.7 * x).cos(),
+            );
+            match both[m].add(&s, &t, order) {
+                Added::Completed => {
+                    if let Some(c) = changepoint::check(&mut both, m, &s) {
+                        found.get_or_insert(c);
+                    }
+                }
+                Added::Learned => {
+                    if let Some(c) = changepoint::confirm(&mut both, m, &s) {
+                        found.get_or_insert(c);
+                    }
+                }
+                _ => {}
+            }
+        }
+        found
+    };
+    // Method 0's tests are the vessel's even ones: commissioned at 14, learning to 30.
+    assert_eq!(run(28, 30), None);
+    let c = run(6, 40).expect("a step from its fourth test is a change");
+    assert_eq!(c.splits[0], Some(3));
+}
