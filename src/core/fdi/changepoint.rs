@@ -98,7 +98,9 @@
 //! join the changed segment, but a change among them is the decision's (it was called
 //! healthy test by test against the reference), and a split there would set the test's
 //! whole budget against the last one or two tests, where one estimator outlier (a CLFRT
-//! speed 2-3 m/s off, as on the Mariner in a moderate sea) looks like a change.
+//! speed 2-3 m/s off, as on the Mariner in a moderate sea) looks like a change. And only the
+//! learned tests in the commissioning's sea join (`confirmation_sample`): the test is over
+//! one sea, and a test in another is another operating point, not a change of health.
 //!
 //! Budget: one ship-day of the alarm budget per commissioning, `alpha_c = F / 365.25`
 //! (`fdi.false-alarms-per-year` = 0.1: 2.7e-4), half at its end and half in the
@@ -107,7 +109,7 @@
 //! 1)`, 30 for K = 8: `alpha_c / 2 / L = 4.5e-6`); in the confirmation `K` evaluations of each
 //! method over at most `4 K - 1` moments (`L_f = 2 K (4 K - 1)`, 496: 2.7e-7). Needs `n >= 6`
 //! (`nu = 4`) in a method.
-use super::envelope::{Sample, Settings as Envelope};
+use super::envelope::{same_sea, Sample, Settings as Envelope};
 use super::measured::{bound_factor, effective_dof};
 use super::reference::{Commissioning, Phase, Settings};
 use super::stats::{chi2_sf, dot, hotelling_sf, Cov, P};
@@ -173,14 +175,15 @@ pub fn confirm(c: &mut [Commissioning; 2], i: usize, s: &Settings) -> Option<Cha
     if x.phase != Phase::Learning || !intact(x) || n <= k || n > 2 * k {
         return None;
     }
-    let samples: [&[Sample]; 2] = std::array::from_fn(|m| {
+    let owned: [Vec<Sample>; 2] = std::array::from_fn(|m| {
         let x = &c[m];
         match x.phase {
-            Phase::Commissioning => &x.samples[..],
-            Phase::Learning if intact(x) => &x.samples[..x.samples.len().min(2 * x.tests as usize)],
-            _ => commissioning_tests(x),
+            Phase::Commissioning => x.samples.clone(),
+            Phase::Learning if intact(x) => confirmation_sample(x, &s.envelope),
+            _ => commissioning_tests(x).to_vec(),
         }
     });
+    let samples = owned.each_ref().map(Vec::as_slice);
     // The moments inside each method's commissioning: the tests it learned after only add
     // to the changed segment (a change among them is the decision's).
     let within: [usize; 2] = std::array::from_fn(|m| match c[m].phase {
@@ -189,6 +192,27 @@ pub fn confirm(c: &mut [Commissioning; 2], i: usize, s: &Settings) -> Option<Cha
     });
     let change = joint_change_point(samples, within, &s.envelope, s.floors(), s.confirm_alpha)?;
     Some(mark(c, change))
+}
+
+/// A commissioned method's confirmation sample: its commissioning tests, then those of the
+/// tests it learned after (its first `2 k` in all) that are in the commissioning's sea
+/// (`envelope::same_sea` of its tests' mean `w`). The test is over one sea (`Point::x3`):
+/// a test in another sea is another operating point, its offset and scatter the
+/// reference's to learn (`envelope::local_shape`), not a change of health.
+fn confirmation_sample(x: &Commissioning, env: &Envelope) -> Vec<Sample> {
+    let upto = x.samples.len().min(2 * x.tests as usize);
+    let (head, tail) = x.samples[..upto].split_at((x.tests as usize).min(upto));
+    let ws: Vec<f64> = head
+        .iter()
+        .map(|t| t.x(env)[3])
+        .filter(|w| w.is_finite())
+        .collect();
+    let sea = (!ws.is_empty()).then(|| ws.iter().sum::<f64>() / ws.len() as f64);
+    let here = |t: &&Sample| sea.is_none_or(|m| same_sea(env, t.x(env)[3], m));
+    head.iter()
+        .chain(tail.iter().filter(here))
+        .copied()
+        .collect()
 }
 
 /// Nothing forgotten (`reference.memory-tests`): the commissioning tests come first.

@@ -159,6 +159,14 @@ fn condition_distance(st: &Settings, a: X, b: X) -> f64 {
         .sqrt()
 }
 
+/// Whether two tests' `w` are one sea: within one `reference.bandwidth-sea` (a NaN `w`, a
+/// test at every sea, is in any). A sea state apart is about 1 (calm to moderate 1.3,
+/// moderate to rough 0.9 at the default anchors); one sea's own tests scatter by about 0.1.
+pub fn same_sea(st: &Settings, w: f64, at: f64) -> bool {
+    let d = w - at;
+    d.is_nan() || (d / st.bandwidth[3]).abs() <= 1.0
+}
+
 /// The sea's regressor for a difference `dw` in `w`: the part beyond half a bandwidth. One
 /// test's sea index is its wave yaw over that test, which scatters by about 0.1 in `w`
 /// within one sea (measured on the family: calm 0.02 +- 0.05, moderate 1.34 +- 0.1, rough
@@ -365,7 +373,7 @@ pub fn local_shape(samples: &[Sample], st: &Settings, global: &Shape, at: &Point
     for s in samples {
         let x = s.x(st);
         // Only the tests in the point's sea vouch for its scatter.
-        if (delta(x, at)[3] / st.bandwidth[3]).abs() > 1.0 {
+        if !same_sea(st, x[3], at[3]) {
             continue;
         }
         here += 1;

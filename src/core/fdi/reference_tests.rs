@@ -541,3 +541,29 @@ fn outliers_after_commissioning_are_no_change_inside_it() {
     let c = run(6, 40).expect("a step from its fourth test is a change");
     assert_eq!(c.splits[0], Some(3));
 }
+
+/// The sea rising a state after commissioning, the offset moving with it by ten times the
+/// scatter: another operating point, the reference's to learn, not a change inside the
+/// commissioning (the confirmation takes the learned tests in the commissioning's sea).
+#[test]
+fn a_new_sea_after_commissioning_is_no_change_inside_it() {
+    let s = settings(16);
+    let calm = FdiConfig::default().sea_wave_yaw_deg[0];
+    let mut both: [Commissioning; 2] = Default::default();
+    for order in 0..80u64 {
+        let m = (order % 2) as usize;
+        let x = order as f64;
+        let rough = both[m].phase == Phase::Learning;
+        let mut t = raw(
+            1.0 + 0.01 * (2.3 * x).sin() + if rough { 0.1 } else { 0.0 },
+            -0.2 + 0.01 * (1.7 * x).cos(),
+        );
+        t.sea_index = Some(if rough { 4.0 * calm } else { calm });
+        match both[m].add(&s, &t, order) {
+            Added::Completed => assert_eq!(changepoint::check(&mut both, m, &s), None),
+            Added::Learned => assert_eq!(changepoint::confirm(&mut both, m, &s), None, "{order}"),
+            _ => {}
+        }
+    }
+    assert!(both.iter().all(|c| c.state(&s) == "commissioned"));
+}
