@@ -574,6 +574,8 @@ impl Commissioning {
             (_, Phase::Commissioning, _) => {
                 format!("commissioning {} of at most {}", self.tests, s.tests)
             }
+            // A change after the commissioning tests: only from a state saved before the
+            // confirmation kept to the moments inside them (`changepoint::confirm`).
             (_, Phase::Inconsistent { at, .. }, _) if at > self.tests => format!(
                 "commissioning inconsistent: a change at test {at}, {} after its {} commissioning tests; commission again after repairs",
                 at - self.tests,
