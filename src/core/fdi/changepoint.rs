@@ -102,6 +102,13 @@
 //! learned tests in the commissioning's sea join (`confirmation_sample`): the test is over
 //! one sea, and a test in another is another operating point, not a change of health.
 //!
+//! **A change needs two tests after it** (`MIN_CHANGED`), at commissioning's end as in the
+//! confirmation: one test alone against the others is a single test's look, which the
+//! decision makes on every later test against a reference the change moved by `1/n` of
+//! itself; the estimators' heavy tails (docs/fdi.md, "Every suite at the defaults") made it
+//! a false "inconsistent" (one HBT speed 2 m/s off at a healthy commissioning's last test,
+//! on another class of ship).
+//!
 //! Budget: one ship-day of the alarm budget per commissioning, `alpha_c = F / 365.25`
 //! (`fdi.false-alarms-per-year` = 0.1: 2.7e-4), half at its end and half in the
 //! confirmation, each spent evenly over the (evaluation, moment) pairs it can make
@@ -122,6 +129,13 @@ const BOUND: f64 = 0.99;
 
 /// The fewest tests the test runs on.
 pub const MIN_TESTS: usize = 6;
+
+/// The fewest tests of a method after the moment for its split to count. One test alone
+/// against the others is a single test's look, the decision's: a change at a sample's last
+/// test moves the reference by `1/n` of itself, and every later test is judged against it;
+/// while one estimator outlier there (an HBT speed 2 m/s off at a commissioning's last
+/// test) would otherwise declare a healthy commissioning inconsistent.
+pub const MIN_CHANGED: usize = 2;
 
 /// The number of (evaluation, moment) pairs a commissioning of up to `k_max` tests of each
 /// method can make: the joint test runs when a method completes its sample (twice), over
@@ -266,7 +280,7 @@ pub struct Change {
 /// of its tests, `Sample::order` the vessel's test number): for every moment between two of
 /// the vessel's tests, the methods whose sample it splits (with at least [`MIN_TESTS`]
 /// tests) inside its commissioning (at least one of its first `within[m]` tests after the
-/// moment) combine their split's tail probabilities ([`split_tails`]) by Fisher's rule,
+/// moment, and at least [`MIN_CHANGED`] of its tests after it) combine their split's tail probabilities ([`split_tails`]) by Fisher's rule,
 /// `X = -2 sum_m ln p_m ~ chi2(2 M)` under a healthy sample (the methods' tests are
 /// independent); the moment whose combined tail is the smallest, if under `alpha`.
 pub fn joint_change_point(
@@ -291,7 +305,11 @@ pub fn joint_change_point(
         let (mut x, mut dof) = (0.0, 0.0);
         for m in 0..2 {
             let k = samples[m].iter().filter(|s| s.order < t).count();
-            if let Some(p) = tails[m].get(k).filter(|_| k >= 1 && k < within[m]) {
+            let changed = samples[m].len().saturating_sub(k);
+            if let Some(p) = tails[m]
+                .get(k)
+                .filter(|_| k >= 1 && k < within[m] && changed >= MIN_CHANGED)
+            {
                 splits[m] = Some(k);
                 x -= 2.0 * p.max(f64::MIN_POSITIVE).ln();
                 dof += 2.0;

@@ -341,3 +341,20 @@ fn change_point_false_flags() {
         );
     }
 }
+
+/// One outlier at a sample's last test (the speed 20 scatter standard deviations off) is no
+/// change: a single test's look is the decision's. The same shift in the last two tests is.
+#[test]
+fn one_test_after_the_moment_is_no_change_two_are() {
+    let mut rng = ChaCha8Rng::seed_from_u64(21);
+    let run = |rng: &mut ChaCha8Rng, from: u64| -> Vec<Sample> {
+        (0..16u64)
+            .map(|i| {
+                let u = if i >= from { 1.6 } else { 0.0 };
+                sample(rng, [u, 0.0], 7.0, 0.004, i)
+            })
+            .collect()
+    };
+    assert_eq!(alone(&run(&mut rng, 15)), None);
+    assert_eq!(alone(&run(&mut rng, 14)), Some(14));
+}
