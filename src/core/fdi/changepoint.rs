@@ -280,9 +280,10 @@ pub struct Change {
 /// of its tests, `Sample::order` the vessel's test number): for every moment between two of
 /// the vessel's tests, the methods whose sample it splits (with at least [`MIN_TESTS`]
 /// tests) inside its commissioning (at least one of its first `within[m]` tests after the
-/// moment, and at least [`MIN_CHANGED`] of its tests after it) combine their split's tail probabilities ([`split_tails`]) by Fisher's rule,
-/// `X = -2 sum_m ln p_m ~ chi2(2 M)` under a healthy sample (the methods' tests are
-/// independent); the moment whose combined tail is the smallest, if under `alpha`.
+/// moment, and at least [`MIN_CHANGED`] of its tests after it) combine their split's tail
+/// probabilities ([`split_tails`]) by Fisher's rule, `X = -2 sum_m ln p_m ~ chi2(2 M)` under
+/// a healthy sample (the methods' tests are independent); the moment whose combined tail is
+/// the smallest, if under `alpha`.
 pub fn joint_change_point(
     samples: [&[Sample]; 2],
     within: [usize; 2],
