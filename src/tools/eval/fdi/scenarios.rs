@@ -475,6 +475,36 @@ pub fn commissioning_scenarios() -> Vec<FdiScenario> {
                 None,
             )
         },
+        // A healthy ship whose sea changes a state during commissioning (a day and a half
+        // of it at sea): no change of health.
+        FdiScenario {
+            change: Some(Change {
+                speed_mps: &[],
+                loading: None,
+                sea: SeaChange::Rises,
+            }),
+            ..c(
+                "commissioning: healthy, the sea rises a state at test k",
+                None,
+                None,
+                None,
+                None,
+            )
+        },
+        FdiScenario {
+            change: Some(Change {
+                speed_mps: &[],
+                loading: None,
+                sea: SeaChange::Falls,
+            }),
+            ..c(
+                "commissioning: healthy, the sea falls a state at test k",
+                None,
+                None,
+                None,
+                None,
+            )
+        },
     ]
 }
 
