@@ -18,7 +18,10 @@
 //!   (`crate::core::fdi::envelope`) about the physical move: `d` is taken less the sample's
 //!   mean similarity slope times `du` and its mean loading slope times `dl`
 //!   (`Sample::speed_slope`, `Sample::loading_slope`, the slope priors' means): a change of
-//!   operating point is no change of health.
+//!   operating point is no change of health. So is a change of sea: where the segments'
+//!   mean `w` (`Point::x`) differ by `dw`, `Psi` adds the reference's sea prior over the
+//!   step beyond half a bandwidth, `(tau_w sea_step(dw))^2` (`reference.slope-sea`, mean 0:
+//!   the networks' bias per sea is the hull's), nothing within one sea.
 //! - The slopes are common to both segments, and where the tests' operating points spread
 //!   within the segments (CLFRT's tones resized in some tests and not in others: its
 //!   excitation alternating between two sizes) the sample itself tells them: per component
@@ -116,7 +119,7 @@
 //! 1)`, 30 for K = 8: `alpha_c / 2 / L = 4.5e-6`); in the confirmation `K` evaluations of each
 //! method over at most `4 K - 1` moments (`L_f = 2 K (4 K - 1)`, 496: 2.7e-7). Needs `n >= 6`
 //! (`nu = 4`) in a method.
-use super::envelope::{same_sea, Sample, Settings as Envelope};
+use super::envelope::{same_sea, sea_step, Sample, Settings as Envelope};
 use super::measured::{bound_factor, effective_dof};
 use super::reference::{Commissioning, Phase, Settings};
 use super::stats::{chi2_sf, dot, hotelling_sf, Cov, P};
@@ -345,7 +348,7 @@ pub fn split_tails(samples: &[Sample], env: &Envelope, floors: [f64; P]) -> Vec<
     // Prefix sums of e, e e' and the operating point: every split in O(1).
     let mut pre = vec![Sums::default(); n + 1];
     for (i, s) in samples.iter().enumerate() {
-        pre[i + 1] = pre[i].plus(s);
+        pre[i + 1] = pre[i].plus(s, env);
     }
     let total = pre[n];
     let mut tails = vec![1.0; n];
@@ -380,7 +383,19 @@ pub fn split_tails(samples: &[Sample], env: &Envelope, floors: [f64; P]) -> Vec<
         let (nu, per) = (fit.nu, fit.per);
         let m = bound_factor(nu, BOUND);
         let d: [f64; P] = std::array::from_fn(|j| mb[j] - ma[j] - fit.beta[j].0.dot(&dx));
-        let psi: [f64; P] = std::array::from_fn(|j| dx.dot(&(fit.beta[j].1 * dx)).max(0.0));
+        // The sea: another sea is another operating point (`Point::x`'s `w`), whose offset
+        // the reference's sea prior lets move by `tau_w` per unit of `w` beyond half a
+        // bandwidth (`envelope::sea_step`), about no mean (the networks' bias per sea is
+        // the hull's). Within one sea (segments' mean `w` within a quarter of each other)
+        // it adds nothing.
+        let dw = match (a.sea(), b.sea()) {
+            (Some(wa), Some(wb)) => sea_step(env, wb - wa),
+            _ => 0.0,
+        };
+        let psi: [f64; P] = std::array::from_fn(|j| {
+            let tau_w = env.slope_sea[j.min(1)] * dw;
+            dx.dot(&(fit.beta[j].1 * dx)).max(0.0) + tau_w * tau_w
+        });
         // The learned part (the scatter, estimated with `nu` dof) and the known ones (the
         // floors, the slopes' share).
         let learned = per.times(f);
@@ -513,12 +528,17 @@ struct Sums {
     /// `sum x x'` and `sum x e_j` (`x` the operating point).
     xx: [[f64; 3]; 3],
     xe: [[f64; P]; 3],
+    /// `sum w` and the count of tests with a sea index (`w` finite).
+    w: f64,
+    nw: f64,
 }
 
 impl Sums {
-    fn plus(self, s: &Sample) -> Self {
+    fn plus(self, s: &Sample, env: &Envelope) -> Self {
         let finite = |x: f64| if x.is_finite() { x } else { 0.0 };
         let x = s.point().x3();
+        let w = s.x(env)[3];
+        let (w, nw) = if w.is_finite() { (w, 1.0) } else { (0.0, 0.0) };
         Self {
             n: self.n + 1.0,
             e: std::array::from_fn(|i| self.e[i] + s.e[i]),
@@ -528,6 +548,8 @@ impl Sums {
             lslope: std::array::from_fn(|i| self.lslope[i] + finite(s.loading_slope[i])),
             xx: std::array::from_fn(|i| std::array::from_fn(|j| self.xx[i][j] + x[i] * x[j])),
             xe: std::array::from_fn(|i| std::array::from_fn(|j| self.xe[i][j] + x[i] * s.e[j])),
+            w: self.w + w,
+            nw: self.nw + nw,
         }
     }
 
@@ -541,7 +563,14 @@ impl Sums {
             lslope: std::array::from_fn(|i| self.lslope[i] - o.lslope[i]),
             xx: std::array::from_fn(|i| std::array::from_fn(|j| self.xx[i][j] - o.xx[i][j])),
             xe: std::array::from_fn(|i| std::array::from_fn(|j| self.xe[i][j] - o.xe[i][j])),
+            w: self.w - o.w,
+            nw: self.nw - o.nw,
         }
+    }
+
+    /// The mean sea `w` of the tests with a sea index (`None`: none has one).
+    fn sea(&self) -> Option<f64> {
+        (self.nw > 0.5).then(|| self.w / self.nw)
     }
 
     /// Mean residual and mean operating point.

@@ -358,3 +358,32 @@ fn one_test_after_the_moment_is_no_change_two_are() {
     assert_eq!(alone(&run(&mut rng, 15)), None);
     assert_eq!(alone(&run(&mut rng, 14)), Some(14));
 }
+
+/// The sea falls a state after the sample's second test (moderate, `w` 1.39, to calm, 0):
+/// the offset moves with it, `e_u` by 0.5 m/s (6 of its scatter's standard deviations, 1.5
+/// of the sea prior's over the step) and `e_D` by 0.02, and that is no change of health; a
+/// displacement change of 0.25 at the same moment (7 of the prior's standard deviations in
+/// `e_D`) still is.
+#[test]
+fn a_change_of_sea_is_no_change_of_health() {
+    let mut rng = ChaCha8Rng::seed_from_u64(8);
+    let run = |rng: &mut ChaCha8Rng, fault: f64| -> Vec<Sample> {
+        (0..16u64)
+            .map(|i| {
+                let (i_sea, shift) = if i < 2 {
+                    (0.2, [0.5, 0.02])
+                } else {
+                    (0.05, [0.0, fault])
+                };
+                Sample {
+                    sea_index: Some(i_sea),
+                    ..sample(rng, shift, 7.0, 0.004, i)
+                }
+            })
+            .collect()
+    };
+    for _ in 0..20 {
+        assert_eq!(alone(&run(&mut rng, 0.0)), None);
+    }
+    assert_eq!(alone(&run(&mut rng, 0.25)), Some(2));
+}

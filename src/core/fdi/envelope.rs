@@ -172,7 +172,7 @@ pub fn same_sea(st: &Settings, w: f64, at: f64) -> bool {
 /// within one sea (measured on the family: calm 0.02 +- 0.05, moderate 1.34 +- 0.1, rough
 /// 2.27 +- 0.1); a slope fitted to that scatter is noise, and the next sea would be
 /// predicted along it. Within half a bandwidth the offset is one sea's.
-fn sea_step(st: &Settings, dw: f64) -> f64 {
+pub(super) fn sea_step(st: &Settings, dw: f64) -> f64 {
     let dead = 0.5 * st.bandwidth[3];
     dw.signum() * (dw.abs() - dead).max(0.0)
 }
