@@ -45,6 +45,7 @@ pub(super) fn write_outcomes(
                     "chi2_actuator": nan_null(t.q_actuator),
                     "sea_index": nan_null(t.sea_index),
                     "fit_chi2": nan_null(t.fit_chi2),
+                    "tone_ci90": t.tone_ci90.map(nan_null),
                     "z": t.z.map(nan_null),
                     "cause_costs": t.cause_costs.map(nan_null),
                     "raw": t.raw.map(nan_null),

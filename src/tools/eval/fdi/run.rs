@@ -64,6 +64,9 @@ pub struct TestOutcome {
     pub sea_index: f64,
     /// The CLFRT model fit's chi-square (NaN for HBT).
     pub fit_chi2: f64,
+    /// CLFRT: the widest of its tones' 90 % intervals, the gain's (relative) and the
+    /// phase's [rad] (`features.tones`; NaN for HBT).
+    pub tone_ci90: [f64; 2],
     /// The servo check's chi-square (NaN without one).
     pub q_actuator: f64,
     /// The method's normalised speed, displacement and gain residuals (NaN without).
@@ -163,6 +166,16 @@ pub(super) fn outcome_of(r: &Report) -> TestOutcome {
         q_param: p.map_or(nan, |p| p.chi2),
         sea_index: res.sea_index.unwrap_or(nan),
         fit_chi2: res.model_fit.as_ref().map_or(nan, |f| f.chi2),
+        tone_ci90: {
+            let tones = match &r.features {
+                crate::core::wire::Features::Clfrt(c) => &c.tones[..],
+                _ => &[],
+            };
+            let widest = |f: fn(&crate::core::wire::features::ToneFeatures) -> f64| {
+                tones.iter().map(f).fold(nan, f64::max)
+            };
+            [widest(|t| t.gain_ci90_rel), widest(|t| t.phase_ci90_rad)]
+        },
         q_actuator: res
             .servo_check
             .as_ref()

@@ -21,6 +21,7 @@ fn outcome(decision: Decision, raw0: f64) -> TestOutcome {
         q_param: 1.5,
         sea_index: 0.1,
         fit_chi2: f64::NAN,
+        tone_ci90: [f64::NAN; 2],
         q_actuator: f64::NAN,
         z: [0.5, -1.0, 0.0],
         raw: [
