@@ -428,6 +428,15 @@ pub fn commissioning_scenarios() -> Vec<FdiScenario> {
         onset: Onset::InCommissioning(COMMISSIONING_ONSET),
         window_tests: None,
     };
+    // A healthy ship whose operating point changes at test k.
+    let healthy_change = |name, speed_mps, sea| FdiScenario {
+        change: Some(Change {
+            speed_mps,
+            loading: None,
+            sea,
+        }),
+        ..c(name, None, None, None, None)
+    };
     let disp = Some(Cause::DisplacementOrRudderEffectiveness);
     let d_pm12 = Some([4000.0 / 0.88, 10000.0 / 1.12]);
     vec![
@@ -461,50 +470,23 @@ pub fn commissioning_scenarios() -> Vec<FdiScenario> {
             None,
         ),
         // A healthy ship whose speed changes during commissioning: no change of health.
-        FdiScenario {
-            change: Some(Change {
-                speed_mps: &[1.0, 1.5],
-                loading: None,
-                sea: SeaChange::Stays,
-            }),
-            ..c(
-                "commissioning: healthy, speed +-1..1.5 m/s at test k",
-                None,
-                None,
-                None,
-                None,
-            )
-        },
+        healthy_change(
+            "commissioning: healthy, speed +-1..1.5 m/s at test k",
+            &[1.0, 1.5],
+            SeaChange::Stays,
+        ),
         // A healthy ship whose sea changes a state during commissioning (a day and a half
         // of it at sea): no change of health.
-        FdiScenario {
-            change: Some(Change {
-                speed_mps: &[],
-                loading: None,
-                sea: SeaChange::Rises,
-            }),
-            ..c(
-                "commissioning: healthy, the sea rises a state at test k",
-                None,
-                None,
-                None,
-                None,
-            )
-        },
-        FdiScenario {
-            change: Some(Change {
-                speed_mps: &[],
-                loading: None,
-                sea: SeaChange::Falls,
-            }),
-            ..c(
-                "commissioning: healthy, the sea falls a state at test k",
-                None,
-                None,
-                None,
-                None,
-            )
-        },
+        healthy_change(
+            "commissioning: healthy, the sea rises a state at test k",
+            &[],
+            SeaChange::Rises,
+        ),
+        healthy_change(
+            "commissioning: healthy, the sea falls a state at test k",
+            &[],
+            SeaChange::Falls,
+        ),
     ]
 }
 
