@@ -536,8 +536,8 @@ struct Sums {
 impl Sums {
     fn plus(self, s: &Sample, env: &Envelope) -> Self {
         let finite = |x: f64| if x.is_finite() { x } else { 0.0 };
-        let x = s.point().x3();
-        let w = s.x(env)[3];
+        let [u, l, g, w] = s.x(env);
+        let x = [u, l, g];
         let (w, nw) = if w.is_finite() { (w, 1.0) } else { (0.0, 0.0) };
         Self {
             n: self.n + 1.0,

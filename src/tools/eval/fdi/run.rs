@@ -8,9 +8,10 @@ use crate::config::Config;
 use crate::core::estimator::Estimator;
 use crate::core::model::SeaState;
 use crate::core::monitor::{Monitor, Output};
+use crate::core::wire::features::ToneFeatures;
 use crate::core::wire::residuals::TrackState;
 use crate::core::wire::Method;
-use crate::core::wire::{Cause, Decision, Outcome, Report};
+use crate::core::wire::{Cause, Decision, Features, Outcome, Report};
 use crate::drivers::probe::Lockstep;
 use std::sync::Arc;
 
@@ -168,12 +169,10 @@ pub(super) fn outcome_of(r: &Report) -> TestOutcome {
         fit_chi2: res.model_fit.as_ref().map_or(nan, |f| f.chi2),
         tone_ci90: {
             let tones = match &r.features {
-                crate::core::wire::Features::Clfrt(c) => &c.tones[..],
+                Features::Clfrt(c) => &c.tones[..],
                 _ => &[],
             };
-            let widest = |f: fn(&crate::core::wire::features::ToneFeatures) -> f64| {
-                tones.iter().map(f).fold(nan, f64::max)
-            };
+            let widest = |f: fn(&ToneFeatures) -> f64| tones.iter().map(f).fold(nan, f64::max);
             [widest(|t| t.gain_ci90_rel), widest(|t| t.phase_ci90_rad)]
         },
         q_actuator: res
