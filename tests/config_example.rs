@@ -31,6 +31,19 @@ fn binary_exits_78_naming_the_key_and_range() {
         err.contains("safety.max-heading-error-deg") && err.contains("(0, 45]"),
         "{err}"
     );
+    // The reference's own-noise learning limit.
+    let noise = dir.join("noise.toml");
+    std::fs::write(&noise, "[reference]\nlearn-noise-ratio-max = 0.5\n").unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_helmwatch"))
+        .args(["--config", noise.to_str().unwrap(), "check-config"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(78));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("reference.learn-noise-ratio-max") && err.contains("[1, 1000000]"),
+        "{err}"
+    );
     let unknown = dir.join("unknown.toml");
     std::fs::write(&unknown, "[hbt]\nrelay-hight-deg = 5\n").unwrap();
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_helmwatch"))

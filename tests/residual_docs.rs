@@ -27,6 +27,7 @@ fn full() -> Residuals {
         correlation: -0.5,
         chi2: 2.0,
         dof: 3,
+        noise_ratio: Some(1.5),
     };
     let look = Look {
         statistic: 1.0,

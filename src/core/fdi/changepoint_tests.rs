@@ -46,6 +46,7 @@ fn sample(rng: &mut ChaCha8Rng, shift: [f64; 2], u: f64, sd: f64, order: u64) ->
         speed_slope: [0.0; 3],
         loading_slope: [0.0; 3],
         order,
+        meas: None,
     }
 }
 

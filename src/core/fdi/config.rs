@@ -46,6 +46,14 @@ pub struct ReferenceConfig {
     pub resolve_speed_mps: f64,
     /// ... and a displacement change of this fraction would.
     pub resolve_displacement: f64,
+    /// Read a CLFRT test against the vessel's reference with its own measurement error
+    /// beyond the vessel's typical (its tones' intervals carried through the networks,
+    /// `crate::core::fdi::noise`); false: every test with the vessel's typical.
+    pub own_noise: bool,
+    /// A test whose own measurement error widens its covariance by more than this factor in
+    /// some direction (`noise_ratio`) is judged but not learned: it says little of the
+    /// vessel's normal, and learned as a typical test it would widen the scatter.
+    pub learn_noise_ratio_max: f64,
 }
 
 impl Default for ReferenceConfig {
@@ -63,6 +71,8 @@ impl Default for ReferenceConfig {
             memory_tests: 200,
             resolve_speed_mps: 0.5,
             resolve_displacement: 0.1,
+            own_noise: true,
+            learn_noise_ratio_max: 4.0,
         }
     }
 }
@@ -124,6 +134,12 @@ impl ReferenceConfig {
             self.resolve_displacement,
             0.0,
             1.0,
+        )?;
+        check_range(
+            "reference.learn-noise-ratio-max",
+            self.learn_noise_ratio_max,
+            1.0,
+            1e6,
         )?;
         Ok(())
     }

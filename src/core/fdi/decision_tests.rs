@@ -475,6 +475,7 @@ fn monte_carlo(
             sea_index: None,
             speed_slope: [0.0; 3],
             loading_slope: [0.0; 3],
+            meas: None,
         }
     };
     for _ in 0..vessels {

@@ -27,6 +27,7 @@ fn smp(e: [f64; 2], u: f64, d: f64) -> Sample {
         speed_slope: [0.0; 3],
         loading_slope: [0.0; 3],
         order: 0,
+        meas: None,
     }
 }
 

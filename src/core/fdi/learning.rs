@@ -172,13 +172,15 @@ impl Fdi {
         i: usize,
         raw: Option<Raw>,
         basis: Option<&Basis>,
-        z: Option<([f64; P], usize)>,
+        z: Option<([f64; P], usize, f64)>,
         step: Option<&Step>,
         settings: &Settings,
     ) -> Added {
         let mut added = Added::Nothing;
         let mut held = None;
-        if let (true, Some(r), Some(b), Some((z, dim))) = (self.cfg.enabled, raw, basis, z) {
+        if let (true, Some(r), Some(b), Some((z, dim, noise_ratio))) =
+            (self.cfg.enabled, raw, basis, z)
+        {
             let q = dot(z, z);
             match b {
                 // Every completed test joins the sample, one beyond the wide limits too
@@ -193,7 +195,12 @@ impl Fdi {
                         }
                     }
                 }
-                Basis::Vessel(_) if q <= self.limits.param[dim] => {
+                // A test read with its own wider interval is judged, not learned
+                // (`reference.learn-noise-ratio-max`).
+                Basis::Vessel(_)
+                    if q <= self.limits.param[dim]
+                        && noise_ratio <= settings.learn_noise_ratio_max =>
+                {
                     held = Some(Held {
                         method: i,
                         generation: self.generation[i],
@@ -272,6 +279,7 @@ mod tests {
                 ln_damping: None,
                 speed_slope: [0.0; 3],
                 loading_slope: [0.0; 3],
+                meas: None,
             },
         }
     }

@@ -53,6 +53,14 @@ pub struct Measured {
     /// The learned part's share is taken at its upper confidence bound (at a learned loading
     /// and excitation; at a new one `dof` is already cut to the tests near it).
     pub bounded: bool,
+    /// `1 +` the largest share of the test's covariance, in any direction, that its own
+    /// measurement error beyond the vessel's typical adds (`crate::core::fdi::noise`): 1 for
+    /// a test as clean as the vessel's typical, or without intervals of its own.
+    pub noise_ratio: f64,
+    /// The typical it was widened against was learned in the test's own sea (not carried
+    /// from other seas): only then does a wide `noise_ratio` keep the test from being learned
+    /// (a sea new to the vessel learns its own typical first).
+    pub noise_local: bool,
 }
 
 impl Measured {

@@ -38,6 +38,7 @@ mod fit;
 pub mod isolation;
 pub mod learning;
 pub mod measured;
+pub mod noise;
 pub mod point;
 mod raw;
 pub mod reference;
@@ -437,7 +438,8 @@ impl Fdi {
             i,
             raw.map(|(r, _, _)| r),
             basis.as_ref(),
-            z.zip(measured.map(|m| m.dim)),
+            z.zip(measured)
+                .map(|(z, m)| (z, m.dim, if m.noise_local { m.noise_ratio } else { 1.0 })),
             step.as_ref(),
             &settings,
         );

@@ -2,7 +2,7 @@
 //! (`crate::core::fdi::envelope`): what a healthy residual depends on besides the ship,
 //! its coordinates, a learned test and the regression's settings.
 
-use super::stats::P;
+use super::stats::{Cov, P};
 use serde::{Deserialize, Serialize};
 
 /// One learned healthy test.
@@ -37,6 +37,11 @@ pub struct Sample {
     /// before it was kept: those samples are one moment to the test (no split among them).
     #[serde(default)]
     pub order: u64,
+    /// The residual's covariance from the test's own tone intervals
+    /// (`crate::core::fdi::noise::measurement_cov`, physical units); `None` for an HBT test,
+    /// or in a state saved before it was kept.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub meas: Option<Cov>,
 }
 
 fn as_designed() -> f64 {

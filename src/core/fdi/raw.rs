@@ -4,7 +4,7 @@
 //! the servo check (docs/fdi.md, "Residuals").
 
 use super::envelope::Sample;
-use super::stats::P;
+use super::stats::{Cov, P};
 use super::{sensitivity, Fdi};
 use crate::core::estimator::model::{Target, Uncertainty};
 use crate::core::estimator::{Estimator, EstimatorScratch};
@@ -182,6 +182,7 @@ impl Fdi {
             sea_index: super::sea_index(features),
             ln_gain,
             ln_damping: sensitivity::ln_damping(features).map(|a| a - u_log.ln()),
+            meas: super::noise::measurement_cov(method, features, est, scratch, d_nom_t),
         };
         let ok = [raw.speed_mps, raw.displacement, g]
             .iter()
@@ -241,6 +242,11 @@ pub struct Raw {
     /// How they move per unit of `ln D` of a declared change of loading, `b` scaling by
     /// `1 / D` (`crate::core::fdi::sensitivity::scale_b`) [(m/s, fraction, ln) per unit ln D].
     pub loading_slope: [f64; P],
+    /// The residual's covariance from the test's own tone intervals
+    /// (`crate::core::fdi::noise::measurement_cov`, physical units; `None`: HBT, or the
+    /// features do not say).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub meas: Option<Cov>,
 }
 
 impl Raw {
@@ -283,6 +289,7 @@ impl Raw {
             speed_slope: self.speed_slope,
             loading_slope: self.loading_slope,
             order: 0,
+            meas: self.meas,
         }
     }
 }

@@ -120,6 +120,7 @@ use super::config::{FdiConfig, ReferenceConfig};
 use super::decision::Limits;
 use super::envelope::{self, Sample, Shape};
 pub use super::measured::{calibration, kappa, Basis, Measured};
+use super::noise;
 pub use super::raw::Raw;
 use super::stats::{Cov, P};
 use serde::{Deserialize, Serialize};
@@ -181,6 +182,10 @@ pub struct Settings {
     pub change_alpha: f64,
     /// Its tail probability per (evaluation, moment) in the confirmation after it.
     pub confirm_alpha: f64,
+    /// `reference.own-noise`.
+    pub own_noise: bool,
+    /// `reference.learn-noise-ratio-max`.
+    pub learn_noise_ratio_max: f64,
 }
 
 impl Settings {
@@ -200,6 +205,8 @@ impl Settings {
             envelope: envelope::Settings::of(r, fdi.sea_wave_yaw_deg[0]),
             learn: r.learn,
             memory: r.memory_tests as usize,
+            own_noise: r.own_noise,
+            learn_noise_ratio_max: r.learn_noise_ratio_max,
             resolve_speed_mps: r.resolve_speed_mps,
             resolve_displacement: r.resolve_displacement,
             single_limit: limits.param[P],
@@ -307,6 +314,8 @@ impl Commissioning {
             learned: Cov::default(),
             dim: 2,
             bounded: false,
+            noise_ratio: 1.0,
+            noise_local: false,
         };
         if s.tests == 0 {
             let m = Measured {
@@ -317,6 +326,8 @@ impl Commissioning {
                 learned: Cov::default(),
                 dim: 2,
                 bounded: false,
+                noise_ratio: 1.0,
+                noise_local: false,
             };
             return (Basis::Design, m);
         }
@@ -353,7 +364,18 @@ impl Commissioning {
                 let dim = raw.dim();
                 let learned = scatter.plus(p.cov.scaled(d)).leading(dim, 0.0);
                 let floors = Cov::diag(s.floors());
-                let cov = scatter.plus(p.cov).plus(floors).leading(dim, 1.0);
+                let known = scatter.plus(p.cov).plus(floors).leading(dim, 1.0);
+                // A test whose own tones are noisier than the vessel's typical at its sea is
+                // read with its own interval (`noise`): the excess is known, like the floors.
+                let typical = s
+                    .own_noise
+                    .then(|| {
+                        let w = at.x(&s.envelope)[3];
+                        noise::typical(&self.samples, &s.envelope, w, raw.s())
+                    })
+                    .flatten();
+                let excess = noise::excess(raw.meas, typical).leading(dim, 0.0);
+                let cov = known.plus(excess);
                 let e = raw.e();
                 let r = std::array::from_fn(|j| if j < dim { e[j] - p.offset[j] } else { 0.0 });
                 // A learned loading, excitation and sea (a visited point is at one:
@@ -374,6 +396,8 @@ impl Commissioning {
                     learned,
                     dim,
                     bounded: known_conditions,
+                    noise_ratio: 1.0 + excess.max_ratio(known),
+                    noise_local: typical.is_some_and(|t| t.local),
                 };
                 (Basis::Vessel(p), m)
             }

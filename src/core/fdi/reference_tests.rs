@@ -39,6 +39,7 @@ fn raw_at(e_u: f64, e_d: f64, u: f64, d: f64) -> Raw {
         ln_damping: None,
         speed_slope: [0.0; 3],
         loading_slope: [0.0; 3],
+        meas: None,
     }
 }
 
@@ -378,6 +379,8 @@ fn the_calibration_maps_hotellings_tail_onto_the_chi_squares() {
         learned: Cov::diag([0.1, 0.01, 0.0]),
         dim: 2,
         bounded: false,
+        noise_ratio: 1.0,
+        noise_local: false,
     };
     let z = m.whitened().unwrap();
     assert!((z[0] * z[0] - 5.0 * (1.0 + 9.0 / 6.0f64).ln()).abs() < 1e-12);

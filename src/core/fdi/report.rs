@@ -70,6 +70,7 @@ pub fn baseline(
             correlation: 0.0,
             chi2: (ru / su).powi(2) + (rd / sd).powi(2),
             dof: 2,
+            noise_ratio: None,
         };
         // The log's direction: D from b grows as u_log^2.
         let g = 2.0 * d_est / u_log;
@@ -332,5 +333,6 @@ pub(super) fn parameter_report(m: &Measured, z: [f64; P], d_nom_t: f64) -> Param
         correlation: m.cov.correlation(0, 1),
         chi2: dot(z, z),
         dof: m.dim,
+        noise_ratio: (m.noise_ratio > 1.0).then_some(m.noise_ratio),
     }
 }

@@ -141,6 +141,7 @@ fn a_reference_is_kept_only_for_its_configuration_and_models() {
         ln_damping: None,
         speed_slope: [0.0; 3],
         loading_slope: [0.0; 3],
+        meas: None,
     };
     // No scatter: the floors alone resolve the faults, so commissioning ends at 6 tests.
     while fdi.commissioning[1].in_progress(&s) {
@@ -315,6 +316,7 @@ fn a_commissioning_test_beyond_the_wide_limits_joins_the_sample() {
         ln_damping: None,
         speed_slope: [0.0; 3],
         loading_slope: [0.0; 3],
+        meas: None,
     };
     let (basis, m) = fdi.commissioning[1].measure(&s, &raw);
     assert!(
@@ -327,7 +329,14 @@ fn a_commissioning_test_beyond_the_wide_limits_joins_the_sample() {
         q > fdi.limits.param[m.dim],
         "{q} under the single-test limit"
     );
-    let added = fdi.learn(1, Some(raw), Some(&basis), Some((z, m.dim)), None, &s);
+    let added = fdi.learn(
+        1,
+        Some(raw),
+        Some(&basis),
+        Some((z, m.dim, m.noise_ratio)),
+        None,
+        &s,
+    );
     assert_eq!(added, Added::Sample);
     assert_eq!(fdi.commissioning[1].tests, 1);
 }

@@ -128,6 +128,13 @@ pub struct ParameterResiduals {
     /// Its degrees of freedom: 3 with `ln_gain`, else 2.
     #[serde(default = "two")]
     pub dof: usize,
+    /// How much the test's own measurement error beyond the vessel's typical widened its
+    /// covariance, in the direction it widened most (`1 +` that share); absent when it did
+    /// not (a test as clean as the vessel's typical, an HBT test, or against the design or
+    /// commissioning's wide limits). Above `reference.learn-noise-ratio-max` the test is
+    /// judged but not learned.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_ratio: Option<f64>,
 }
 
 fn two() -> usize {

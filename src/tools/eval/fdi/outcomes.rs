@@ -46,6 +46,8 @@ pub(super) fn write_outcomes(
                     "sea_index": nan_null(t.sea_index),
                     "fit_chi2": nan_null(t.fit_chi2),
                     "tone_ci90": t.tone_ci90.map(nan_null),
+                    "meas_sd": t.meas_sd.map(nan_null),
+                    "noise_ratio": nan_null(t.noise_ratio),
                     "z": t.z.map(nan_null),
                     "cause_costs": t.cause_costs.map(nan_null),
                     "raw": t.raw.map(nan_null),

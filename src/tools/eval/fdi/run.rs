@@ -68,6 +68,11 @@ pub struct TestOutcome {
     /// CLFRT: the widest of its tones' 90 % intervals, the gain's (relative) and the
     /// phase's [rad] (`features.tones`; NaN for HBT).
     pub tone_ci90: [f64; 2],
+    /// CLFRT: the residual's standard deviations from the test's own tone intervals
+    /// (`crate::core::fdi::noise`; NaN for HBT).
+    pub meas_sd: [f64; 3],
+    /// `residuals.parameters.noise_ratio` (1 when absent, NaN without parameters).
+    pub noise_ratio: f64,
     /// The servo check's chi-square (NaN without one).
     pub q_actuator: f64,
     /// The method's normalised speed, displacement and gain residuals (NaN without).
@@ -175,6 +180,8 @@ pub(super) fn outcome_of(r: &Report) -> TestOutcome {
             let widest = |f: fn(&ToneFeatures) -> f64| tones.iter().map(f).fold(nan, f64::max);
             [widest(|t| t.gain_ci90_rel), widest(|t| t.phase_ci90_rad)]
         },
+        meas_sd: [nan; 3],
+        noise_ratio: p.map_or(nan, |p| p.noise_ratio.unwrap_or(1.0)),
         q_actuator: res
             .servo_check
             .as_ref()
@@ -426,6 +433,15 @@ pub fn run_one(
             return run;
         };
         let mut t = outcome_of(&r);
+        if let Some(c) = crate::core::fdi::noise::measurement_cov(
+            r.method,
+            &r.features,
+            estimator,
+            &mut estimator.scratch(),
+            t.displacement_nominal_t,
+        ) {
+            t.meas_sd = c.variances().map(f64::sqrt);
+        }
         t.fault_present = injected;
         t.phase = if done < plan.commissioning {
             Phase::Commissioning

@@ -22,6 +22,8 @@ fn outcome(decision: Decision, raw0: f64) -> TestOutcome {
         sea_index: 0.1,
         fit_chi2: f64::NAN,
         tone_ci90: [f64::NAN; 2],
+        meas_sd: [f64::NAN; 3],
+        noise_ratio: f64::NAN,
         q_actuator: f64::NAN,
         z: [0.5, -1.0, 0.0],
         raw: [
