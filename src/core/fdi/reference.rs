@@ -110,7 +110,10 @@
 //! is building up is never learned before it is judged. An alert does not stop learning:
 //! learning only the quiet tests of a reference whose covariance came out too small keeps it
 //! too small (measured by the decision's Monte Carlo: 4.8 times the budget that way, 1.02
-//! learning all but alarms). At most `reference.memory-tests` are kept; beyond, the oldest
+//! learning all but alarms). A CLFRT test whose tones were measured worse than the vessel's
+//! typical is read with its own error's excess over the typical (`crate::core::fdi::noise`,
+//! `reference.own-noise`), and not learned when that widened it beyond
+//! `reference.learn-noise-ratio-max`. At most `reference.memory-tests` are kept; beyond, the oldest
 //! test of the most populated soft bin goes. Commissioning starts again on request (the
 //! `fdi/commission` queryable, `helmwatch commission`) and when the saved reference was
 //! made under another ship configuration or other models (the daemon says which).
