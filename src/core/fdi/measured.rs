@@ -64,6 +64,17 @@ pub struct Measured {
 }
 
 impl Measured {
+    /// The widening that keeps a test from being learned (`reference.learn-noise-ratio-max`):
+    /// `noise_ratio` against its own sea's typical, 1 against a typical carried from other
+    /// seas (a sea new to the vessel learns its own typical first).
+    pub fn learn_noise_ratio(&self) -> f64 {
+        if self.noise_local {
+            self.noise_ratio
+        } else {
+            1.0
+        }
+    }
+
     /// The whitened residual, calibrated: `z = L^-1 r` (`L L' = cov`) scaled so that
     /// `|z|^2` has the chi-square's tail (`dim` dof) where `r' cov^-1 r` has Hotelling's (see
     /// the module doc); `None` unless `cov` is positive definite.

@@ -439,7 +439,7 @@ impl Fdi {
             raw.map(|(r, _, _)| r),
             basis.as_ref(),
             z.zip(measured)
-                .map(|(z, m)| (z, m.dim, if m.noise_local { m.noise_ratio } else { 1.0 })),
+                .map(|(z, m)| (z, m.dim, m.learn_noise_ratio())),
             step.as_ref(),
             &settings,
         );
