@@ -119,17 +119,10 @@ fn the_servo_check_reads_each_methods_servo_field() {
     assert!(fdi.servo_check(&Features::Clfrt(c)).is_none());
 }
 
-/// A commissioning reference is kept across a restore under the same configuration and
-/// models, and discarded, with a message naming what changed, under others; a state file
-/// of a version without commissioning still loads.
-#[test]
-fn a_reference_is_kept_only_for_its_configuration_and_models() {
-    let cfg = CoreConfig::default();
-    let mut fdi = Fdi::new(&cfg);
-    fdi.set_models(Some("aaaa".into()));
-    let s = fdi.settings();
-    let raw = super::reference::Raw {
-        speed_mps: 1.0,
+/// A test's raw residual at 7 m/s and 7000 t with speed residual `e_u` [m/s].
+fn raw_7(e_u: f64) -> super::reference::Raw {
+    super::reference::Raw {
+        speed_mps: e_u,
         displacement: -0.2,
         speed_sigma_mps: 0.06,
         displacement_sigma: 0.002,
@@ -142,7 +135,19 @@ fn a_reference_is_kept_only_for_its_configuration_and_models() {
         speed_slope: [0.0; 3],
         loading_slope: [0.0; 3],
         meas: None,
-    };
+    }
+}
+
+/// A commissioning reference is kept across a restore under the same configuration and
+/// models, and discarded, with a message naming what changed, under others; a state file
+/// of a version without commissioning still loads.
+#[test]
+fn a_reference_is_kept_only_for_its_configuration_and_models() {
+    let cfg = CoreConfig::default();
+    let mut fdi = Fdi::new(&cfg);
+    fdi.set_models(Some("aaaa".into()));
+    let s = fdi.settings();
+    let raw = raw_7(1.0);
     // No scatter: the floors alone resolve the faults, so commissioning ends at 6 tests.
     while fdi.commissioning[1].in_progress(&s) {
         fdi.commissioning[1].add(&s, &raw, 0);
@@ -350,21 +355,6 @@ fn a_test_widened_by_its_own_noise_is_not_learned() {
     use super::decision::Step;
     let cfg = CoreConfig::default();
     let s = Fdi::new(&cfg).settings();
-    let raw = |e_u: f64| super::reference::Raw {
-        speed_mps: e_u,
-        displacement: -0.2,
-        speed_sigma_mps: 0.06,
-        displacement_sigma: 0.002,
-        speed_log_mps: 7.0,
-        displacement_declared_t: 7000.0,
-        excitation_scale: 1.0,
-        sea_index: None,
-        ln_gain: Some(-5.0),
-        ln_damping: None,
-        speed_slope: [0.0; 3],
-        loading_slope: [0.0; 3],
-        meas: None,
-    };
     let quiet = Step {
         state: TrackState::Normal,
         param: None,
@@ -380,10 +370,10 @@ fn a_test_widened_by_its_own_noise_is_not_learned() {
         let mut k = 0.0;
         while fdi.commissioning[0].in_progress(&s) {
             k += 1.0;
-            fdi.commissioning[0].add(&s, &raw(1.0 + 0.01 * (k * 1.3f64).sin()), 0);
+            fdi.commissioning[0].add(&s, &raw_7(1.0 + 0.01 * (k * 1.3f64).sin()), 0);
         }
         let before = fdi.commissioning[0].samples.len();
-        let r = raw(1.0);
+        let r = raw_7(1.0);
         let (basis, mut m) = fdi.commissioning[0].measure(&s, &r);
         assert!(matches!(basis, Basis::Vessel(_)), "{basis:?}");
         let z = m.whitened().unwrap();
