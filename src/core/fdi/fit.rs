@@ -14,7 +14,7 @@ use crate::core::wire::Features;
 use std::f64::consts::FRAC_PI_2;
 
 /// Two-sided 90 % interval to one standard deviation.
-const CI90_TO_SIGMA: f64 = 1.0 / 1.645;
+pub(super) const CI90_TO_SIGMA: f64 = 1.0 / 1.645;
 
 /// The fitted model and how well it explains the tones.
 #[derive(Debug, Clone, Copy, PartialEq)]

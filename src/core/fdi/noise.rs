@@ -11,13 +11,11 @@
 //! or response: `None`.
 
 use super::envelope::{self, Sample, Settings};
+use super::fit::CI90_TO_SIGMA;
 use super::sensitivity;
 use super::stats::{Cov, P};
 use crate::core::estimator::{Estimator, EstimatorScratch};
 use crate::core::wire::{Features, Method};
-
-/// Two-sided 90 % interval to one standard deviation.
-const CI90_TO_SIGMA: f64 = 1.0 / 1.645;
 
 /// The residual of `features` as the networks read it (`e_u` against `u_log`).
 fn residual(
@@ -46,8 +44,7 @@ pub fn measurement_cov(
     let c = features.clfrt()?;
     let u_log = features.speed_log_mps().filter(|u| u.is_finite())?;
     let mut cov = [[0.0; P]; P];
-    for k in 0..c.tones.len() {
-        let t = &c.tones[k];
+    for (k, t) in c.tones.iter().enumerate() {
         let sg = t.gain_ci90_rel * CI90_TO_SIGMA;
         let sp = t.phase_ci90_rad * CI90_TO_SIGMA;
         if !(sg.is_finite() && sp.is_finite() && sg >= 0.0 && sp >= 0.0) {
