@@ -51,6 +51,8 @@ pub(super) fn write_outcomes(
                     "z": t.z.map(nan_null),
                     "cause_costs": t.cause_costs.map(nan_null),
                     "raw": t.raw.map(nan_null),
+                    "sigma": t.sigma.map(nan_null),
+                    "offset_sigma": t.offset_sigma.map(nan_null),
                 });
                 if let Err(e) = writeln!(w, "{line}") {
                     eprintln!("outcomes not written: {e}");

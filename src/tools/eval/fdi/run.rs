@@ -106,6 +106,13 @@ pub struct TestOutcome {
     /// The parameter causes' costs (`residuals.decision.cause_costs`: speed log,
     /// displacement; NaN without).
     pub cause_costs: [f64; 2],
+    /// The test's own standard deviations against the reference in force
+    /// (`residuals.parameters`: speed [m/s], displacement [fraction of the nominal], `ln b`;
+    /// NaN without).
+    pub sigma: [f64; 3],
+    /// The reference's predicted offset's standard deviations at the test's point
+    /// (`residuals.reference.offset_*_sigma*`, the same units; NaN without).
+    pub offset_sigma: [f64; 3],
 }
 
 /// One run: the drawn ship and its tests.
@@ -220,6 +227,21 @@ pub(super) fn outcome_of(r: &Report) -> TestOutcome {
             .map_or([nan; 2], |c| {
                 [c.speed_log, c.displacement_or_rudder_effectiveness]
             }),
+        sigma: p.map_or([nan; 3], |p| {
+            [
+                p.speed_sigma_mps,
+                p.displacement_sigma_t / res.displacement_nominal_t.unwrap_or(nan),
+                p.ln_gain_sigma.unwrap_or(nan),
+            ]
+        }),
+        offset_sigma: res.reference.as_ref().map_or([nan; 3], |x| {
+            [
+                x.offset_speed_sigma_mps.unwrap_or(nan),
+                x.offset_displacement_sigma_t.unwrap_or(nan)
+                    / res.displacement_nominal_t.unwrap_or(nan),
+                x.offset_ln_gain_sigma.unwrap_or(nan),
+            ]
+        }),
         inconsistent: says_inconsistent(r),
         reference_kind: res
             .reference

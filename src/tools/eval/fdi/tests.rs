@@ -37,6 +37,8 @@ fn outcome(decision: Decision, raw0: f64) -> TestOutcome {
         state: None,
         inconsistent: false,
         cause_costs: [f64::NAN; 2],
+        sigma: [f64::NAN; 3],
+        offset_sigma: [f64::NAN; 3],
         reference_kind: None,
         abort_reason: None,
     }
