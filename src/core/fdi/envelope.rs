@@ -59,7 +59,14 @@
 //! the networks. On the first-order ship the networks were trained on it is near 0; on a
 //! hull unlike it, it is how the networks misread that hull at another speed (measured on
 //! the family: `e_D` of CLFRT on the T2/T1 0.1 hull -0.107 for 0.5 m/s slower, predicted
-//! -0.104; on the upper-strength hull -0.316 for 2 m/s, predicted -0.308). The intercept has a flat prior. The fit's intercept is the predicted offset at
+//! -0.104; on the upper-strength hull -0.316 for 2 m/s, predicted -0.308). For a test
+//! (`predict_for`) the mean in speed and in loading is the **trapezoid** of the learned
+//! tests' slope and the test's own, `(beta_learned + beta_test) / 2`: the law bends (the
+//! gain moves as `2 ln u`, its slope `2 / u`), and the learned slope carried straight from 4
+//! to 5.5 m/s over-predicts the gain's move by 0.11, the trapezoid by 0.011 (its error is
+//! third order in the move). The test's slope is one test's reading: a quarter of the
+//! learned slopes' scatter near `x*` joins the prior's variance. The intercept has a flat
+//! prior. The fit's intercept is the predicted offset at
 //! `x*`; its posterior variance `(A^-1)_00` is the prediction's own: small where the ship
 //! has been tested, growing with the distance from what was learned (the kernel and the
 //! slope prior), never the design's wide limits.
@@ -79,7 +86,7 @@
 //! fitted halfway to the first's, the unit test
 //! `a_second_point_is_fitted_at_its_own_offset_when_the_offset_moved_far`).
 
-pub use super::point::{Point, Sample, Settings, X};
+pub use super::point::{Point, Sample, Settings, Slopes, X};
 use super::stats::{Cov, P};
 use nalgebra::{Matrix5, Vector5};
 use serde::{Deserialize, Serialize};
@@ -186,40 +193,67 @@ fn kernel(st: &Settings, a: X, b: X) -> (f64, f64) {
     (1.0 / (1.0 + d2), d2)
 }
 
+/// The prior mean of one physical slope over a move from the learned tests to the point, and
+/// the variance its own error adds: the trapezoid of the learned tests' kernel-weighted mean
+/// slope `m` (their scatter about it `v`) and the point's own `own`, whose error is one
+/// test's, `v`, a quarter of it in the mean; without `own`, `m` and nothing.
+fn trapezoid(m: f64, v: f64, own: Option<f64>) -> (f64, f64) {
+    match own.filter(|s| s.is_finite()) {
+        Some(s) => (0.5 * (m + s), 0.25 * v.max(0.0)),
+        None => (m, 0.0),
+    }
+}
+
 /// One component's local fit at `at`: `(intercept, its variance, the slope prior's part of
-/// that variance)`.
+/// that variance)`. With `own`, the fit is for a test whose own physical slopes those are
+/// (the module doc's trapezoid).
 fn fit_component(
     samples: &[Sample],
     st: &Settings,
     at: X,
     j: usize,
     noise: f64,
+    own: Option<&Slopes>,
 ) -> Option<(f64, f64, f64)> {
-    let prior = |sd: [f64; 2]| 1.0 / sd[j.min(1)].max(1e-12).powi(2);
+    // The slopes' prior means in speed and loading: the physical slopes (the similarity law,
+    // `b` scaling by `1 / D`) of the tests near `at`, and their scatter about them.
+    let (mut sw, mut ss, mut sl, mut ss2, mut sl2) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for smp in samples {
+        let (w, _) = kernel(st, smp.x(st), at);
+        let (u, l) = (smp.speed_slope[j], smp.loading_slope[j]);
+        if u.is_finite() && l.is_finite() {
+            sw += w;
+            ss += w * u;
+            sl += w * l;
+            ss2 += w * u * u;
+            sl2 += w * l * l;
+        }
+    }
+    let (mut mean_u, mut mean_l, mut var_u, mut var_l) = (0.0, 0.0, 0.0, 0.0);
+    if sw > 0.0 {
+        (mean_u, var_u) = trapezoid(
+            ss / sw,
+            ss2 / sw - (ss / sw).powi(2),
+            own.map(|o| o.speed[j]),
+        );
+        (mean_l, var_l) = trapezoid(
+            sl / sw,
+            sl2 / sw - (sl / sw).powi(2),
+            own.map(|o| o.loading[j]),
+        );
+    }
+    let prior = |sd: f64, extra: f64| 1.0 / (sd.max(1e-12).powi(2) + extra);
     let p0 = Matrix5::from_diagonal(&Vector5::new(
         0.0,
-        prior(st.slope_speed),
-        prior(st.slope_loading),
-        prior(st.slope_excitation),
-        prior(st.slope_sea),
+        prior(st.slope_speed[j.min(1)], var_u),
+        prior(st.slope_loading[j.min(1)], var_l),
+        prior(st.slope_excitation[j.min(1)], 0.0),
+        prior(st.slope_sea[j.min(1)], 0.0),
     ));
     let mut a = p0;
     let mut b = Vector5::zeros();
-    // The slopes' prior means in speed and loading: the physical slopes (the similarity law,
-    // `b` scaling by `1 / D`) of the tests near `at`.
-    let (mut sw, mut ss, mut sl) = (0.0, 0.0, 0.0);
-    for smp in samples {
-        let (w, _) = kernel(st, smp.x(st), at);
-        if smp.speed_slope[j].is_finite() && smp.loading_slope[j].is_finite() {
-            sw += w;
-            ss += w * smp.speed_slope[j];
-            sl += w * smp.loading_slope[j];
-        }
-    }
-    if sw > 0.0 {
-        b[1] = a[(1, 1)] * ss / sw;
-        b[2] = a[(2, 2)] * sl / sw;
-    }
+    b[1] = a[(1, 1)] * mean_u;
+    b[2] = a[(2, 2)] * mean_l;
     for smp in samples {
         let x = smp.x(st);
         let (w, _) = kernel(st, x, at);
@@ -244,11 +278,18 @@ fn fit_component(
 /// A local fit: per component, `(intercept, its variance, the slope prior's part)`.
 type Fit = [(f64, f64, f64); P];
 
-/// Every component's local fit at `at`, with the noise variances `noise` (`S~_jj`).
-fn fit(samples: &[Sample], st: &Settings, at: X, noise: [f64; P]) -> Option<Fit> {
+/// Every component's local fit at `at`, with the noise variances `noise` (`S~_jj`), for a
+/// test whose own physical slopes are `own` when given.
+fn fit(
+    samples: &[Sample],
+    st: &Settings,
+    at: X,
+    noise: [f64; P],
+    own: Option<&Slopes>,
+) -> Option<Fit> {
     let mut out = [(0.0, 0.0, 0.0); P];
     for (j, o) in out.iter_mut().enumerate() {
-        *o = fit_component(samples, st, at, j, noise[j])?;
+        *o = fit_component(samples, st, at, j, noise[j], own)?;
     }
     Some(out)
 }
@@ -315,7 +356,7 @@ pub fn shape(samples: &[Sample], st: &Settings) -> Option<Shape> {
         let prior = if pass == 0 { &loose } else { st };
         let fits: Vec<Fit> = points
             .iter()
-            .map(|&x| fit(samples, prior, x, noise))
+            .map(|&x| fit(samples, prior, x, noise, None))
             .collect::<Option<_>>()?;
         let (mut acc, mut lev) = ([[0.0; P]; P], 0.0);
         for (s, &i) in samples.iter().zip(&index) {
@@ -380,7 +421,7 @@ pub fn local_shape(samples: &[Sample], st: &Settings, global: &Shape, at: &Point
         let f = match fits.iter().find(|(p, _)| same(p, &x)) {
             Some((_, f)) => *f,
             None => {
-                let Some(f) = fit(samples, st, x, noise) else {
+                let Some(f) = fit(samples, st, x, noise, None) else {
                     return *global;
                 };
                 fits.push((x, f));
@@ -423,10 +464,33 @@ pub fn local_shape(samples: &[Sample], st: &Settings, global: &Shape, at: &Point
     }
 }
 
-/// The predicted offset at the operating point `at`.
+/// The predicted offset at the operating point `at`, the learned tests moved there along
+/// their own physical slopes (for a test at `at`, `predict_for`).
 pub fn predict(samples: &[Sample], st: &Settings, shape: &Shape, at: &Point) -> Option<Prediction> {
+    predict_with(samples, st, shape, at, None)
+}
+
+/// The predicted offset for a test at `at` whose own physical slopes are `own`: the learned
+/// tests moved there along the trapezoid of their slopes and the test's (module doc).
+pub fn predict_for(
+    samples: &[Sample],
+    st: &Settings,
+    shape: &Shape,
+    at: &Point,
+    own: &Slopes,
+) -> Option<Prediction> {
+    predict_with(samples, st, shape, at, Some(own))
+}
+
+fn predict_with(
+    samples: &[Sample],
+    st: &Settings,
+    shape: &Shape,
+    at: &Point,
+    own: Option<&Slopes>,
+) -> Option<Prediction> {
     let at = at.x(st);
-    let f = fit(samples, st, at, shape.cov.variances())?;
+    let f = fit(samples, st, at, shape.cov.variances(), own)?;
     let (support, nearest, nearest_conditions) =
         samples
             .iter()

@@ -63,6 +63,25 @@ impl Sample {
     pub(super) fn x(&self, st: &Settings) -> X {
         self.point().x(st)
     }
+
+    /// Its own physical slopes.
+    pub fn slopes(&self) -> Slopes {
+        Slopes {
+            speed: self.speed_slope,
+            loading: self.loading_slope,
+        }
+    }
+}
+
+/// A test's own physical slopes at its point (`Sample::speed_slope`,
+/// `Sample::loading_slope`): how its residual moves per m/s of the ship's own speed by the
+/// similarity law, and per unit of `ln D` of a declared loading, `b` scaling by `1 / D`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Slopes {
+    /// Per m/s.
+    pub speed: [f64; P],
+    /// Per unit `ln D`.
+    pub loading: [f64; P],
 }
 
 /// An operating point: what a test's healthy residual depends on besides the ship.

@@ -345,7 +345,8 @@ impl Commissioning {
                 let Some(shape) = self.shape else {
                     return (commissioning, wide);
                 };
-                let at = raw.sample().point();
+                let own = raw.sample();
+                let at = own.point();
                 // The scatter as the tests near this point show it (the shape learned
                 // elsewhere where there are none).
                 let local = envelope::local_shape(&self.samples, &s.envelope, &shape, &at);
@@ -356,7 +357,9 @@ impl Commissioning {
                     cov: local.cov.times(k).plus(prior.times(1.0 - k)),
                     ..local
                 };
-                let Some(p) = envelope::predict(&self.samples, &s.envelope, &shape, &at) else {
+                let Some(p) =
+                    envelope::predict_for(&self.samples, &s.envelope, &shape, &at, &own.slopes())
+                else {
                     return (commissioning, wide);
                 };
                 // The scatter and the offset's error rest on the learned tests, except the
