@@ -15,42 +15,54 @@ fn example_config_equals_the_defaults() {
     assert_eq!(cfg, Config::default());
 }
 
+/// Runs `check-config` on `text` written to `dir/name`: the exit code and standard error.
+fn check_config(dir: &Path, name: &str, text: &str) -> (Option<i32>, String) {
+    let file = dir.join(name);
+    std::fs::write(&file, text).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_helmwatch"))
+        .args(["--config", file.to_str().unwrap(), "check-config"])
+        .output()
+        .unwrap();
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
 #[test]
 fn binary_exits_78_naming_the_key_and_range() {
     let dir = std::env::temp_dir().join(format!("helmwatch-cfg-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let bad = dir.join("bad.toml");
-    std::fs::write(&bad, "[safety]\nmax-heading-error-deg = 90\n").unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_helmwatch"))
-        .args(["--config", bad.to_str().unwrap(), "check-config"])
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(ConfigError::EXIT_CODE));
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.contains("safety.max-heading-error-deg") && err.contains("(0, 45]"),
-        "{err}"
-    );
-    // The reference's own-noise learning limit.
-    let noise = dir.join("noise.toml");
-    std::fs::write(&noise, "[reference]\nlearn-noise-ratio-max = 0.5\n").unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_helmwatch"))
-        .args(["--config", noise.to_str().unwrap(), "check-config"])
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(78));
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.contains("reference.learn-noise-ratio-max") && err.contains("[1, 1000000]"),
-        "{err}"
-    );
-    let unknown = dir.join("unknown.toml");
-    std::fs::write(&unknown, "[hbt]\nrelay-hight-deg = 5\n").unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_helmwatch"))
-        .args(["--config", unknown.to_str().unwrap(), "check-config"])
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(78));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("relay-hight-deg"));
+    // (file, text, what the error must name: the key and its range)
+    let bad = [
+        (
+            "bad.toml",
+            "[safety]\nmax-heading-error-deg = 90\n",
+            ["safety.max-heading-error-deg", "(0, 45]"],
+        ),
+        // The reference's own-noise learning limit.
+        (
+            "noise.toml",
+            "[reference]\nlearn-noise-ratio-max = 0.5\n",
+            ["reference.learn-noise-ratio-max", "[1, 1000000]"],
+        ),
+        // The gain's slope prior in speed.
+        (
+            "gain.toml",
+            "[reference]\nslope-speed-gain = 0.0\n",
+            ["reference.slope-speed-gain", "(0, 1]"],
+        ),
+        (
+            "unknown.toml",
+            "[hbt]\nrelay-hight-deg = 5\n",
+            ["relay-hight-deg", "relay-hight-deg"],
+        ),
+    ];
+    for (name, text, [key, range]) in bad {
+        let (code, err) = check_config(&dir, name, text);
+        assert_eq!(code, Some(ConfigError::EXIT_CODE), "{name}: {err}");
+        assert_eq!(ConfigError::EXIT_CODE, 78);
+        assert!(err.contains(key) && err.contains(range), "{name}: {err}");
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -23,6 +23,10 @@ pub struct ReferenceConfig {
     /// Prior standard deviation of the offset's slope in speed about the similarity law's
     /// slope: `[e_u, e_D]` [m/s per m/s, fraction of D per m/s].
     pub slope_speed: [f64; 2],
+    /// Prior standard deviation of `e_b`'s slope in speed about the similarity law's [ln per
+    /// m/s]: the population's spread of the law's error (docs/fdi.md, "The gain's slope in
+    /// speed"). Its other slopes take `e_D`'s.
+    pub slope_speed_gain: f64,
     /// Prior standard deviation of the offset's slope in declared loading about the slope of
     /// `b` scaling by `1 / D`: `[e_u, e_D]` [m/s, fraction of D, per unit of ln D].
     pub slope_loading: [f64; 2],
@@ -63,6 +67,7 @@ impl Default for ReferenceConfig {
             bandwidth_speed_mps: 1.0,
             bandwidth_loading: 0.1,
             slope_speed: [0.5, 0.03],
+            slope_speed_gain: 0.017,
             slope_loading: [4.0, 0.3],
             bandwidth_excitation: 0.1,
             slope_excitation: [3.0, 0.3],
@@ -108,6 +113,12 @@ impl ReferenceConfig {
             Ok(())
         };
         pair("reference.slope-speed", self.slope_speed, [10.0, 1.0])?;
+        check_range_open_low(
+            "reference.slope-speed-gain",
+            self.slope_speed_gain,
+            0.0,
+            1.0,
+        )?;
         pair("reference.slope-loading", self.slope_loading, [100.0, 10.0])?;
         check_range_open_low(
             "reference.bandwidth-excitation",

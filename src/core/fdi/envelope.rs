@@ -47,7 +47,8 @@
 //! of bins of wind-turbine power curves (IEC 61400-12) made continuous, and ISO 19030's
 //! reference conditions made local. The slopes carry a Gaussian prior with standard
 //! deviations `reference.slope-speed`, `-loading`, `-excitation` and `-sea` (per component,
-//! `e_b` taking the displacement's: both are fractions of the ship's own value): how
+//! `e_b` taking the displacement's: both are fractions of the ship's own value; in speed
+//! its own, `reference.slope-speed-gain`): how
 //! fast a network's bias on a ship unlike its training model may change across the
 //! envelope beyond what physics predicts. The prior's mean is 0 (in the sea: the model
 //! files' per-sea bias is already removed), except in declared loading,
@@ -65,8 +66,9 @@
 //! gain moves as `2 ln u`, its slope `2 / u`), and the learned slope carried straight from 4
 //! to 5.5 m/s over-predicts the gain's move by 0.11, the trapezoid by 0.011 (its error is
 //! third order in the move). The test's slope is one test's reading: a quarter of the
-//! learned slopes' scatter near `x*` joins the prior's variance. The intercept has a flat
-//! prior. The fit's intercept is the predicted offset at
+//! learned slopes' scatter near `x*` joins the prior's variance. `e_b`'s prior in speed is
+//! its own (`reference.slope-speed-gain`: the spread of the law's error over a population
+//! of hulls, docs/fdi.md). The intercept has a flat prior. The fit's intercept is the predicted offset at
 //! `x*`; its posterior variance `(A^-1)_00` is the prediction's own: small where the ship
 //! has been tested, growing with the distance from what was learned (the kernel and the
 //! slope prior), never the design's wide limits.
@@ -245,7 +247,7 @@ fn fit_component(
     let prior = |sd: f64, extra: f64| 1.0 / (sd.max(1e-12).powi(2) + extra);
     let p0 = Matrix5::from_diagonal(&Vector5::new(
         0.0,
-        prior(st.slope_speed[j.min(1)], var_u),
+        prior(st.speed_sd(j), var_u),
         prior(st.slope_loading[j.min(1)], var_l),
         prior(st.slope_excitation[j.min(1)], 0.0),
         prior(st.slope_sea[j.min(1)], 0.0),
@@ -349,6 +351,7 @@ pub fn shape(samples: &[Sample], st: &Settings) -> Option<Shape> {
         slope_loading: st.slope_loading.map(|v| v * LOOSE),
         slope_excitation: st.slope_excitation.map(|v| v * LOOSE),
         slope_sea: st.slope_sea.map(|v| v * LOOSE),
+        slope_speed_gain: st.slope_speed_gain * LOOSE,
         ..*st
     };
     let mut out: Option<Shape> = None;

@@ -8,6 +8,7 @@ pub(in crate::core::fdi) fn st() -> Settings {
     Settings {
         bandwidth: [1.0, 0.1, 0.1, 0.5],
         slope_speed: [0.5, 0.03],
+        slope_speed_gain: 0.03,
         slope_loading: [4.0, 0.3],
         slope_excitation: [3.0, 0.3],
         slope_sea: [0.3, 0.03],
@@ -341,7 +342,7 @@ fn a_new_speed_is_predicted_along_the_trapezoid_of_the_learned_and_the_tests_slo
     assert!((miss - 0.1131).abs() < 0.001, "{miss}");
     // The test's own slope is one test's: its scatter among the learned tests (here none)
     // widens nothing, and the interval is the prior's over the move.
-    let tau = st().slope_speed[1] * 1.5;
+    let tau = st().speed_sd(2) * 1.5;
     assert!(
         p.cov.at(2, 2) > tau * tau && p.cov.at(2, 2) < 1.01 * tau * tau,
         "{} {}",
@@ -378,7 +379,7 @@ fn the_tests_own_slope_adds_its_scatter_to_the_prior() {
     };
     let du = 1.5;
     let p = predict_for(&samples, &st(), &sh, &at(4.0 + du, 7000.0), &own).unwrap();
-    let want = (st().slope_speed[1].powi(2) + var / 4.0) * du * du;
+    let want = (st().speed_sd(2).powi(2) + var / 4.0) * du * du;
     let got = p.cov.at(2, 2);
     assert!(got > want && got < 1.01 * want, "{got} {want}");
     let moved = p.offset[2] - level;

@@ -135,6 +135,8 @@ pub struct Settings {
     pub bandwidth: [f64; 4],
     /// Prior standard deviation of the slopes in speed `(e_u [m/s per m/s], e_D [per m/s])`.
     pub slope_speed: [f64; 2],
+    /// Prior standard deviation of `e_b`'s slope in speed [per m/s].
+    pub slope_speed_gain: f64,
     /// Prior standard deviation of the slopes in `ln D` `(e_u [m/s], e_D [fraction])`.
     pub slope_loading: [f64; 2],
     /// Prior standard deviation of the slopes in `ln s` `(e_u [m/s], e_D [fraction])`.
@@ -146,6 +148,15 @@ pub struct Settings {
 }
 
 impl Settings {
+    /// The prior standard deviation of component `j`'s slope in speed: `e_u`'s, `e_D`'s,
+    /// `e_b`'s own.
+    pub fn speed_sd(&self, j: usize) -> f64 {
+        match j {
+            0 | 1 => self.slope_speed[j],
+            _ => self.slope_speed_gain,
+        }
+    }
+
     /// The settings of `[reference]`, the calm sea's index `sea_calm_deg`.
     pub fn of(r: &super::config::ReferenceConfig, sea_calm_deg: f64) -> Self {
         Self {
@@ -156,6 +167,7 @@ impl Settings {
                 r.bandwidth_sea,
             ],
             slope_speed: r.slope_speed,
+            slope_speed_gain: r.slope_speed_gain,
             slope_loading: r.slope_loading,
             slope_excitation: r.slope_excitation,
             slope_sea: r.slope_sea,
