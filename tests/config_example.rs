@@ -52,16 +52,17 @@ fn binary_exits_78_naming_the_key_and_range() {
             "[reference]\nslope-speed-gain = 0.0\n",
             ["reference.slope-speed-gain", "(0, 1]"],
         ),
+        // An unknown key: named, with no range to give.
         (
             "unknown.toml",
             "[hbt]\nrelay-hight-deg = 5\n",
             ["relay-hight-deg", "relay-hight-deg"],
         ),
     ];
+    assert_eq!(ConfigError::EXIT_CODE, 78);
     for (name, text, [key, range]) in bad {
         let (code, err) = check_config(&dir, name, text);
         assert_eq!(code, Some(ConfigError::EXIT_CODE), "{name}: {err}");
-        assert_eq!(ConfigError::EXIT_CODE, 78);
         assert!(err.contains(key) && err.contains(range), "{name}: {err}");
     }
     let _ = std::fs::remove_dir_all(&dir);

@@ -20,11 +20,11 @@
 //!   slopes times `dl` (`Sample::speed_slope`, `Sample::loading_slope`, the slope priors'
 //!   means; the law bends, and the sample's mean slope weighs the longer segment's end, which
 //!   missed the Mariner's gain by 0.10 over 4 to 5.5 m/s with the change after its second
-//!   test): a change of
-//!   operating point is no change of health. So is a change of sea: where the segments'
-//!   mean `w` (`Point::x`) differ by `dw`, `Psi` adds the reference's sea prior over the
-//!   step beyond half a bandwidth, `(tau_w sea_step(dw))^2` (`reference.slope-sea`, mean 0:
-//!   the networks' bias per sea is the hull's), nothing within one sea.
+//!   test): a change of operating point is no change of health. So is a change of sea:
+//!   where the segments' mean `w` (`Point::x`) differ by `dw`, `Psi` adds the reference's
+//!   sea prior over the step beyond half a bandwidth, `(tau_w sea_step(dw))^2`
+//!   (`reference.slope-sea`, mean 0: the networks' bias per sea is the hull's), nothing
+//!   within one sea.
 //! - The slopes are common to both segments, and where the tests' operating points spread
 //!   within the segments (CLFRT's tones resized in some tests and not in others: its
 //!   excitation alternating between two sizes) the sample itself tells them: per component

@@ -68,10 +68,10 @@
 //! third order in the move). The test's slope is one test's reading: a quarter of the
 //! learned slopes' scatter near `x*` joins the prior's variance. `e_b`'s prior in speed is
 //! its own (`reference.slope-speed-gain`: the spread of the law's error over a population
-//! of hulls, docs/fdi.md). The intercept has a flat prior. The fit's intercept is the predicted offset at
-//! `x*`; its posterior variance `(A^-1)_00` is the prediction's own: small where the ship
-//! has been tested, growing with the distance from what was learned (the kernel and the
-//! slope prior), never the design's wide limits.
+//! of hulls, docs/fdi.md). The intercept has a flat prior. The fit's intercept is the
+//! predicted offset at `x*`; its posterior variance `(A^-1)_00` is the prediction's own:
+//! small where the ship has been tested, growing with the distance from what was learned
+//! (the kernel and the slope prior), never the design's wide limits.
 //!
 //! The shape `S~` is the scatter of the learned tests about the fit at their own points,
 //! normalised by their design spreads, over the effective degrees of freedom `nu = n -
