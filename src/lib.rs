@@ -9,7 +9,7 @@
 //! ## Floors
 //!
 //! The folders of `src/` are the layout's floors; each imports only from the floors below it
-//! (checked by `tests/layers.rs`; the drawing is docs/architecture.md):
+//! (checked by `tests/it/layers.rs`; the drawing is docs/architecture.md):
 //!
 //! | floor | folder | what it is | I/O |
 //! |---|---|---|---|

@@ -39,7 +39,7 @@
 //!
 //! Linearised at U0 = 7.7175 m/s and L = 160.93 m these give Fossen's published Nomoto model
 //! of the Mariner, K = 0.185 1/s, T1 = 118 s, T2 = 7.8 s, T3 = 18.5 s (the test
-//! `tests/mariner.rs` checks [`MarinerHull::linear`] and the nonlinear hull's small-rudder
+//! `tests/it/mariner.rs` checks [`MarinerHull::linear`] and the nonlinear hull's small-rudder
 //! response against it).
 //!
 //! ## Scale, speed and loading

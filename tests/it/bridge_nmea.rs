@@ -6,12 +6,7 @@
 //! silent rudder indicator and a bridge restart must abort the running test on the daemon's
 //! silence check, with no decision. No timing is asserted: every wait is bounded and polls.
 
-// Helpers outside #[test] functions unwrap and panic too: a failure with a message.
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
-
-mod common;
-
-use common::{daemon_config, endpoint, ran_to_analysis, start_daemon, Observer};
+use crate::common::{daemon_config, endpoint, ran_to_analysis, start_daemon, Observer};
 use helmwatch::config::Config;
 use helmwatch::core::nmea::{DecodeStats, TimeSource};
 use helmwatch::shells::bridge::{Bridge, BridgeConfig, BridgeError};
@@ -164,7 +159,7 @@ async fn an_nmea_only_ship_runs_a_test_end_to_end_and_bad_sentences_are_counted(
         .await;
     assert_eq!(r["outcome"], "completed", "{r}");
     assert!(ran_to_analysis(&r), "{r}");
-    // The usual bounds (tests/fleet_classes.rs): speed within 1 m/s of the ship's 7 m/s,
+    // The usual bounds (tests/it/fleet_classes.rs): speed within 1 m/s of the ship's 7 m/s,
     // displacement within 10 % of its 7000 t; no fault on the nominal ship.
     let u = r["estimate"]["speed_mps"].as_f64().unwrap();
     let d = r["estimate"]["displacement_t"].as_f64().unwrap();
@@ -442,7 +437,7 @@ async fn tcp_and_serial_streams_are_cut_into_lines_and_reopened() {
     }
     // The counters on the metrics endpoint: both headings of both connections, the two
     // over-long lines at least.
-    let text = common::scrape_metrics(metrics).await;
+    let text = crate::common::scrape_metrics(metrics).await;
     for family in helmwatch::shells::bridge::METRIC_FAMILIES {
         assert!(text.contains(family), "{family}: {text}");
     }
@@ -473,7 +468,7 @@ async fn tcp_and_serial_streams_are_cut_into_lines_and_reopened() {
     session.close().await.unwrap();
 
     // A serial device, here a named pipe read as the device path.
-    let dir = common::temp_dir("bridge-serial");
+    let dir = crate::common::temp_dir("bridge-serial");
     let fifo = dir.join("ttyNMEA");
     assert!(std::process::Command::new("mkfifo")
         .arg(&fifo)

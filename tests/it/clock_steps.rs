@@ -4,9 +4,6 @@
 //! and how often each stream re-synchronised, aborts a test under way ("clock step"), and
 //! completes the next one. The simulated ship steps its clock with the `clock_step_s` and
 //! `clock_outlier_s` faults; the core runs as in the daemon (lockstep).
-// A test crate: an unwrap, expect or panic here is the test failing, with its message
-// (clippy.toml allows them in `#[test]` functions; the helpers are test code too).
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use helmwatch::config::Config;
 use helmwatch::core::monitor::input::RejectReason;

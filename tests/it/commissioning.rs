@@ -3,13 +3,8 @@
 //! restart of the daemon; a fault that appears after commissioning raises the alarm; a change
 //! of the ship's configuration discards the reference; `helmwatch commission --start` begins
 //! it again.
-// A test crate: an unwrap, expect or panic here is the test failing, with its message
-// (clippy.toml allows them in `#[test]` functions; the helpers are test code too).
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
-mod common;
-
-use common::{daemon_config, endpoint, start_daemon, temp_dir, Observer};
+use crate::common::{daemon_config, endpoint, start_daemon, temp_dir, Observer};
 use helmwatch::config::Config;
 use helmwatch::shells::net::loopback_peer;
 use helmwatch::shells::shipnode::{ShipNode, ShipNodeOptions};

@@ -1,6 +1,5 @@
-//! Helpers of the Zenoh integration tests: free loopback ports, an observer session that
-//! collects what the daemon publishes, triggers, bounded waits.
-#![allow(dead_code)]
+//! Helpers of the integration tests: free loopback ports, an observer session that
+//! collects what the daemon publishes, triggers, bounded waits, a worker pool.
 
 use helmwatch::config::Config;
 use helmwatch::core::wire::{Keys, TriggerReply};
@@ -223,4 +222,9 @@ pub async fn scrape_metrics(addr: std::net::SocketAddr) -> String {
     let mut body = String::new();
     c.read_to_string(&mut body).await.unwrap();
     body
+}
+
+/// Runs `jobs` on both cores, keeping their order (the library's worker pool).
+pub fn par_map<T: Clone + Sync, R: Send>(jobs: Vec<T>, f: impl Fn(T) -> R + Sync) -> Vec<R> {
+    helmwatch::tools::training::database::par_map(jobs.len(), 2, |i| f(jobs[i].clone()))
 }

@@ -1,8 +1,5 @@
 //! The annotated example configuration stays true to the code, and bad configuration is
 //! refused with the key, the range and exit code 78.
-// A test crate: an unwrap, expect or panic here is the test failing, with its message
-// (clippy.toml allows them in `#[test]` functions; the helpers are test code too).
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use helmwatch::config::Config;
 use helmwatch::core::config::ConfigError;

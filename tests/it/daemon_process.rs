@@ -1,13 +1,8 @@
 //! The real binaries as processes: `helmwatch run` killed mid-test (the ship's autopilot
 //! reverts within `hold_s`), and `helmwatch run` + `helmwatch ship` with SIGTERM (exit 0
 //! after `mode: none` and a final status).
-// A test crate: an unwrap, expect or panic here is the test failing, with its message
-// (clippy.toml allows them in `#[test]` functions; the helpers are test code too).
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
-mod common;
-
-use common::{endpoint, Observer};
+use crate::common::{endpoint, Observer};
 use helmwatch::config::Config;
 use helmwatch::shells::net::loopback_peer;
 use helmwatch::shells::shipnode::{ShipNode, ShipNodeOptions};

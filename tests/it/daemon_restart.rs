@@ -4,13 +4,8 @@
 //! test ids go on from where they were, and its history (`fdi/history`) holds every report a
 //! subscriber saw, before and after the kill. A damaged state directory is named, moved
 //! aside, and monitoring goes on with a fresh store.
-// A test crate: an unwrap, expect or panic here is the test failing, with its message
-// (clippy.toml allows them in `#[test]` functions; the helpers are test code too).
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
-mod common;
-
-use common::{endpoint, temp_dir, Observer};
+use crate::common::{endpoint, temp_dir, Observer};
 use std::os::unix::net::UnixDatagram;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};

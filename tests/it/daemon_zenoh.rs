@@ -1,14 +1,9 @@
 //! The daemon and the simulated ship as separate Zenoh sessions on loopback (in one process),
 //! in lockstep: nominal runs, a ship that disconnects, hostile samples in the streams, clock
-//! steps (a fault after commissioning: tests/commissioning.rs).
+//! steps (a fault after commissioning: tests/it/commissioning.rs).
 //! No timing is asserted: every wait is bounded and polls for an event.
-// A test crate: an unwrap, expect or panic here is the test failing, with its message
-// (clippy.toml allows them in `#[test]` functions; the helpers are test code too).
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
-mod common;
-
-use common::{daemon_config, endpoint, ran_to_analysis, start_daemon, Observer};
+use crate::common::{daemon_config, endpoint, ran_to_analysis, start_daemon, Observer};
 use helmwatch::config::Config;
 use helmwatch::shells::net::loopback_peer;
 use helmwatch::shells::shipnode::{ShipNode, ShipNodeOptions, ShipSummary};
@@ -307,7 +302,7 @@ async fn a_wild_timestamp_and_a_clock_stepped_back_an_hour_never_stop_the_daemon
 
     // Every stream the test reads is on the new timeline before the trigger: the slower
     // autopilot_state stream steps back a moment after the headings, and a stream stepping
-    // back during a test aborts that test (what `tests/clock_steps.rs` checks).
+    // back during a test aborts that test (what `tests/it/clock_steps.rs` checks).
     let streams = ["heading", "rudder", "speed", "autopilot_state"];
     let stats = obs
         .wait_for("fdi/stats", LIMIT, |s| {

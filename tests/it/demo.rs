@@ -1,8 +1,5 @@
 //! README's first command: `helmwatch demo` commissions the vessel, then the displacement
 //! steps up and the demo runs until the alarm, printing it.
-// A test crate: an unwrap, expect or panic here is the test failing, with its message
-// (clippy.toml allows them in `#[test]` functions; the helpers are test code too).
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 #[test]
 fn the_demo_commissions_then_runs_until_the_alarm() {

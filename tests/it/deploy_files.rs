@@ -2,9 +2,6 @@
 //! configuration checks, the Zenoh router configurations parse, and the systemd unit names
 //! the paths and the readiness protocol the daemon implements; so does the NMEA bridge's unit.
 //! (`systemd-analyze verify` runs on both in `.ci/run`.)
-// A test crate: an unwrap, expect or panic here is the test failing, with its message
-// (clippy.toml allows them in `#[test]` functions; the helpers are test code too).
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use std::path::Path;
 

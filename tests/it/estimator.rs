@@ -3,9 +3,6 @@
 //!
 //! Independent answers: the true speed and displacement of each simulated ship, and the
 //! shipped files' own recorded test MSE (measured by `helmwatch train` on other tests).
-// A test crate: an unwrap, expect or panic here is the test failing, with its message
-// (clippy.toml allows them in `#[test]` functions; the helpers are test code too).
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use helmwatch::cli::estimator::{cgf_trainer, lm_trainer};
 use helmwatch::config::Config;

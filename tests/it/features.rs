@@ -4,10 +4,8 @@
 //!
 //! Runs are spread over both cores with scoped threads; each run is a few tens of
 //! milliseconds of CPU in the `ci` profile.
-// A test crate: an unwrap, expect or panic here is the test failing, with its message
-// (clippy.toml allows them in `#[test]` functions; the helpers are test code too).
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
+use crate::common::par_map;
 use helmwatch::config::Config;
 use helmwatch::core::dsp::relay::limit_cycle_describing_function;
 use helmwatch::core::model::SeaState;
@@ -17,6 +15,7 @@ use helmwatch::core::wire::{Outcome, Report};
 use helmwatch::drivers::probe::{run_probe, ProbeOptions};
 use helmwatch::sim::{Fault, Scenario};
 use std::f64::consts::PI;
+use std::sync::OnceLock;
 
 const GRID: [(f64, f64); 6] = [
     (4.0, 4000.0),
@@ -95,11 +94,6 @@ fn probe_with(
     r
 }
 
-/// Runs `jobs` on two threads, keeping the order (the library's worker pool).
-fn par_map<T: Clone + Sync, R: Send>(jobs: Vec<T>, f: impl Fn(T) -> R + Sync) -> Vec<R> {
-    helmwatch::tools::training::database::par_map(jobs.len(), 2, |i| f(jobs[i].clone()))
-}
-
 /// The HBT features of a completed report.
 fn hbt(r: &Report) -> &HbtFeatures {
     r.features
@@ -159,18 +153,30 @@ fn clfrt_runs(sea: SeaState, seeds: u64) -> Vec<((f64, f64), Report)> {
     })
 }
 
+/// The slow tier's CLFRT runs: 50 seeds at each grid point, made once per sea for the
+/// accuracy and the calibration tests that read them.
+fn clfrt_runs_50(sea: SeaState) -> &'static [((f64, f64), Report)] {
+    static CALM: OnceLock<Vec<((f64, f64), Report)>> = OnceLock::new();
+    static MODERATE: OnceLock<Vec<((f64, f64), Report)>> = OnceLock::new();
+    let cell = match sea {
+        SeaState::Calm => &CALM,
+        _ => &MODERATE,
+    };
+    assert!(matches!(sea, SeaState::Calm | SeaState::Moderate));
+    cell.get_or_init(|| clfrt_runs(sea, 50))
+}
+
 /// Fraction of runs inside the CLFRT accuracy bounds, per tone.
 ///
 /// The bounds were 5 % / 3 deg, 5 % / 3 deg, 10 % / 10 deg for 2 deg tones; the errors scale
 /// as 1 / amplitude (the disturbances do not change), so they are halved for the default
-/// 4 deg tones: the same 95.7 / 100 / 96.7 % of runs fall inside as before.
-#[test]
-fn clfrt_calm_gain_and_phase_match_the_transfer_function() {
-    let runs = clfrt_runs(SeaState::Calm, 50);
+/// 4 deg tones: the same 95.7 / 100 / 96.7 % of runs fall inside as before. At least 90 %
+/// of the runs must: the fast tier checks 10 seeds a grid point (60 runs), the slow tier 50.
+fn check_accuracy(runs: &[((f64, f64), Report)]) {
     let bounds = [(0.025, 1.5), (0.025, 1.5), (0.05, 5.0)];
     let mut inside = [0usize; 3];
     let mut worst = [(0.0f64, 0.0f64); 3];
-    for ((u, d), r) in &runs {
+    for ((u, d), r) in runs {
         for (i, t) in tones(r).iter().enumerate() {
             let (g0, p0) = nomoto_response(*u, *d, t.omega);
             let ge = (t.gain / g0 - 1.0).abs();
@@ -201,11 +207,23 @@ fn clfrt_calm_gain_and_phase_match_the_transfer_function() {
     }
 }
 
-/// The reported 90 % intervals hold the true value in 85 to 97 % of runs.
+#[test]
+fn clfrt_calm_gain_and_phase_match_the_transfer_function() {
+    check_accuracy(&clfrt_runs(SeaState::Calm, 10));
+}
+
+#[test]
+#[ignore = "slow tier: cargo test --profile ci -- --ignored"]
+fn clfrt_calm_gain_and_phase_match_the_transfer_function_300_runs() {
+    check_accuracy(clfrt_runs_50(SeaState::Calm));
+}
+
+/// The reported 90 % intervals hold the true value in 85 to 97 % of 300 runs (binomial 1 sd
+/// at p = 0.9 is 1.7 %: the band is -3 to +4 sd).
 fn check_calibration(sea: SeaState) {
-    let runs = clfrt_runs(sea, 50);
+    let runs = clfrt_runs_50(sea);
     let mut cover = [[0usize; 2]; 3];
-    for ((u, d), r) in &runs {
+    for ((u, d), r) in runs {
         for (i, t) in tones(r).iter().enumerate() {
             let (g0, p0) = nomoto_response(*u, *d, t.omega);
             if (t.gain / g0 - 1.0).abs() <= t.gain_ci {
@@ -231,11 +249,13 @@ fn check_calibration(sea: SeaState) {
 }
 
 #[test]
+#[ignore = "slow tier: cargo test --profile ci -- --ignored"]
 fn clfrt_uncertainty_is_calibrated_in_a_calm_sea() {
     check_calibration(SeaState::Calm);
 }
 
 #[test]
+#[ignore = "slow tier: cargo test --profile ci -- --ignored"]
 fn clfrt_uncertainty_is_calibrated_in_a_moderate_sea() {
     check_calibration(SeaState::Moderate);
 }

@@ -6,13 +6,8 @@
 //! bravo's displacement lies above anything alpha's models cover (4000 to 10000 t), so a
 //! report near 14000 t could only come from bravo's own models, and a decision that is not
 //! a fault shows the residuals are taken against bravo's own nominal values.
-// A test crate: an unwrap, expect or panic here is the test failing, with its message
-// (clippy.toml allows them in `#[test]` functions; the helpers are test code too).
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
-mod common;
-
-use common::{daemon_config, endpoint, ran_to_analysis, temp_dir, Observer};
+use crate::common::{daemon_config, endpoint, ran_to_analysis, temp_dir, Observer};
 use helmwatch::config::Config;
 use helmwatch::shells::daemon::Daemon;
 use helmwatch::shells::net::loopback_peer;

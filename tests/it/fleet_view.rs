@@ -4,13 +4,8 @@
 //! fleet view, started after the first daemon (its liveliness history must show it), sees all
 //! three alive, sees their states change after a trigger, and sees one gone when its daemon
 //! stops. Every wait is bounded and polls for an event; no timing is asserted.
-// A test crate: an unwrap, expect or panic here is the test failing, with its message
-// (clippy.toml allows them in `#[test]` functions; the helpers are test code too).
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
-mod common;
-
-use common::{daemon_config, endpoint};
+use crate::common::{daemon_config, endpoint};
 use helmwatch::config::Config;
 use helmwatch::shells::daemon::Daemon;
 use helmwatch::shells::net::{loopback, ZenohMode};

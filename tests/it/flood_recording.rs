@@ -1,14 +1,10 @@
 //! A flood cannot erase the record: a daemon recording with the default bounds serves a
-//! lockstep ship for 10 ship hours, then every input key is flooded for 60 s (wall) with
-//! malformed, oversized and out-of-range payloads. Every recording file of the 10 hours is
-//! still there afterwards, and what the flood wrote (the `fdi/rejected` channel) is within the
-//! bound src/shells/recording.rs documents. Waits are bounded; figures are printed.
-// Helpers outside #[test] fns unwrap too: a panic is a test failure with its message.
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
-
-mod common;
-
-use common::{daemon_config, endpoint, start_daemon, temp_dir};
+//! lockstep ship for 10 ship hours, then every input key is flooded with 20 000 malformed,
+//! oversized and out-of-range payloads each. Every recording file of the 10 hours is still
+//! there afterwards, and what the flood wrote (the `fdi/rejected` channel) is within the bound
+//! src/shells/recording.rs documents for the flood's wall time (its token bucket refills on
+//! the wall clock). Waits are bounded; figures are printed. Slow tier (about a minute).
+use crate::common::{daemon_config, endpoint, start_daemon, temp_dir};
 use helmwatch::core::wire::{Keys, Stream};
 use helmwatch::shells::net::loopback_peer;
 use helmwatch::shells::recording::{REJECTED_BURST, REJECTED_PERIOD_S, REJECTED_RECORD_MAX_BYTES};
@@ -34,8 +30,12 @@ fn files(dir: &Path) -> Vec<(String, u64)> {
     v
 }
 
+/// Payloads sent on each input key.
+const FLOOD_PER_KEY: u64 = 20_000;
+
 #[tokio::test(flavor = "multi_thread")]
-async fn a_minute_of_flood_after_ten_hours_erases_nothing_and_stays_within_its_bound() {
+#[ignore = "slow tier: cargo test --profile ci -- --ignored"]
+async fn a_flood_after_ten_hours_erases_nothing_and_stays_within_its_bound() {
     let dir = temp_dir("flood");
     let ep = endpoint();
     let mut cfg = daemon_config();
@@ -66,7 +66,7 @@ async fn a_minute_of_flood_after_ten_hours_erases_nothing_and_stays_within_its_b
     let bytes_before: u64 = before.iter().map(|f| f.1).sum();
     assert!(!before.is_empty());
 
-    // 60 s of flood on every input key.
+    // The flood: FLOOD_PER_KEY payloads on every input key.
     let flood = zenoh::open(loopback_peer(&[], std::slice::from_ref(&ep)).unwrap())
         .await
         .unwrap();
@@ -84,7 +84,7 @@ async fn a_minute_of_flood_after_ten_hours_erases_nothing_and_stays_within_its_b
     let oversized = vec![b'x'; 200_000];
     let started = Instant::now();
     let mut sent = 0u64;
-    while started.elapsed() < Duration::from_secs(60) {
+    for _ in 0..FLOOD_PER_KEY {
         for p in &pubs {
             let payload: Vec<u8> = match sent % 4 {
                 0 => b"not json {{{".to_vec(),
@@ -104,6 +104,8 @@ async fn a_minute_of_flood_after_ten_hours_erases_nothing_and_stays_within_its_b
     }
     flood.close().await.unwrap();
     let summaries = daemon.stop().await;
+    // The bucket may refill until the daemon stopped.
+    let flood_s = started.elapsed().as_secs_f64();
     stop.cancel();
 
     // Every file of the 10 hours is still there.
@@ -133,10 +135,10 @@ async fn a_minute_of_flood_after_ten_hours_erases_nothing_and_stays_within_its_b
         }
     }
     let bytes_after: u64 = after.iter().map(|f| f.1).sum();
-    let per_stream = REJECTED_BURST + (60.0 / REJECTED_PERIOD_S).ceil() + 1.0;
+    let per_stream = REJECTED_BURST + (flood_s / REJECTED_PERIOD_S).ceil() + 1.0;
     let bound_msgs = (Stream::ALL.len() as f64 * per_stream) as u64;
     println!(
-        "flood: {sent} payloads sent in 60 s; recorded {rejected_msgs} rejected records ({rejected_bytes} bytes, {suppressed} suppressed counted in them); recordings {} -> {} bytes in {} -> {} files; daemon stats {}",
+        "flood: {sent} payloads sent in {flood_s:.1} s; recorded {rejected_msgs} rejected records ({rejected_bytes} bytes, {suppressed} suppressed counted in them); recordings {} -> {} bytes in {} -> {} files; daemon stats {}",
         bytes_before,
         bytes_after,
         before.len(),

@@ -6,11 +6,8 @@
 //! change of behaviour is intended, regenerate them and say so in the commit:
 //!
 //! ```sh
-//! HELMWATCH_BLESS=1 cargo test --profile ci --test golden
+//! HELMWATCH_BLESS=1 cargo test --profile ci --test it golden
 //! ```
-// A test crate: an unwrap, expect or panic here is the test failing, with its message
-// (clippy.toml allows them in `#[test]` functions; the helpers are test code too).
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

@@ -6,9 +6,6 @@
 //! On a ship whose tones keep clear of the limit an armed guard does not act, and the next
 //! test goes unarmed. The core runs as in the daemon (lockstep), consecutive tests on one
 //! vessel.
-// A test crate: an unwrap, expect or panic here is the test failing, with its message
-// (clippy.toml allows them in `#[test]` functions; the helpers are test code too).
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use helmwatch::config::Config;
 use helmwatch::core::model::SeaState;

@@ -3,9 +3,7 @@
 //! the nonlinear hull's small-rudder response against the analytic step of that model, the
 //! mass and effectiveness against the linearisation, Froude similarity of a 35 deg turn and
 //! IMO's turning criteria. The family's Mariner member keeping its course in the ship:
-//! `tests/mmg.rs` (`surge_sway_yaw_members_keep_their_course_in_a_moderate_sea`).
-
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+//! `tests/it/mmg.rs` (`surge_sway_yaw_members_keep_their_course_in_a_moderate_sea`).
 
 use helmwatch::sim::mariner::{MarinerHull, LENGTH_M, PUBLISHED_SPEED_MPS};
 use helmwatch::sim::mmg::{LinearNomoto, MmgInput};

@@ -4,13 +4,8 @@
 //! reader: every channel present with its schema, the message counts those the daemon says it
 //! wrote and those of the file's summary statistics, the reports those heard live over Zenoh;
 //! and a replay of the file through the monitor core gives the live reports again.
-// A test crate: an unwrap, expect or panic here is the test failing, with its message
-// (clippy.toml allows them in `#[test]` functions; the helpers are test code too).
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
-mod common;
-
-use common::{daemon_config, endpoint, start_daemon, temp_dir, Observer};
+use crate::common::{daemon_config, endpoint, start_daemon, temp_dir, Observer};
 use helmwatch::core::monitor::Output;
 use helmwatch::shells::net::loopback_peer;
 use helmwatch::shells::shipnode::{ShipNode, ShipNodeOptions};

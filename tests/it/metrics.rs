@@ -2,13 +2,8 @@
 //! counters move between two scrapes, and the tests, decisions and aborts counted match the
 //! reports observed over Zenoh; the inputs and the excitation latencies match what the ship
 //! sent and received. A port in use is a start-up error naming the key.
-// A test crate: an unwrap, expect or panic here is the test failing, with its message
-// (clippy.toml allows them in `#[test]` functions; the helpers are test code too).
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
-mod common;
-
-use common::{daemon_config, endpoint, start_daemon, Observer};
+use crate::common::{daemon_config, endpoint, start_daemon, Observer};
 use helmwatch::shells::net::loopback_peer;
 use helmwatch::shells::shipnode::{ShipNode, ShipNodeOptions};
 use helmwatch::sim::Scenario;

@@ -4,9 +4,7 @@
 //! the analytic linear sway-yaw step and frequency responses on both sides of its
 //! piecewise-linear flow straightening, and the hull inside the simulated ship (faults,
 //! autopilot, speed log; the autopilot's course keeping also for the Mariner hull,
-//! `tests/mariner.rs`).
-
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+//! `tests/it/mariner.rs`).
 
 use helmwatch::config::Config;
 use helmwatch::core::model::SeaState;

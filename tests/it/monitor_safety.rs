@@ -1,9 +1,6 @@
 //! The monitor core's safety and input contract, independent of the feature accuracy:
 //! abort paths, exactly one excitation per accepted heading sample, bounded excitation under
 //! any input, counted rejections.
-// A test crate: an unwrap, expect or panic here is the test failing, with its message
-// (clippy.toml allows them in `#[test]` functions; the helpers are test code too).
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use helmwatch::config::Config;
 use helmwatch::core::monitor::input::RejectReason;

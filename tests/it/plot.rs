@@ -2,9 +2,6 @@
 //! axes (fitted to the tick labels in the SVG itself) are the report's values, within a pixel.
 //! The model curves are checked against the analytic Nomoto response computed here from the
 //! ship's particulars, not through the crate's model code.
-// A test crate: an unwrap, expect or panic here is the test failing, with its message
-// (clippy.toml allows them in `#[test]` functions; the helpers are test code too).
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use helmwatch::config::Config;
 use helmwatch::core::estimator::Estimator;

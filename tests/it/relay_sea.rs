@@ -4,9 +4,6 @@
 //! wave yaw CLFRT measured over its record, capped by `safety.max-excitation-deg / h` (10 / 8
 //! = 1.25 by default), so the safety gate never bounds it; in a calm sea it plays as
 //! designed. The sea is kept in the vessel's state across a restart.
-// A test crate: an unwrap, expect or panic here is the test failing, with its message
-// (clippy.toml allows them in `#[test]` functions; the helpers are test code too).
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use helmwatch::config::Config;
 use helmwatch::core::model::SeaState;

@@ -1,8 +1,5 @@
 //! docs/fdi.md "Report fields" names every field of the typed `residuals`
 //! (`core::wire::residuals`), and names no field the type does not have.
-// A test crate: an unwrap, expect or panic here is the test failing, with its message
-// (clippy.toml allows them in `#[test]` functions; the helpers are test code too).
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use helmwatch::core::wire::residuals::{
     BaselineReport, CauseCosts, DecisionReport, Look, ModelFitReport, ModelMismatch,

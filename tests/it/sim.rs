@@ -2,8 +2,6 @@
 //! response and transfer function of b / (s (s + a)), the servo's limits, closed-loop quality
 //! in a moderate sea, fault effects from their onsets, determinism of recordings.
 
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
-
 use helmwatch::config::Config;
 use helmwatch::core::model::SeaState;
 use helmwatch::core::wire::{Excitation, ExcitationMode, Input};

@@ -417,8 +417,14 @@ fn closed_loop_intervals_are_calibrated() {
     }
 }
 
+/// The intervals' coverage against the sampled ship's response over sea states, rudder noise,
+/// a servo, one to four windows and two to four neighbour pairs, 1000 runs a cell (binomial
+/// 1 sd at p = 0.9 is 0.95 %): no tone's gain or phase interval under 85 % anywhere (never
+/// over-confident), and at the default neighbour pairs none over 97 % either (not needlessly
+/// wide). The coverage against the continuous ship (in brackets) is printed, not checked: it
+/// misses half a sample of delay.
 #[test]
-#[ignore = "diagnostic sweep (about a minute): coverage against neighbour pairs and scenarios"]
+#[ignore = "slow tier: cargo test --profile ci -- --ignored"]
 fn coverage_sweep() {
     let calm = Sea {
         bias_sd: 0.1 * DEG,
@@ -442,6 +448,7 @@ fn coverage_sweep() {
         windows: 4,
         ..MODERATE
     };
+    let mut outside = Vec::new();
     for (name, sea) in [
         ("moderate", MODERATE),
         ("calm", calm),
@@ -452,6 +459,18 @@ fn coverage_sweep() {
     ] {
         for pairs in [2, 3, 4] {
             let c = coverage(sea, pairs, 1000);
+            for (k, tone) in c.iter().enumerate() {
+                for (what, cov) in [("gain", tone[0]), ("phase", tone[1])] {
+                    let high = if pairs == DEFAULT_NEIGHBOUR_PAIRS {
+                        0.97
+                    } else {
+                        1.0
+                    };
+                    if !(0.85..=high).contains(&cov) {
+                        outside.push(format!("{name} P={pairs} tone {k} {what} {cov:.3}"));
+                    }
+                }
+            }
             let f = |i: usize| format!("{:.3}/{:.3}({:.3})", c[i][0], c[i][1], c[i][6]);
             let e = |i: usize| {
                 format!(
@@ -470,4 +489,5 @@ fn coverage_sweep() {
             );
         }
     }
+    assert!(outside.is_empty(), "coverage out of bounds: {outside:?}");
 }

@@ -552,11 +552,16 @@ fn monte_carlo(
     (alarms, decided)
 }
 
-/// The figures of docs/fdi.md "What the arithmetic covers": `cargo test --profile ci --lib
-/// monte_carlo_scan -- --ignored --nocapture`.
+/// The budget's arithmetic over the sample size, the floors and learning (docs/fdi.md "What
+/// the arithmetic covers"): a vessel commissioned on K Gaussian tests of a correlated scatter,
+/// then 100 tests, at 30 and 8 false alarms a year, each cell sized for about 100 alarms at
+/// its budget (Poisson: 10 % relative spread). No cell may exceed twice its budget (the
+/// limits' promise) or fall under a fifth of it (limits that wide would cost detection). The
+/// budget of 2 a year at the default K is the full-size test below.
 #[test]
-#[ignore]
+#[ignore = "slow tier: cargo test --profile ci -- --ignored"]
 fn monte_carlo_scan() {
+    let mut table = Vec::new();
     for (k, floors, learn) in [
         (8, [0.0, 0.0], false),
         (8, [0.0, 0.0], true),
@@ -565,15 +570,24 @@ fn monte_carlo_scan() {
         (30, [0.0, 0.0], false),
         (200, [0.0, 0.0], false),
     ] {
-        for (budget, vessels) in [(30.0, 2000), (8.0, 6000), (2.0, 20000)] {
+        for (budget, vessels) in [(30.0, 300), (8.0, 1000)] {
             let (alarms, decided) = monte_carlo(budget, k, floors, vessels, 100, 7, learn);
             let want = Limits::new(budget, 3720.0, 4).alpha_test;
+            let ratio = alarms as f64 / decided as f64 / want;
             println!(
-                "K {k} floors {floors:?} learn {learn} budget {budget}: {alarms} in {decided}: ratio {:.3}",
-                alarms as f64 / decided as f64 / want
+                "K {k} floors {floors:?} learn {learn} budget {budget}: {alarms} in {decided}: ratio {ratio:.3}"
             );
+            table.push((k, floors, learn, budget, ratio));
         }
     }
+    let outside: Vec<_> = table
+        .iter()
+        .filter(|row| !(0.2..=2.0).contains(&row.4))
+        .collect();
+    assert!(
+        outside.is_empty(),
+        "outside [0.2, 2] of the budget: {outside:?}"
+    );
 }
 
 /// A vessel commissioned on the default `fdi.commissioning-tests`, learning as the daemon
@@ -586,6 +600,7 @@ fn monte_carlo_scan() {
 /// enough for the Gaussian tails to decouple the overlapping looks and large enough to count
 /// 300 alarms in 2e6 tests.
 #[test]
+#[ignore = "slow tier: cargo test --profile ci -- --ignored"]
 fn monte_carlo_false_alarm_rate_is_within_a_factor_two_of_the_budget() {
     let budget = 2.0;
     let k = FdiConfig::default().commissioning_tests;
