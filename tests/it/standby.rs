@@ -137,6 +137,43 @@ impl Ownership {
     }
 }
 
+/// A router on a free loopback port, an observer of vessel `self` on it (excitation too), the
+/// ownership messages, and daemons `a` (holder) then `b` (its standby), each with `extra` in
+/// its configuration.
+struct HolderAndStandby {
+    router_ep: String,
+    router: zenoh::Session,
+    obs: Observer,
+    owners: Ownership,
+    a: Proc,
+    b: Proc,
+}
+
+impl HolderAndStandby {
+    async fn start(dir: &Path, extra: &str) -> Self {
+        let router_ep = endpoint();
+        let router = zenoh::open(
+            loopback(ZenohMode::Router, std::slice::from_ref(&router_ep), &[]).unwrap(),
+        )
+        .await
+        .unwrap();
+        let obs = Observer::new(&router_ep, "self", true).await;
+        let owners = Ownership::new(&obs.session).await;
+        let a = spawn_daemon(dir, "a", &daemon_toml(dir, "a", &router_ep, extra));
+        owners.wait("a", "holder", "a").await;
+        let b = spawn_daemon(dir, "b", &daemon_toml(dir, "b", &router_ep, extra));
+        owners.wait("b", "standby", "a").await;
+        Self {
+            router_ep,
+            router,
+            obs,
+            owners,
+            a,
+            b,
+        }
+    }
+}
+
 /// A lockstep ship of `scenario` from ship time `start_s` (for `duration_s` when given), a
 /// client of `router`.
 fn ship(
@@ -396,18 +433,14 @@ async fn kill_and_take_over(
 #[tokio::test(flavor = "multi_thread")]
 async fn the_standby_takes_over_after_sigkill_and_runs_the_next_test() {
     let dir = temp_dir("standby-takeover");
-    let router_ep = endpoint();
-    let router =
-        zenoh::open(loopback(ZenohMode::Router, std::slice::from_ref(&router_ep), &[]).unwrap())
-            .await
-            .unwrap();
-    let obs = Observer::new(&router_ep, "self", true).await;
-    let owners = Ownership::new(&obs.session).await;
-    let extra = "[scheduler]\nenabled = false\n";
-    let mut a = spawn_daemon(&dir, "a", &daemon_toml(&dir, "a", &router_ep, extra));
-    owners.wait("a", "holder", "a").await;
-    let mut b = spawn_daemon(&dir, "b", &daemon_toml(&dir, "b", &router_ep, extra));
-    owners.wait("b", "standby", "a").await;
+    let HolderAndStandby {
+        router_ep,
+        router,
+        obs,
+        owners,
+        mut a,
+        mut b,
+    } = HolderAndStandby::start(&dir, "[scheduler]\nenabled = false\n").await;
     let cfg = Config::default();
     let (stop, ship_task) = ship(
         &cfg,
@@ -451,20 +484,17 @@ async fn the_standby_takes_over_after_sigkill_and_runs_the_next_test() {
 #[ignore = "slow tier: cargo test --profile ci -- --ignored"]
 async fn the_standby_takes_over_an_alarm_with_the_state_after_sigkill_both_ways() {
     let dir = temp_dir("standby-kill");
-    let router_ep = endpoint();
-    let router =
-        zenoh::open(loopback(ZenohMode::Router, std::slice::from_ref(&router_ep), &[]).unwrap())
-            .await
-            .unwrap();
-    let obs = Observer::new(&router_ep, "self", true).await;
-    let owners = Ownership::new(&obs.session).await;
     // The fewest commissioning tests the covariance's K-sample factor allows.
     let extra = "[scheduler]\nenabled = false\n\n[fdi]\ncommissioning-tests = 5\n";
+    let HolderAndStandby {
+        router_ep,
+        router,
+        obs,
+        owners,
+        mut a,
+        mut b,
+    } = HolderAndStandby::start(&dir, extra).await;
     let toml = |id: &str| daemon_toml(&dir, id, &router_ep, extra);
-    let mut a = spawn_daemon(&dir, "a", &toml("a"));
-    owners.wait("a", "holder", "a").await;
-    let mut b = spawn_daemon(&dir, "b", &toml("b"));
-    owners.wait("b", "standby", "a").await;
 
     // Commissioning on a healthy ship, five tests per method (about 13,600 s of ship time); a
     // displacement 30 % up from ONSET_S on, and from then HBT tests (the shorter) until the

@@ -459,13 +459,13 @@ fn coverage_sweep() {
     ] {
         for pairs in [2, 3, 4] {
             let c = coverage(sea, pairs, 1000);
+            let high = if pairs == DEFAULT_NEIGHBOUR_PAIRS {
+                0.97
+            } else {
+                1.0
+            };
             for (k, tone) in c.iter().enumerate() {
                 for (what, cov) in [("gain", tone[0]), ("phase", tone[1])] {
-                    let high = if pairs == DEFAULT_NEIGHBOUR_PAIRS {
-                        0.97
-                    } else {
-                        1.0
-                    };
                     if !(0.85..=high).contains(&cov) {
                         outside.push(format!("{name} P={pairs} tone {k} {what} {cov:.3}"));
                     }
