@@ -278,6 +278,14 @@ pub(crate) struct EvalArgs {
     /// counts from the onset; false alarms are the healthy rows'), not at its end.
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub(crate) onset_after: usize,
+    /// With --fdi: also write the tables to DIR/<suite>.md under the command, the commit and
+    /// the seed, and the rows' figures to DIR/<suite>.json (docs/results/).
+    #[arg(long, value_name = "DIR")]
+    pub(crate) results: Option<PathBuf>,
+    /// With --fdi: put the rows' figures beside those of the same suite in DIR (a
+    /// `<suite>.json` an earlier `--results DIR` wrote): the before-and-after table.
+    #[arg(long, value_name = "DIR")]
+    pub(crate) compare: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]

@@ -178,6 +178,7 @@ pub(crate) fn check_config(cfg: &Config) -> Result<(), Failure> {
 }
 
 pub(crate) fn eval_fdi(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
+    use crate::tools::eval::fdi::compare::{compare_table, suite_name};
     use crate::tools::eval::fdi::{run_suite, FdiEvalOptions};
     let t0 = std::time::Instant::now();
     let est = crate::core::estimator::Estimator::load_dir(&a.models, &cfg.core())
@@ -205,10 +206,41 @@ pub(crate) fn eval_fdi(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
     if let Some(s) = a.sea {
         o.seas = vec![s];
     }
-    run_suite(cfg, std::sync::Arc::new(est), &o);
+    let est = std::sync::Arc::new(est);
+    let res = run_suite(cfg, est.clone(), &o);
+    let mut body = res.text.clone();
+    if let Some(dir) = &a.compare {
+        let before = read_figures(&dir.join(format!("{}.json", suite_name(&o))))?;
+        body.push_str(&format!(
+            "\n## Before and after\n\nBefore: `{}`. A count marked **(differs)** is past Monte Carlo noise (pooled two-proportion |z| > 2).\n\n{}",
+            dir.display(),
+            compare_table(&before, &res.figures)
+        ));
+    }
+    print!("{body}");
+    if let Some(dir) = &a.results {
+        let name = suite_name(&o);
+        let io = |e: std::io::Error| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", dir.display()));
+        let path = crate::tools::results::write(dir, &name, o.seed, &body).map_err(io)?;
+        let json =
+            serde_json::to_vec_pretty(&res.figures).map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
+        crate::tools::results::write_atomic(&dir.join(format!("{name}.json")), &json)
+            .map_err(io)?;
+        eprintln!("wrote {}", path.display());
+    }
     println!();
     println!("suite done in {:.1} s", t0.elapsed().as_secs_f64());
     Ok(())
+}
+
+/// The figures an earlier `eval --fdi --results` wrote.
+fn read_figures(
+    path: &std::path::Path,
+) -> Result<Vec<crate::tools::eval::fdi::RowFigures>, Failure> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", path.display())))?;
+    serde_json::from_str(&text)
+        .map_err(|e| fail(EX_DATAERR)(anyhow::anyhow!("{}: {e}", path.display())))
 }
 
 /// `helmwatch plot`: exit 65 when the input is not what its kind needs, 64 for a bad size or

@@ -10,5 +10,6 @@ pub mod demo;
 pub mod eval;
 pub mod fleet;
 pub mod plot;
+pub mod results;
 pub mod time_to_alarm;
 pub mod training;

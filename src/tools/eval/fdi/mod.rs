@@ -44,6 +44,7 @@
 //! Files: `scenarios` (the scenarios and the draw of a run), `run` (one run), `score` (the
 //! figures), `tables` (printing), `outcomes` (the JSON-lines file).
 
+pub mod compare;
 mod outcomes;
 pub mod run;
 pub mod scenarios;
@@ -180,10 +181,46 @@ fn rows<'a>(
     rows
 }
 
-/// Runs the suite and prints its tables (markdown) to standard output. With `o.family`,
-/// every member of the family of real ships (but the first-order ship) runs the family
-/// scenarios, half its runs at the corners of the (u, D) box.
-pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
+/// One row of the suite's tables, as the ablation and the before/after comparison read it.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct RowFigures {
+    /// `classic`, `envelope` or `commissioning`.
+    pub set: String,
+    /// The sea state's name.
+    pub sea: String,
+    /// The row's label.
+    pub scenario: String,
+    /// Runs.
+    pub runs: usize,
+    /// A healthy row (no fault): its false alarms count, its detection does not.
+    pub healthy: bool,
+    /// Tests the row's false alarms are counted over (commissioning set: the window's).
+    pub tests: usize,
+    /// Healthy rows: tests decided `fault` (commissioning set: runs flagged).
+    pub false_alarm_tests: usize,
+    /// Fault rows: runs detected within 3 tests of each method (envelope: its window;
+    /// commissioning: flagged).
+    pub detected: usize,
+    /// Fault rows: runs detected and named right within the same window (none for the
+    /// commissioning set).
+    pub named: Option<usize>,
+}
+
+/// What the suite wrote: its tables (markdown) and their rows' figures.
+#[derive(Debug, Clone, Default)]
+pub struct SuiteResult {
+    /// The tables, as printed.
+    pub text: String,
+    /// Every row's figures.
+    pub figures: Vec<RowFigures>,
+}
+
+/// Runs the suite and returns its tables (markdown). With `o.family`, every member of the
+/// family of real ships (but the first-order ship) runs the family scenarios, half its runs
+/// at the corners of the (u, D) box.
+pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) -> SuiteResult {
+    use std::fmt::Write;
+    let mut sink = tables::Sink::default();
     let classic_scs = if o.family {
         family_scenarios()
     } else {
@@ -205,7 +242,7 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
         &commissioning_scs,
         COMMISSIONING_INDEX,
     );
-    let mut outcomes = o
+    sink.outcomes = o
         .outcomes
         .as_ref()
         .and_then(|p| match std::fs::File::create(p) {
@@ -215,7 +252,9 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
                 None
             }
         });
-    println!(
+    let _ = writeln!(
+        sink.text,
+
         "# FDI scenario suite{}: seed {}, {} runs per fault scenario, {} per nominal one, commissioning (at most {} tests of each method) then {} tests per run{}",
         if o.family { " on the family of real ships" } else { "" },
         o.seed,
@@ -234,7 +273,9 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
         cfg.scheduler.interval_s + cfg.scheduler.steady_time_s,
         f.window_tests,
     );
-    println!(
+    let _ = writeln!(
+        sink.text,
+
         "decision: window GLR over {} tests of the ship, {} false alarms per vessel-year ({:.2e} per test): limits {:.1} (one method) / {:.1} (both), along one cause {:.1} / {:.1}, servo {:.2}",
         f.window_tests,
         f.false_alarms_per_year,
@@ -255,40 +296,39 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) {
         let turns = methods.len().max(1);
         let names: Vec<String> = methods.iter().map(|m| m.name().to_uppercase()).collect();
         for &sea in &o.seas {
-            println!();
+            sink.text.push('\n');
             if turns > 1 {
-                println!(
+                let _ = writeln!(
+        sink.text,
+
                     "## {} in turn in a {} sea (windows of N tests of each method: {turns} N tests of the ship; delay in tests of the ship)",
                     names.join(" and "),
                     sea.name()
                 );
             } else {
-                println!("## {} in a {} sea", names.join(""), sea.name());
+                let _ = writeln!(sink.text, "## {} in a {} sea", names.join(""), sea.name());
             }
-            println!();
+            sink.text.push('\n');
             if !classic.is_empty() {
-                tables::classic_table(&classic, sea, methods, turns, o, &estimator, &mut outcomes);
+                tables::classic_table(&classic, sea, methods, turns, o, &estimator, &mut sink);
             }
             if !envelope.is_empty() {
                 if !classic.is_empty() {
-                    println!();
+                    sink.text.push('\n');
                 }
-                tables::envelope_table(&envelope, sea, methods, o, &estimator, &mut outcomes);
+                tables::envelope_table(&envelope, sea, methods, o, &estimator, &mut sink);
             }
             if !commissioning.is_empty() {
                 if !classic.is_empty() || !envelope.is_empty() {
-                    println!();
+                    sink.text.push('\n');
                 }
-                tables::commissioning_table(
-                    &commissioning,
-                    sea,
-                    methods,
-                    o,
-                    &estimator,
-                    &mut outcomes,
-                );
+                tables::commissioning_table(&commissioning, sea, methods, o, &estimator, &mut sink);
             }
         }
+    }
+    SuiteResult {
+        text: sink.text,
+        figures: sink.figures,
     }
 }
 

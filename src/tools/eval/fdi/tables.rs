@@ -4,15 +4,25 @@
 use super::outcomes::write_outcomes;
 use super::run::{run_one, RunOutcome};
 use super::score::{operating_point, pct, quantiles, score, score_commissioning, score_envelope};
+use super::RowFigures;
 use super::{FdiEvalOptions, Row};
 use crate::core::estimator::Estimator;
 use crate::core::model::SeaState;
 use crate::core::wire::{Decision, Method};
 use crate::tools::training::database::par_map;
+use std::fmt::Write;
 use std::sync::Arc;
 
 /// Where the outcomes go (`--outcomes`), if anywhere.
 pub(super) type OutcomesFile = Option<std::io::BufWriter<std::fs::File>>;
+
+/// Where a table goes: the outcomes file, the tables' text and the rows' figures.
+#[derive(Default)]
+pub(super) struct Sink {
+    pub(super) outcomes: OutcomesFile,
+    pub(super) text: String,
+    pub(super) figures: Vec<RowFigures>,
+}
 
 /// Runs a row's runs in parallel: `nominal_runs` for a healthy scenario, else `runs`, each
 /// seeded from the suite's seed, the row's index and the sea (half at the corners of the
@@ -59,10 +69,20 @@ pub(super) fn classic_table(
     turns: usize,
     o: &FdiEvalOptions,
     estimator: &Arc<Estimator>,
-    outcomes: &mut OutcomesFile,
+    sink: &mut Sink,
 ) {
-    println!("| scenario | who | runs | tests | false alarms (tests / runs) | detected <= 2 | detected <= 3 | mean delay | detected <= 4 | isolated (last test) | isolated <= 2 | isolated <= 3 | isolated <= 4 | aborted |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let Sink {
+        outcomes,
+        text: out,
+        figures,
+    } = sink;
+    let _ = writeln!(
+        out,
+        "| scenario | who | runs | tests | false alarms (tests / runs) | detected <= 2 | detected <= 3 | mean delay | detected <= 4 | isolated (last test) | isolated <= 2 | isolated <= 3 | isolated <= 4 | aborted |");
+    let _ = writeln!(
+        out,
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    );
     let mut notes = Vec::new();
     for (si, row) in rows.iter().enumerate() {
         let sc = row.scenario;
@@ -134,6 +154,19 @@ pub(super) fn classic_table(
             let c3 = score(&runs, sc.expected, 3 * turns, baseline);
             let c4 = score(&runs, sc.expected, 4 * turns, baseline);
             let nominal = sc.expected.is_none();
+            if !baseline {
+                figures.push(RowFigures {
+                    set: "classic".into(),
+                    sea: sea.name().into(),
+                    scenario: row.label.clone(),
+                    runs: c3.runs,
+                    healthy: nominal,
+                    tests: c3.tests,
+                    false_alarm_tests: if nominal { c3.fault_tests } else { 0 },
+                    detected: c3.detected,
+                    named: Some(c3.isolated_within),
+                });
+            }
             let fa = if nominal {
                 format!(
                     "{} / {} ({})",
@@ -163,7 +196,9 @@ pub(super) fn classic_table(
                     pct(c4.isolated_within, c4.runs),
                 ]
             };
-            println!(
+            let _ = writeln!(
+        out,
+
                 "| {} | {who} | {} | {} | {fa} | {det2} | {det3} | {delay} | {det4} | {iso} | {iso2} | {iso3} | {iso4} | {}{} |",
                 row.label,
                 c2.runs,
@@ -177,9 +212,9 @@ pub(super) fn classic_table(
             );
         }
     }
-    println!();
+    out.push('\n');
     for n in notes {
-        println!("- {n}");
+        let _ = writeln!(out, "- {n}");
     }
 }
 
@@ -192,14 +227,25 @@ pub(super) fn envelope_table(
     methods: &[Method],
     o: &FdiEvalOptions,
     estimator: &Arc<Estimator>,
-    outcomes: &mut OutcomesFile,
+    sink: &mut Sink,
 ) {
-    println!("### Envelope: the speed and/or the declared loading change when commissioning ends (not a fault)");
-    println!();
-    println!("False alarms: `fault` decisions over the tests after commissioning without the fault. Detection: the first `fault` within the window's tests of the ship from the onset (the first test with the fault is 1).");
-    println!();
-    println!("| scenario | runs | tests without the fault | false alarms (tests / runs) | window (tests of the ship) | detected | mean delay | isolated within | isolated (last test) | aborted |");
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    let Sink {
+        outcomes,
+        text: out,
+        figures,
+    } = sink;
+    let _ = writeln!(
+        out,
+        "### Envelope: the speed and/or the declared loading change when commissioning ends (not a fault)");
+    out.push('\n');
+    let _ = writeln!(
+        out,
+        "False alarms: `fault` decisions over the tests after commissioning without the fault. Detection: the first `fault` within the window's tests of the ship from the onset (the first test with the fault is 1).");
+    out.push('\n');
+    let _ = writeln!(
+        out,
+        "| scenario | runs | tests without the fault | false alarms (tests / runs) | window (tests of the ship) | detected | mean delay | isolated within | isolated (last test) | aborted |");
+    let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|---|");
     let mut notes = Vec::new();
     for row in rows {
         let sc = row.scenario;
@@ -230,7 +276,8 @@ pub(super) fn envelope_table(
                 pct(c.isolated, c.runs),
             ]
         };
-        println!(
+        let _ = writeln!(
+            out,
             "| {} | {} | {} | {fa} | {win} | {det} | {delay} | {iso_w} | {iso} | {}{} |",
             row.label,
             c.runs,
@@ -238,6 +285,17 @@ pub(super) fn envelope_table(
             c.aborted,
             broken(c.broken)
         );
+        figures.push(RowFigures {
+            set: "envelope".into(),
+            sea: sea.name().into(),
+            scenario: row.label.clone(),
+            runs: c.runs,
+            healthy: sc.expected.is_none(),
+            tests: c.tests,
+            false_alarm_tests: c.fault_tests,
+            detected: c.detected,
+            named: Some(c.isolated_within),
+        });
         let p = operating_point(&runs);
         let declared = if p.declared_tests > 0 {
             format!(
@@ -252,9 +310,9 @@ pub(super) fn envelope_table(
             row.label, p.speed_error_max_mps, p.tests
         ));
     }
-    println!();
+    out.push('\n');
     for n in notes {
-        println!("- {n}");
+        let _ = writeln!(out, "- {n}");
     }
 }
 
@@ -267,14 +325,26 @@ pub(super) fn commissioning_table(
     methods: &[Method],
     o: &FdiEvalOptions,
     estimator: &Arc<Estimator>,
-    outcomes: &mut OutcomesFile,
+    sink: &mut Sink,
 ) {
-    println!("### Commissioning: faults arising before commissioning test k of the ship");
-    println!();
-    println!("Flagged: a report from the onset through the confirmation (as many tests of the ship after commissioning as commissioning had) with `residuals.decision.state` alert or alarm, or decision `fault` (the healthy row: from the first test, false flags). Inconsistent: a report says \"commissioning inconsistent\".");
-    println!();
-    println!("| scenario | runs | tests in the window | onset k (mean) | flagged | flagged during commissioning | decision fault | commissioning inconsistent | aborted |");
-    println!("|---|---|---|---|---|---|---|---|---|");
+    let Sink {
+        outcomes,
+        text: out,
+        figures,
+    } = sink;
+    let _ = writeln!(
+        out,
+        "### Commissioning: faults arising before commissioning test k of the ship"
+    );
+    out.push('\n');
+    let _ = writeln!(
+        out,
+        "Flagged: a report from the onset through the confirmation (as many tests of the ship after commissioning as commissioning had) with `residuals.decision.state` alert or alarm, or decision `fault` (the healthy row: from the first test, false flags). Inconsistent: a report says \"commissioning inconsistent\".");
+    out.push('\n');
+    let _ = writeln!(
+        out,
+        "| scenario | runs | tests in the window | onset k (mean) | flagged | flagged during commissioning | decision fault | commissioning inconsistent | aborted |");
+    let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|");
     for row in rows {
         let sc = row.scenario;
         let runs = runs_of(row, sea, methods, o, estimator);
@@ -283,12 +353,24 @@ pub(super) fn commissioning_table(
         }
         let healthy = sc.expected.is_none();
         let c = score_commissioning(&runs, healthy);
+        figures.push(RowFigures {
+            set: "commissioning".into(),
+            sea: sea.name().into(),
+            scenario: row.label.clone(),
+            runs: c.runs,
+            healthy,
+            tests: c.tests,
+            false_alarm_tests: if healthy { c.flagged } else { 0 },
+            detected: if healthy { 0 } else { c.flagged },
+            named: None,
+        });
         let onset = if healthy || c.runs == 0 {
             "-".to_string()
         } else {
             format!("{:.2}", c.onset_sum as f64 / c.runs as f64)
         };
-        println!(
+        let _ = writeln!(
+            out,
             "| {} | {} | {} | {onset} | {} | {} | {} | {} | {}{} |",
             row.label,
             c.runs,
