@@ -43,6 +43,8 @@ pub struct Totals {
     pub nameable_runs: usize,
     /// Fault runs detected and named right within the window.
     pub named: usize,
+    /// Healthy tests after commissioning in alert or alarm, and those tests.
+    pub alerts: [usize; 2],
 }
 
 /// The totals of a set's rows (`set` None: every row).
@@ -52,6 +54,8 @@ pub fn totals(rows: &[RowFigures], set: Option<&str>) -> Totals {
         if r.healthy {
             t.healthy_tests += r.tests;
             t.false_alarms += r.false_alarm_tests;
+            t.alerts[0] += r.alerts[0];
+            t.alerts[1] += r.alerts[1];
         } else {
             t.fault_runs += r.runs;
             t.detected += r.detected;
@@ -136,9 +140,9 @@ pub fn totals_table(variants: &[(&str, &[RowFigures])]) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "| variant | set | false alarms / healthy tests | detected / fault runs | named / runs |"
+        "| variant | set | false alarms / healthy tests | alert or alarm / healthy tests after commissioning | detected / fault runs | named / runs |"
     );
-    let _ = writeln!(out, "|---|---|---|---|---|");
+    let _ = writeln!(out, "|---|---|---|---|---|---|");
     let Some((_, first)) = variants.first() else {
         return out;
     };
@@ -185,6 +189,7 @@ mod tests {
             false_alarm_tests: fa,
             detected: det,
             named: (!healthy).then_some(det),
+            alerts: [0, tests],
         }
     }
 

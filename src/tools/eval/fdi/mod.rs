@@ -204,6 +204,27 @@ pub struct RowFigures {
     /// Fault rows: runs detected and named right within the same window (none for the
     /// commissioning set).
     pub named: Option<usize>,
+    /// Healthy rows: completed tests after commissioning whose vessel state was alert or
+    /// alarm (a tail about a thousand times the alarm's, so measurable where false alarms
+    /// are not), and those tests.
+    #[serde(default)]
+    pub alerts: [usize; 2],
+}
+
+/// Completed tests after commissioning of healthy runs, alert or alarm, and all of them.
+pub(super) fn alerts(runs: &[RunOutcome]) -> [usize; 2] {
+    use crate::core::wire::residuals::TrackState;
+    let done = || {
+        runs.iter()
+            .flat_map(|r| r.tests.iter())
+            .filter(|t| t.completed)
+    };
+    [
+        done()
+            .filter(|t| matches!(t.state, Some(TrackState::Alert | TrackState::Alarm)))
+            .count(),
+        done().count(),
+    ]
 }
 
 /// What the suite wrote: its tables (markdown) and their rows' figures.

@@ -165,6 +165,11 @@ pub(super) fn classic_table(
                     false_alarm_tests: if nominal { c3.fault_tests } else { 0 },
                     detected: c3.detected,
                     named: Some(c3.isolated_within),
+                    alerts: if nominal {
+                        super::alerts(&runs)
+                    } else {
+                        [0, 0]
+                    },
                 });
             }
             let fa = if nominal {
@@ -295,6 +300,11 @@ pub(super) fn envelope_table(
             false_alarm_tests: c.fault_tests,
             detected: c.detected,
             named: Some(c.isolated_within),
+            alerts: if sc.expected.is_none() {
+                super::alerts(&runs)
+            } else {
+                [0, 0]
+            },
         });
         let p = operating_point(&runs);
         let declared = if p.declared_tests > 0 {
@@ -363,6 +373,11 @@ pub(super) fn commissioning_table(
             false_alarm_tests: if healthy { c.flagged } else { 0 },
             detected: if healthy { 0 } else { c.flagged },
             named: None,
+            alerts: if healthy {
+                super::alerts(&runs)
+            } else {
+                [0, 0]
+            },
         });
         let onset = if healthy || c.runs == 0 {
             "-".to_string()
