@@ -395,6 +395,10 @@ pub(crate) struct BenchArgs {
     /// With --time-to-alarm: worker threads (default: every core).
     #[arg(long)]
     pub(crate) threads: Option<usize>,
+    /// With --time-to-alarm: also write the tables to DIR/time-to-alarm-<sea>-seed<seed>.md
+    /// under the command, the commit and the seed (docs/results/).
+    #[arg(long, value_name = "DIR")]
+    pub(crate) results: Option<PathBuf>,
 }
 
 /// The simulated ship of one run.

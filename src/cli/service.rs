@@ -218,8 +218,16 @@ fn time_to_alarm(cfg: &Config, a: &BenchArgs) -> Result<(), Failure> {
     let faults = bench_faults().map_err(|e| fail(EX_SOFTWARE)(anyhow::anyhow!(e)))?;
     let started = std::time::Instant::now();
     let per = run(cfg, &o, &faults).map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
-    let mut out = std::io::stdout();
+    let mut out = Vec::new();
     print(cfg, &o, &faults, &per, &mut out).map_err(|e| fail(EX_IOERR)(e.into()))?;
+    let text = String::from_utf8_lossy(&out);
+    print!("{text}");
+    if let Some(dir) = &a.results {
+        let name = format!("time-to-alarm-{}-seed{}", o.sea.name(), o.seed);
+        let path = crate::tools::results::write(dir, &name, o.seed, &text)
+            .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", dir.display())))?;
+        eprintln!("wrote {}", path.display());
+    }
     println!(
         "\nbench --time-to-alarm done in {:.1} s of wall time ({} threads)",
         started.elapsed().as_secs_f64(),
