@@ -286,6 +286,11 @@ pub(crate) struct EvalArgs {
     /// `<suite>.json` an earlier `--results DIR` wrote): the before-and-after table.
     #[arg(long, value_name = "DIR")]
     pub(crate) compare: Option<PathBuf>,
+    /// With --fdi: run the suite again with each mechanism of the decision off in turn and
+    /// add what each buys (false alarms, the alert tail, detection, naming); with a list
+    /// (comma-separated names), only those.
+    #[arg(long, value_name = "MECHANISMS", num_args = 0..=1, default_missing_value = "all")]
+    pub(crate) ablate: Option<String>,
 }
 
 #[derive(Debug, Args)]

@@ -217,6 +217,16 @@ pub(crate) fn eval_fdi(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
             compare_table(&before, &res.figures)
         ));
     }
+    if let Some(list) = &a.ablate {
+        let ms = mechanisms(list)?;
+        body.push_str(&crate::tools::eval::fdi::ablate::ablate(
+            cfg,
+            &est,
+            &o,
+            &res.figures,
+            &ms,
+        ));
+    }
     print!("{body}");
     if let Some(dir) = &a.results {
         let name = suite_name(&o);
@@ -231,6 +241,28 @@ pub(crate) fn eval_fdi(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
     println!();
     println!("suite done in {:.1} s", t0.elapsed().as_secs_f64());
     Ok(())
+}
+
+/// The mechanisms `--ablate` names (`all`: every one); exit 64 naming the allowed ones.
+fn mechanisms(list: &str) -> Result<Vec<crate::core::fdi::ablation::Mechanism>, Failure> {
+    use crate::core::fdi::ablation::Mechanism;
+    if list == "all" {
+        return Ok(Mechanism::ALL.to_vec());
+    }
+    list.split(',')
+        .map(|w| {
+            Mechanism::ALL
+                .into_iter()
+                .find(|m| m.name() == w.trim())
+                .ok_or_else(|| {
+                    let names: Vec<&str> = Mechanism::ALL.iter().map(|m| m.name()).collect();
+                    fail(EX_USAGE)(anyhow::anyhow!(
+                        "--ablate: unknown mechanism {w:?}; one of all, {}",
+                        names.join(", ")
+                    ))
+                })
+        })
+        .collect()
 }
 
 /// The figures an earlier `eval --fdi --results` wrote.

@@ -138,7 +138,12 @@ impl Limits {
         let alpha_test = (false_alarms_per_year / tests_per_year).min(0.5);
         let n = window.max(1) as usize;
         let alpha_look = alpha_test / (LOOK_FAMILIES as f64 * effective_lengths(n));
-        let alert = (alpha_look * ALERT_FACTOR).min(0.5);
+        let factor = if super::ablation::off(super::ablation::Mechanism::AlertLevel) {
+            1.0
+        } else {
+            ALERT_FACTOR
+        };
+        let alert = (alpha_look * factor).min(0.5);
         // chi2 with 1 dof: the square of a two-sided normal score.
         let chi2_1 = |p: f64| normal_isf(p / 2.0).powi(2);
         Self {

@@ -264,7 +264,11 @@ fn fit_component(
             continue;
         }
         let d = delta(x, at);
-        let phi = Vector5::new(1.0, d[0], d[1], d[2], sea_step(st, d[3]));
+        let phi = if super::ablation::off(super::ablation::Mechanism::EnvelopeSlopes) {
+            Vector5::new(1.0, 0.0, 0.0, 0.0, 0.0)
+        } else {
+            Vector5::new(1.0, d[0], d[1], d[2], sea_step(st, d[3]))
+        };
         a += phi * phi.transpose() * (w / var);
         b += phi * (w * smp.e[j] / var);
     }
@@ -355,7 +359,12 @@ pub fn shape(samples: &[Sample], st: &Settings) -> Option<Shape> {
         ..*st
     };
     let mut out: Option<Shape> = None;
-    for pass in 0..SHAPE_PASSES {
+    let passes = if super::ablation::off(super::ablation::Mechanism::ShapeFixedPoint) {
+        1
+    } else {
+        SHAPE_PASSES
+    };
+    for pass in 0..passes {
         let prior = if pass == 0 { &loose } else { st };
         let fits: Vec<Fit> = points
             .iter()

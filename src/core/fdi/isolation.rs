@@ -266,7 +266,9 @@ pub fn costs(window: &VecDeque<Entry>, n: usize, onset: Option<f64>) -> Costs {
         log_step_mps: None,
     };
     // The log's reading: one more component in each model (module doc, "The log's step").
-    if let Some((step, sigma)) = look_step(window, n, onset) {
+    let step = look_step(window, n, onset)
+        .filter(|_| !super::ablation::off(super::ablation::Mechanism::LogStep));
+    if let Some((step, sigma)) = step {
         let beta_hat = if var > 0.0 { proj / var } else { step };
         out.j[0] = j_log_min + fit_log_size(var, beta_hat, step, sigma);
         out.j[1] += step_cost(step, sigma);
@@ -285,7 +287,8 @@ pub fn name(costs: Costs) -> Vec<Cause> {
     if !(j.iter().chain(&dof).all(|x| x.is_finite()) && dof.iter().all(|d| *d > 0.0)) {
         return Vec::new();
     }
-    let tail = |c: usize| chi2_sf(j[c], dof[c]);
+    let plain = super::ablation::off(super::ablation::Mechanism::IsolationTails);
+    let tail = |c: usize| if plain { -j[c] } else { chi2_sf(j[c], dof[c]) };
     let score = |c: usize| {
         let v = 2.0 / (9.0 * dof[c]);
         ((j[c] / dof[c]).cbrt() - (1.0 - v)) / v.sqrt()

@@ -43,6 +43,7 @@
 //! The price: an alerting new operating point is learned N tests later than it could be,
 //! its tests meanwhile judged against the prediction's wider interval.
 
+use super::ablation::{self, Mechanism};
 use super::changepoint;
 use super::decision::{param_statistics, Entry, Sequential, Step};
 use super::measured::measure_entry;
@@ -129,6 +130,9 @@ pub const LEARN_TAIL: f64 = 0.01;
 /// Whether the newest test's own looks (its free shift's and each cause's, the window's
 /// newest entry alone) all lie inside the healthy scatter's `1 - LEARN_TAIL` region.
 fn typical(seq: &Sequential) -> bool {
+    if ablation::off(Mechanism::LearningGate) {
+        return true;
+    }
     let Some(t) = param_statistics(&seq.window, 1) else {
         return true;
     };
@@ -190,7 +194,9 @@ impl Fdi {
                     added = self.commissioning[i].add(settings, &r, order);
                     if added == Added::Completed {
                         self.generation[i] += 1;
-                        if changepoint::check(&mut self.commissioning, i, settings).is_some() {
+                        if !ablation::off(Mechanism::ChangePoint)
+                            && changepoint::check(&mut self.commissioning, i, settings).is_some()
+                        {
                             added = Added::Inconsistent;
                         }
                     }
@@ -198,8 +204,9 @@ impl Fdi {
                 // A test read with its own wider interval is judged, not learned
                 // (`reference.learn-noise-ratio-max`).
                 Basis::Vessel(_)
-                    if q <= self.limits.param[dim]
-                        && noise_ratio <= settings.learn_noise_ratio_max =>
+                    if ablation::off(Mechanism::LearningGate)
+                        || (q <= self.limits.param[dim]
+                            && noise_ratio <= settings.learn_noise_ratio_max) =>
                 {
                     held = Some(Held {
                         method: i,
@@ -225,7 +232,10 @@ impl Fdi {
                 if h.generation == self.generation[h.method] {
                     let order = changepoint::next_order(&self.commissioning);
                     self.commissioning[h.method].add(settings, &h.raw, order);
-                    if changepoint::confirm(&mut self.commissioning, h.method, settings).is_some() {
+                    if !ablation::off(Mechanism::Confirmation)
+                        && changepoint::confirm(&mut self.commissioning, h.method, settings)
+                            .is_some()
+                    {
                         added = Added::Inconsistent;
                     }
                 }

@@ -80,7 +80,11 @@ impl Measured {
     /// the module doc); `None` unless `cov` is positive definite.
     pub fn whitened(&self) -> Option<[f64; P]> {
         let z = self.cov.whiten(self.r)?;
-        let k = calibration(dot(z, z), self.effective_dof(), self.dim);
+        let k = if super::ablation::off(super::ablation::Mechanism::HotellingCalibration) {
+            1.0
+        } else {
+            calibration(dot(z, z), self.effective_dof(), self.dim)
+        };
         Some(z.map(|v| v * k))
     }
 

@@ -30,6 +30,7 @@
 //! per-test limit, for comparison only. A heading-sensor drift moves none of the residuals:
 //! the features are drift-free by construction (docs/fdi.md).
 
+pub mod ablation;
 pub mod changepoint;
 pub mod config;
 pub mod decision;
@@ -58,6 +59,7 @@ use crate::core::wire::residuals::{
     CauseCosts, DecisionReport, RawResiduals, ReferenceKind, ReferenceReport, Residuals, TrackState,
 };
 use crate::core::wire::{AlarmState, Cause, Decision, Estimate, Features, Method, Notification};
+use ablation::Mechanism;
 use decision::{Entry, Limits, Sequential, Source};
 use learning::Pending;
 use measured::measure_entry;
@@ -377,8 +379,16 @@ impl Fdi {
     ) -> Assessment {
         let i = method_index(method);
         let index = sea_index(features);
-        let frac = sea_fraction(self.cfg.sea_wave_yaw_deg, index);
-        let slopes = self.loop_shape.slopes_at(features);
+        let frac = if ablation::off(Mechanism::SeaInterpolation) {
+            1.0
+        } else {
+            sea_fraction(self.cfg.sea_wave_yaw_deg, index)
+        };
+        let slopes = if ablation::off(Mechanism::LoopShape) {
+            None
+        } else {
+            self.loop_shape.slopes_at(features)
+        };
         let raw = estimate.and_then(|(e, est, scratch)| {
             self.nn_raw(method, features, e, d_nom_t, est, scratch, frac, slopes)
         });
@@ -389,7 +399,9 @@ impl Fdi {
             directions: [[-1.0, g / d_nom_t, 0.0], d_dir],
         });
         let servo = self.servo_check(features);
-        let z_rate = servo.map(|s| s.z_rate);
+        let z_rate = servo
+            .map(|s| s.z_rate)
+            .filter(|_| !ablation::off(Mechanism::ServoChannel));
         let epoch = self.generation[i];
         let measured_basis = source.map(|src| {
             measure_entry(

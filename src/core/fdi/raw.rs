@@ -3,6 +3,7 @@
 //! (interpolated between the model files' calm and moderate figures by the sea index), and
 //! the servo check (docs/fdi.md, "Residuals").
 
+use super::ablation::{self, Mechanism};
 use super::envelope::Sample;
 use super::stats::{Cov, P};
 use super::{sensitivity, Fdi};
@@ -122,12 +123,19 @@ impl Fdi {
             est.predict_at_speed_log(method, Target::Displacement, features, u, scratch)
                 .ok()
         };
-        let g = (at(u_log + DU_MPS)? - at(u_log - DU_MPS)?) / (2.0 * DU_MPS);
-        let ln_gain = sensitivity::ln_gain(features);
+        let no_slopes = ablation::off(Mechanism::NetworkSlopes);
+        let g = if no_slopes {
+            0.0
+        } else {
+            (at(u_log + DU_MPS)? - at(u_log - DU_MPS)?) / (2.0 * DU_MPS)
+        };
+        let ln_gain =
+            sensitivity::ln_gain(features).filter(|_| !ablation::off(Mechanism::GainChannel));
         // The displacement's direction through the networks and the gain: the same test on
         // a ship with b 1 % smaller (`sensitivity`); (0, 1, 0.01) when the features cannot
         // say.
         let d_dir = sensitivity::scale_b_at(features, 1.0 - DB_REL, slopes)
+            .filter(|_| !no_slopes)
             .and_then(|f| Some((est.estimate(method, &f, scratch).ok()?, gain_of(&f))))
             .map(|(e, g)| {
                 [
@@ -155,7 +163,11 @@ impl Fdi {
             u_log + DU_SIMILAR_MPS,
             (u_log - DU_SIMILAR_MPS).max(0.5 * u_log),
         );
-        let speed_slope = central(similar(u_hi), similar(u_lo), u_hi - u_lo);
+        let speed_slope = if no_slopes {
+            [0.0; P]
+        } else {
+            central(similar(u_hi), similar(u_lo), u_hi - u_lo)
+        };
         // How it moves per unit of ln D when the ship is declared and is `D` heavier: `b`
         // scales by `1 / D` (`sensitivity::scale_b`), the residual is taken against the new
         // declared displacement.
@@ -168,7 +180,11 @@ impl Fdi {
                 gain_of(&f),
             ])
         };
-        let loading_slope = central(loaded(DL_SIMILAR), loaded(-DL_SIMILAR), 2.0 * DL_SIMILAR);
+        let loading_slope = if no_slopes {
+            [0.0; P]
+        } else {
+            central(loaded(DL_SIMILAR), loaded(-DL_SIMILAR), 2.0 * DL_SIMILAR)
+        };
         let raw = Raw {
             speed_slope,
             loading_slope,

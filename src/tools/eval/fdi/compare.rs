@@ -160,13 +160,14 @@ pub fn totals_table(variants: &[(&str, &[RowFigures])]) -> String {
             };
             let _ = writeln!(
                 out,
-                "| {name} | {set} | {} | {} | {named} |",
+                "| {name} | {set} | {} | {} | {} | {named} |",
                 cell(
                     t.false_alarms,
                     t.healthy_tests,
                     t0.false_alarms,
                     t0.healthy_tests
                 ),
+                cell(t.alerts[0], t.alerts[1], t0.alerts[0], t0.alerts[1]),
                 cell(t.detected, t.fault_runs, t0.detected, t0.fault_runs),
             );
         }

@@ -44,6 +44,7 @@
 //! Files: `scenarios` (the scenarios and the draw of a run), `run` (one run), `score` (the
 //! figures), `tables` (printing), `outcomes` (the JSON-lines file).
 
+pub mod ablate;
 pub mod compare;
 mod outcomes;
 pub mod run;
