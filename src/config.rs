@@ -121,7 +121,6 @@ impl Config {
     pub fn from_toml_str(text: &str) -> Result<Self, ConfigError> {
         let table: toml::Table =
             toml::from_str(text).map_err(|e| ConfigError::Parse(e.to_string()))?;
-        check_removed_keys(&table)?;
         let cfg: Config = table
             .try_into()
             .map_err(|e: toml::de::Error| ConfigError::Parse(e.to_string()))?;
@@ -276,26 +275,6 @@ impl Config {
 }
 
 /// Merges `over` into `base`: tables key by key, anything else replaced.
-/// Refuses keys of earlier releases that were removed, naming what replaces them, in the
-/// top-level `[fdi]` and in every `[vessel.<name>.fdi]`.
-fn check_removed_keys(table: &toml::Table) -> Result<(), ConfigError> {
-    use crate::core::fdi::config::check_removed;
-    if let Some(toml::Value::Table(fdi)) = table.get("fdi") {
-        check_removed("fdi", fdi.keys().map(String::as_str))?;
-    }
-    if let Some(toml::Value::Table(vessels)) = table.get("vessel") {
-        for (name, v) in vessels {
-            if let Some(toml::Value::Table(fdi)) = v.get("fdi") {
-                check_removed(
-                    &format!("vessel.{name}.fdi"),
-                    fdi.keys().map(String::as_str),
-                )?;
-            }
-        }
-    }
-    Ok(())
-}
-
 fn merge(base: &mut toml::Table, over: &toml::Table) {
     for (k, v) in over {
         match (base.get_mut(k), v) {
@@ -452,7 +431,7 @@ mod tests {
     }
 
     #[test]
-    fn the_decision_keys_are_checked_and_removed_ones_name_their_replacement() {
+    fn the_decision_keys_are_checked_and_unknown_ones_refused() {
         for (toml, key, range) in [
             (
                 "false-alarms-per-year = 0",
@@ -484,25 +463,15 @@ mod tests {
                 .commissioning_tests,
             0
         );
-        // Every removed key is refused with its replacement named, at the top level and in a
-        // vessel's table.
-        for (old, instead) in crate::core::fdi::config::REMOVED_KEYS {
-            let e = Config::from_toml_str(&format!("[fdi]\n{old} = 1\n")).unwrap_err();
-            let text = e.to_string();
-            assert!(
-                text.contains(&format!("fdi.{old}")) && text.contains(instead),
-                "{text}"
-            );
-        }
+        // A key the section does not have is refused by name, at the top level and in a
+        // vessel's table (no key of an earlier release is read as something else).
+        let e = Config::from_toml_str("[fdi]\nchi2-threshold = 9\n").unwrap_err();
+        assert!(e.to_string().contains("chi2-threshold"), "{e}");
         let e = Config::from_toml_str(
             "[daemon]\nvessels = [\"self\"]\n[vessel.self.fdi]\nchi2-threshold = 9\n",
         )
         .unwrap_err();
-        assert!(
-            e.to_string().contains("vessel.self.fdi.chi2-threshold"),
-            "{e}"
-        );
-        assert!(e.to_string().contains("fdi.false-alarms-per-year"), "{e}");
+        assert!(e.to_string().contains("chi2-threshold"), "{e}");
         // At most 15 keys in [fdi].
         let keys = toml::Table::try_from(crate::core::fdi::config::FdiConfig::default()).unwrap();
         assert!(keys.len() <= 15, "{} keys", keys.len());

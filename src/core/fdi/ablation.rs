@@ -19,7 +19,7 @@ pub enum Mechanism {
     /// Off: HBT's displacement direction from the first-order harmonic balance, not the
     /// vessel's measured CLFRT response.
     LoopShape,
-    /// Off: a CLFRT test is read with the vessel's typical error only (`reference.own-noise`).
+    /// Off: a CLFRT test is read with the vessel's typical error only, not its own.
     OwnNoise,
     /// Off: the design's reference for good (`fdi.commissioning-tests = 0`).
     VesselReference,
@@ -36,6 +36,9 @@ pub enum Mechanism {
     Confirmation,
     /// Off: every test that raises no alarm is learned (no hold, no noise gate).
     LearningGate,
+    /// Off: no test is learned after commissioning (the commissioning sample alone,
+    /// predicted over the envelope).
+    Learning,
     /// Off: each test decided alone (`fdi.window-tests = 1`).
     WindowGlr,
     /// Off: no servo channel (the rudder's rate never decides).
@@ -52,7 +55,7 @@ pub enum Mechanism {
 
 impl Mechanism {
     /// Every mechanism, in the order of a test's evidence.
-    pub const ALL: [Mechanism; 17] = [
+    pub const ALL: [Mechanism; 18] = [
         Mechanism::SeaInterpolation,
         Mechanism::NetworkSlopes,
         Mechanism::GainChannel,
@@ -64,6 +67,7 @@ impl Mechanism {
         Mechanism::HotellingCalibration,
         Mechanism::ChangePoint,
         Mechanism::Confirmation,
+        Mechanism::Learning,
         Mechanism::LearningGate,
         Mechanism::WindowGlr,
         Mechanism::AlertLevel,
@@ -86,6 +90,7 @@ impl Mechanism {
             Mechanism::ChangePoint => "change-point",
             Mechanism::Confirmation => "confirmation",
             Mechanism::LearningGate => "learning-gate",
+            Mechanism::Learning => "learning",
             Mechanism::WindowGlr => "window-glr",
             Mechanism::ServoChannel => "servo-channel",
             Mechanism::IsolationTails => "isolation-tails",

@@ -12,9 +12,6 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
 pub struct ReferenceConfig {
-    /// Learn the vessel's healthy tests after commissioning (new operating points, slow
-    /// changes); false: the commissioning sample alone, predicted over the envelope.
-    pub learn: bool,
     /// Kernel width in speed of the local regression [m/s]: tests this far apart lend each
     /// other half their weight.
     pub bandwidth_speed_mps: f64,
@@ -50,10 +47,6 @@ pub struct ReferenceConfig {
     pub resolve_speed_mps: f64,
     /// ... and a displacement change of this fraction would.
     pub resolve_displacement: f64,
-    /// Read a CLFRT test against the vessel's reference with its own measurement error
-    /// beyond the vessel's typical (its tones' intervals carried through the networks,
-    /// `crate::core::fdi::noise`); false: every test with the vessel's typical.
-    pub own_noise: bool,
     /// A test whose own measurement error widens its covariance by more than this factor in
     /// some direction (`noise_ratio`) is judged but not learned: it says little of the
     /// vessel's normal, and learned as a typical test it would widen the scatter.
@@ -63,7 +56,6 @@ pub struct ReferenceConfig {
 impl Default for ReferenceConfig {
     fn default() -> Self {
         Self {
-            learn: true,
             bandwidth_speed_mps: 1.0,
             bandwidth_loading: 0.1,
             slope_speed: [0.5, 0.03],
@@ -76,7 +68,6 @@ impl Default for ReferenceConfig {
             memory_tests: 200,
             resolve_speed_mps: 0.5,
             resolve_displacement: 0.1,
-            own_noise: true,
             learn_noise_ratio_max: 4.0,
         }
     }
@@ -218,114 +209,6 @@ impl Default for FdiConfig {
             model_mismatch_chi2: 100.0,
         }
     }
-}
-
-/// Keys of earlier releases and what replaces them: a configuration holding one is refused
-/// (exit 78) with this text, so an operator's old file never silently means something else.
-pub const REMOVED_KEYS: &[(&str, &str)] = &[
-    (
-        "rule",
-        "one rule now: the sequential test set by fdi.false-alarms-per-year",
-    ),
-    (
-        "chi2-threshold",
-        "fdi.false-alarms-per-year (limits follow from it)",
-    ),
-    (
-        "persistence",
-        "fdi.window-tests (the sequential test adds evidence over tests)",
-    ),
-    ("chi2-single-threshold", "fdi.false-alarms-per-year"),
-    ("actuator-single-threshold", "fdi.false-alarms-per-year"),
-    ("mean-window", "fdi.window-tests"),
-    ("mean-threshold", "fdi.false-alarms-per-year"),
-    ("vessel-window", "fdi.window-tests"),
-    ("vessel-threshold", "fdi.false-alarms-per-year"),
-    (
-        "clear-after",
-        "fdi.window-tests (an alarm clears after a window of tests under the alert limits)",
-    ),
-    ("cusum-k", "the sequential test (fdi.false-alarms-per-year)"),
-    ("cusum-h", "the sequential test (fdi.false-alarms-per-year)"),
-    ("glr-window", "fdi.window-tests"),
-    ("glr-threshold", "fdi.false-alarms-per-year"),
-    ("glr-single-threshold", "fdi.false-alarms-per-year"),
-    (
-        "glr-clip",
-        "nothing: the vessel's covariance and its K-sample factor model the scatter",
-    ),
-    (
-        "isolation-margin",
-        "nothing: the cause with the largest likelihood is named",
-    ),
-    (
-        "single-fault",
-        "nothing: a servo channel over its limit names the actuator alone",
-    ),
-    (
-        "isolation-across-methods",
-        "nothing: isolation uses both methods' tests in the window",
-    ),
-    (
-        "relative-spread-speed",
-        "nothing: the speed spread is absolute",
-    ),
-    (
-        "relative-spread-displacement",
-        "nothing: the displacement spread is relative to D",
-    ),
-    ("sea-memory", "nothing: each test's own sea index"),
-    (
-        "model-fit-threshold",
-        "fdi.model-mismatch-chi2 (the fit never decides)",
-    ),
-    (
-        "model-fit-decides",
-        "fdi.model-mismatch-chi2 (the fit never decides)",
-    ),
-    (
-        "commissioning-spread-factor",
-        "the K-sample factor (K - 1) / (K - 4) of fdi.commissioning-tests",
-    ),
-    ("commissioned-floor-displacement", "fdi.floor-displacement"),
-    (
-        "commissioning-speed-band-mps",
-        "reference.bandwidth-speed-mps (the reference follows the ship over its envelope)",
-    ),
-    (
-        "baseline-clfrt-speed-sigma-mps",
-        "baseline.clfrt-speed-sigma-mps",
-    ),
-    (
-        "baseline-clfrt-displacement-sigma-t",
-        "baseline.clfrt-displacement-sigma-t",
-    ),
-    (
-        "baseline-hbt-speed-sigma-mps",
-        "baseline.hbt-speed-sigma-mps",
-    ),
-    (
-        "baseline-hbt-displacement-sigma-t",
-        "baseline.hbt-displacement-sigma-t",
-    ),
-];
-
-/// Refuses a removed `[fdi]` key (`prefix` is the table's dotted path, e.g. `fdi` or
-/// `vessel.self.fdi`), naming what replaces it.
-pub fn check_removed<'a>(
-    prefix: &str,
-    keys: impl IntoIterator<Item = &'a str>,
-) -> Result<(), ConfigError> {
-    for k in keys {
-        if let Some((_, instead)) = REMOVED_KEYS.iter().find(|(old, _)| *old == k) {
-            return Err(fail(
-                &format!("{prefix}.{k}"),
-                "(removed)",
-                &format!("nothing: the key was removed; use {instead}"),
-            ));
-        }
-    }
-    Ok(())
 }
 
 impl FdiConfig {

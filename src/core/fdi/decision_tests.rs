@@ -443,13 +443,15 @@ fn monte_carlo(
         ..FdiConfig::default()
     };
     let reference = ReferenceConfig {
-        learn,
         // The whole sample: a known covariance needs all K tests.
         resolve_speed_mps: 1e-9,
         resolve_displacement: 1e-9,
         ..ReferenceConfig::default()
     };
-    let settings = reference::Settings::new(&fdi, &reference, &l);
+    let settings = reference::Settings {
+        learn,
+        ..reference::Settings::new(&fdi, &reference, &l)
+    };
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let (mut alarms, mut decided) = (0, 0);
     // True scatter: speed and displacement correlated -0.9, as on a second-order hull; the

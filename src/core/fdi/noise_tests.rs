@@ -178,7 +178,7 @@ fn the_typical_is_the_median_of_the_sea_and_the_excess_its_overshoot() {
 /// Against the vessel's reference a test whose tones a wave spoiled is read with its own
 /// interval: a speed residual far out, its own error 20 times the typical,
 /// is an ordinary test; the same residual from a clean test is far out. Switched off
-/// (`reference.own-noise = false`), the spoiled one is far out too.
+/// (own noise off), the spoiled one is far out too.
 #[test]
 fn a_spoiled_test_is_read_with_its_own_interval() {
     let s = settings();

@@ -102,7 +102,7 @@
 //!
 //! A test at a point never visited gets the prediction from the points learned, with its
 //! wider interval (the kernel's and the slope prior's); a fault the prediction calls one is a
-//! fault. A test is learned (`reference.learn`) when its own look was under the alarm's
+//! fault. A test is learned when its own look was under the alarm's
 //! single-test limit: at once when the decision after it is quiet, else once it has left the
 //! decision's window with no alarm raised meanwhile (`crate::core::fdi::learning`): the new
 //! point is learned from its own healthy tests, the reference follows slow changes, and what
@@ -111,8 +111,8 @@
 //! learning only the quiet tests of a reference whose covariance came out too small keeps it
 //! too small (measured by the decision's Monte Carlo: 4.8 times the budget that way, 1.02
 //! learning all but alarms). A CLFRT test whose tones were measured worse than the vessel's
-//! typical is read with its own error's excess over the typical (`crate::core::fdi::noise`,
-//! `reference.own-noise`), and not learned when that widened it beyond
+//! typical is read with its own error's excess over the typical (`crate::core::fdi::noise`),
+//! and not learned when that widened it beyond
 //! `reference.learn-noise-ratio-max`. At most `reference.memory-tests` are kept; beyond, the oldest
 //! test of the most populated soft bin goes. Commissioning starts again on request (the
 //! `fdi/commission` queryable, `helmwatch commission`) and when the saved reference was
@@ -185,7 +185,7 @@ pub struct Settings {
     pub change_alpha: f64,
     /// Its tail probability per (evaluation, moment) in the confirmation after it.
     pub confirm_alpha: f64,
-    /// `reference.own-noise`.
+    /// Read a CLFRT test with its own measurement error beyond the vessel's typical.
     pub own_noise: bool,
     /// `reference.learn-noise-ratio-max`.
     pub learn_noise_ratio_max: f64,
@@ -206,9 +206,9 @@ impl Settings {
             floor_speed_mps: fdi.floor_speed_mps,
             floor_displacement: fdi.floor_displacement,
             envelope: envelope::Settings::of(r, fdi.sea_wave_yaw_deg[0]),
-            learn: r.learn,
+            learn: !super::ablation::off(super::ablation::Mechanism::Learning),
             memory: r.memory_tests as usize,
-            own_noise: r.own_noise,
+            own_noise: !super::ablation::off(super::ablation::Mechanism::OwnNoise),
             learn_noise_ratio_max: r.learn_noise_ratio_max,
             resolve_speed_mps: r.resolve_speed_mps,
             resolve_displacement: r.resolve_displacement,

@@ -15,7 +15,6 @@ use std::sync::Arc;
 pub fn configured(cfg: &Config, m: Mechanism) -> Config {
     let mut c = cfg.clone();
     match m {
-        Mechanism::OwnNoise => c.reference.own_noise = false,
         Mechanism::VesselReference => c.fdi.commissioning_tests = 0,
         Mechanism::WindowGlr => c.fdi.window_tests = 1,
         _ => {}
