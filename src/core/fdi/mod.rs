@@ -70,6 +70,31 @@ pub use report::{Fingerprint, MISMATCH_ADVICE};
 use serde::{Deserialize, Serialize};
 use shape::LoopShape;
 
+/// A test's residuals against the design: what the networks read, and the servo check.
+#[derive(Debug, Clone, Copy)]
+struct Residual {
+    method: Method,
+    /// The nominal displacement in force [t].
+    d_nom_t: f64,
+    /// The test's sea index (its wave yaw) [deg].
+    sea_index: Option<f64>,
+    /// Where the sea index falls between the calm and moderate anchors.
+    sea_fraction: f64,
+    /// The raw residuals, `dD_est / du_log` and the displacement's direction.
+    raw: Option<(raw::Raw, f64, [f64; stats::P])>,
+    servo: Option<crate::core::wire::residuals::ServoCheck>,
+}
+
+/// A test's evidence: its residual measured against the method's reference, whitened, and
+/// the decision's entry made of it.
+struct Evidence {
+    residual: Residual,
+    basis: Option<Basis>,
+    /// The residual against the reference and its whitened, calibrated form.
+    measured: Option<(measured::Measured, [f64; stats::P])>,
+    entry: Entry,
+}
+
 /// What the FDI adds to a completed test's report.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Assessment {
@@ -369,7 +394,10 @@ impl Fdi {
     }
 
     /// Assesses a completed test. `estimate` is the networks' estimate (with the estimator
-    /// that made it), `d_nom_t` the nominal displacement in force.
+    /// that made it), `d_nom_t` the nominal displacement in force. The evidence flows one
+    /// way: the residuals against the design ([`Fdi::residual`]), measured against the
+    /// vessel's normal ([`Fdi::normal`]), the decision and learning ([`Fdi::decide`]), the
+    /// report ([`Fdi::report`]).
     pub fn assess(
         &mut self,
         method: Method,
@@ -377,7 +405,22 @@ impl Fdi {
         estimate: Option<(&Estimate, &Estimator, &mut EstimatorScratch)>,
         d_nom_t: f64,
     ) -> Assessment {
-        let i = method_index(method);
+        let residual = self.residual(method, features, estimate, d_nom_t);
+        let settings = self.settings();
+        let evidence = self.normal(method, residual, &settings);
+        let (step, added) = self.decide(&evidence, &settings);
+        self.report(features, &evidence, step, added, &settings)
+    }
+
+    /// The test's residuals against the design and its servo check; the loop shape learns
+    /// a CLFRT test's response.
+    fn residual(
+        &mut self,
+        method: Method,
+        features: &Features,
+        estimate: Option<(&Estimate, &Estimator, &mut EstimatorScratch)>,
+        d_nom_t: f64,
+    ) -> Residual {
         let index = sea_index(features);
         let frac = if ablation::off(Mechanism::SeaInterpolation) {
             1.0
@@ -393,37 +436,44 @@ impl Fdi {
             self.nn_raw(method, features, e, d_nom_t, est, scratch, frac, slopes)
         });
         self.loop_shape.learn(features);
-        let settings = self.settings();
-        let source = raw.map(|(r, g, d_dir)| Source {
+        Residual {
+            method,
+            d_nom_t,
+            sea_index: index,
+            sea_fraction: frac,
+            raw,
+            servo: self.servo_check(features),
+        }
+    }
+
+    /// The residual measured against the method's reference (the vessel's normal, or the
+    /// design's), whitened, as the decision's entry.
+    fn normal(
+        &self,
+        method: Method,
+        residual: Residual,
+        settings: &reference::Settings,
+    ) -> Evidence {
+        let i = method_index(method);
+        let d_nom_t = residual.d_nom_t;
+        let source = residual.raw.map(|(r, g, d_dir)| Source {
             raw: r,
             directions: [[-1.0, g / d_nom_t, 0.0], d_dir],
         });
-        let servo = self.servo_check(features);
-        let z_rate = servo
+        let z_rate = residual
+            .servo
             .map(|s| s.z_rate)
             .filter(|_| !ablation::off(Mechanism::ServoChannel));
         let epoch = self.generation[i];
-        let measured_basis = source.map(|src| {
-            measure_entry(
-                &self.commissioning[i],
-                &settings,
-                method,
-                src,
-                epoch,
-                z_rate,
-            )
-        });
+        let measured_basis = source
+            .map(|src| measure_entry(&self.commissioning[i], settings, method, src, epoch, z_rate));
         let basis = measured_basis.map(|(b, _, _)| b);
         let measured = measured_basis.map(|(_, m, _)| m);
         let z = measured.and_then(|m| m.whitened());
-        let parameters = match (measured, z) {
-            (Some(m), Some(z)) => Some(report::parameter_report(&m, z, d_nom_t)),
-            _ => None,
-        };
         // The log's reading, and its wander over the vessel's learned tests.
         let samples = self.commissioning.iter().flat_map(|c| &c.samples);
         let sigma_mps = isolation::log_wander(samples, self.cfg.floor_speed_mps);
-        let log = raw.map(|(r, _, _)| isolation::LogReading {
+        let log = residual.raw.map(|(r, _, _)| isolation::LogReading {
             now_mps: r.speed_log_mps,
             before_mps: None,
             sigma_mps,
@@ -442,20 +492,61 @@ impl Fdi {
                 source: None,
                 log: None,
             });
+        Evidence {
+            residual,
+            basis,
+            measured: measured.zip(z),
+            entry,
+        }
+    }
+
+    /// The sequential test on the test's entry (unless `fdi.enabled` is off), then what the
+    /// reference learns from it.
+    fn decide(
+        &mut self,
+        evidence: &Evidence,
+        settings: &reference::Settings,
+    ) -> (Option<decision::Step>, Added) {
         let step = self.cfg.enabled.then(|| {
-            self.remeasure_window(&settings);
-            self.sequential.update(&self.limits, entry)
+            self.remeasure_window(settings);
+            self.sequential.update(&self.limits, evidence.entry)
         });
         let added = self.learn(
-            i,
-            raw.map(|(r, _, _)| r),
-            basis.as_ref(),
-            z.zip(measured)
-                .map(|(z, m)| (z, m.dim, m.learn_noise_ratio())),
+            method_index(evidence.residual.method),
+            evidence.residual.raw.map(|(r, _, _)| r),
+            evidence.basis.as_ref(),
+            evidence
+                .measured
+                .map(|(m, z)| (z, m.dim, m.learn_noise_ratio())),
             step.as_ref(),
-            &settings,
+            settings,
         );
-        let completed = added == Added::Completed;
+        (step, added)
+    }
+
+    /// The report's residuals, decision and summary, and the notification when the vessel's
+    /// alarm state changed.
+    fn report(
+        &mut self,
+        features: &Features,
+        evidence: &Evidence,
+        step: Option<decision::Step>,
+        added: Added,
+        settings: &reference::Settings,
+    ) -> Assessment {
+        let Residual {
+            method,
+            d_nom_t,
+            sea_index: index,
+            sea_fraction: frac,
+            raw,
+            servo,
+        } = evidence.residual;
+        let i = method_index(method);
+        let basis = evidence.basis;
+        let parameters = evidence
+            .measured
+            .map(|(m, z)| report::parameter_report(&m, z, d_nom_t));
         let fit = match method {
             Method::Clfrt => fit::model_fit(features, &self.ship, &self.cfg),
             Method::Hbt => None,
@@ -522,33 +613,15 @@ impl Fdi {
             baseline: Some(baseline),
             servo_time_constant_s: Some(self.servo_time_constant_s),
         };
-        let commissioning_text = match (&basis, added) {
-            (_, Added::Inconsistent) | (Some(Basis::Inconsistent { .. }), _) => {
-                inconsistent.clone()
-            }
-            (Some(Basis::Commissioning { .. }), _) if completed => Some(format!(
-                "commissioning complete: {}",
-                self.commissioning[i].describe(&settings)
-            )),
-            (Some(Basis::Commissioning { .. }), _) => Some(format!(
-                "{} (wide design limits{})",
-                self.commissioning[i].describe(&settings),
-                // Beyond them: an alert, never an alarm (`decision`).
-                match step.as_ref().and_then(|s| s.param) {
-                    Some(p) if p.look.statistic > p.look.threshold => {
-                        "; beyond them: the models do not fit this vessel here, or its declared displacement is wrong; learned as its normal"
-                    }
-                    _ => "",
-                }
-            )),
-            (Some(Basis::Vessel(p)), _) if p.nearest > 1.0 => Some(format!(
-                "operating point {:.1} m/s, {:.0} t not yet learned: reference predicted from {:.1} tests' worth",
-                raw.map_or(f64::NAN, |r| r.0.speed_log_mps),
-                d_nom_t,
-                p.support
-            )),
-            _ => inconsistent.clone(),
-        };
+        let commissioning_text = self.reference_sentence(
+            i,
+            &evidence.residual,
+            basis.as_ref(),
+            added,
+            step.as_ref(),
+            inconsistent,
+            settings,
+        );
         let summary = report::summary(
             self.cfg.enabled,
             &residuals,
@@ -570,6 +643,46 @@ impl Fdi {
             isolation,
             summary,
             notification,
+        }
+    }
+
+    /// The sentence on the method's reference: commissioning's progress or end, an
+    /// inconsistent sample, an operating point not yet learned.
+    #[allow(clippy::too_many_arguments)]
+    fn reference_sentence(
+        &self,
+        i: usize,
+        residual: &Residual,
+        basis: Option<&Basis>,
+        added: Added,
+        step: Option<&decision::Step>,
+        inconsistent: Option<String>,
+        settings: &reference::Settings,
+    ) -> Option<String> {
+        match (basis, added) {
+            (_, Added::Inconsistent) | (Some(Basis::Inconsistent { .. }), _) => inconsistent,
+            (Some(Basis::Commissioning { .. }), Added::Completed) => Some(format!(
+                "commissioning complete: {}",
+                self.commissioning[i].describe(settings)
+            )),
+            (Some(Basis::Commissioning { .. }), _) => Some(format!(
+                "{} (wide design limits{})",
+                self.commissioning[i].describe(settings),
+                // Beyond them: an alert, never an alarm (`decision`).
+                match step.and_then(|s| s.param) {
+                    Some(p) if p.look.statistic > p.look.threshold => {
+                        "; beyond them: the models do not fit this vessel here, or its declared displacement is wrong; learned as its normal"
+                    }
+                    _ => "",
+                }
+            )),
+            (Some(Basis::Vessel(p)), _) if p.nearest > 1.0 => Some(format!(
+                "operating point {:.1} m/s, {:.0} t not yet learned: reference predicted from {:.1} tests' worth",
+                residual.raw.map_or(f64::NAN, |r| r.0.speed_log_mps),
+                residual.d_nom_t,
+                p.support
+            )),
+            _ => inconsistent,
         }
     }
 
