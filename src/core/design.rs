@@ -5,7 +5,7 @@
 use crate::core::config::{check_count, check_range, check_range_open_low, fail, ConfigError, DEG};
 use serde::{Deserialize, Serialize};
 
-/// Relay feedback test (DOMAIN: HBT).
+/// Relay feedback test (HBT, the harmonic balance test).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
 pub struct HbtConfig {
@@ -124,7 +124,7 @@ impl HbtConfig {
     }
 }
 
-/// Multisine test (DOMAIN: CLFRT).
+/// Multisine test (CLFRT, the closed-loop frequency response test).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
 pub struct ClfrtConfig {

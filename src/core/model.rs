@@ -2,7 +2,8 @@
 //! Nomoto model both ways (particulars and (u, D) to (a, b), and back), the rudder servo,
 //! the sensors' rates and noise, and the named sea states.
 //!
-//! Model (DOMAIN), heading psi [rad], rudder delta [rad]:
+//! Model (docs/architecture.md, "The model and its units"), heading psi [rad], rudder
+//! delta [rad]:
 //!
 //! ```text
 //! psi(s) / delta(s) = b / (s (s + a))
@@ -15,7 +16,7 @@ use serde::{Deserialize, Serialize};
 // ---------------------------------------------------------------------------------------------
 // Ship
 
-/// Nomoto ship model parameters (DOMAIN: a = a0 u / l, b = 0.5 (u/l)^2 A l / V, V = D / rho).
+/// Nomoto ship model parameters (a = a0 u / l, b = 0.5 (u/l)^2 A l / V, V = D / rho).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
 pub struct ShipConfig {
@@ -125,7 +126,8 @@ pub fn displacement_from_b(b_per_s2: f64, speed_mps: f64, ship: &ShipConfig) -> 
 // ---------------------------------------------------------------------------------------------
 // Servo
 
-/// Rudder servo (DOMAIN, paper Fig. 7): command clamped, first-order lag, rate limit, angle limit.
+/// Rudder servo (Fig. 7 of the method's paper, named in the README; docs/sim.md, "Servo"):
+/// command clamped, first-order lag, rate limit, angle limit.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
 pub struct ServoConfig {
@@ -220,7 +222,7 @@ impl SensorConfig {
 // ---------------------------------------------------------------------------------------------
 // Sea states
 
-/// Named sea states of the domain brief.
+/// Named sea states (docs/sim.md, "Sea").
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Hash, Default)]
 #[serde(rename_all = "kebab-case")]
 pub enum SeaState {

@@ -1,5 +1,6 @@
 //! The time-domain baseline end to end: simulated ship + monitor core in lockstep, the
-//! report's `features.baseline` against the true a and b of the DOMAIN.md formulas.
+//! report's `features.baseline` against the true a and b of the model's formulas
+//! (docs/architecture.md, "The model and its units").
 //!
 //! `calibration_table` (slow tier) prints the bias and spread of the speed and displacement
 //! read from the baseline across the (u, D) range, per method, sea state and heading-drift
@@ -52,7 +53,7 @@ fn baseline_ab(r: &Report) -> Option<(f64, f64)> {
 }
 
 /// In a calm sea the baseline's a and b lie within relative bounds of the true values (the
-/// DOMAIN.md formulas), at the corners and the centre of the (u, D) range, for both methods.
+/// model's formulas), at the corners and the centre of the (u, D) range, for both methods.
 ///
 /// The bounds are 1.6 to 2.2 times the worst error of 40 calm runs per method (these five
 /// points, seeds 4000..4007) measured when they were set: CLFRT a 4.9 %, b 1.0 % (the slow

@@ -1,6 +1,6 @@
 //! Accuracy of the two tests' features, measured end to end (simulated ship + monitor core in
 //! lockstep) against independent answers: the analytic transfer function b / (jw (jw + a)) for
-//! CLFRT, the reference table of DOMAIN.md and the describing function for HBT.
+//! CLFRT, the relay reference table (docs/dsp.md, "HBT") and the describing function for HBT.
 //!
 //! Runs are spread over both cores with scoped threads; each run is a few tens of
 //! milliseconds of CPU in the `ci` profile.
@@ -30,8 +30,9 @@ fn probe(method: Method, u: f64, d: f64, sea: SeaState, seed: u64, faults: Vec<F
     probe_after(600.0, method, u, d, sea, seed, faults)
 }
 
-/// The relay of the DOMAIN.md reference table: h = 5 deg (the default relay is 8 deg, chosen
-/// for the estimator's accuracy within 30 minutes), everything else the defaults.
+/// The relay of the reference table (docs/dsp.md, "HBT"): h = 5 deg (the default relay is
+/// 8 deg, chosen for the estimator's accuracy within 30 minutes), everything else the
+/// defaults.
 fn table_cfg() -> Config {
     let mut cfg = Config::default();
     cfg.hbt.relay_height_deg = 5.0;
@@ -260,7 +261,8 @@ fn clfrt_uncertainty_is_calibrated_in_a_moderate_sea() {
     check_calibration(SeaState::Moderate);
 }
 
-/// The DOMAIN.md reference table: (u, D, period s, first-harmonic amplitude deg).
+/// The relay reference table (docs/dsp.md, "HBT"): (u, D, period s, first-harmonic amplitude
+/// deg).
 const HBT_TABLE: [(f64, f64, f64, f64); 6] = [
     (4.0, 4000.0, 255.0, 3.38),
     (4.0, 10000.0, 345.0, 2.38),

@@ -250,7 +250,7 @@ fn mmg_config() -> Config {
 /// The family's surge-sway-yaw members inside the simulated ship, moderate sea, at the
 /// corners of the (u, D) box: the autopilot (tuned on the hull's own linear model) keeps the
 /// true heading error RMS under the member's bound with the servo rate limited under 5 % of
-/// the time (the DOMAIN check), and the speed log reads the hull's surge speed (within
+/// the time, and the speed log reads the hull's surge speed (within
 /// 0.1 m/s of the scenario's on a steady course). The bound: 0.5 deg for KVLCC2, 1 deg for
 /// the Mariner. The sea acts as a rudder-equivalent angle, and the Mariner answers a rudder
 /// angle 5.5 times as much as the family's ship (K L / U = 3.9 against 0.7; KVLCC2's 6.9

@@ -740,12 +740,13 @@ fn bad_scenarios_are_refused() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Cross-check against the domain brief's reference simulation
+// Cross-check against the relay reference table (docs/dsp.md, "HBT"; docs/sim.md)
 
 /// Relay feedback (h = 5 deg, eps = 1 deg, centred on zero rudder, gyro noise only, no sea):
-/// limit-cycle period and first-harmonic heading amplitude against the DOMAIN table, within
-/// 3 %. Period from the relay's switching instants, amplitude from the first-harmonic Fourier
-/// integral over whole periods of the linearly detrended heading.
+/// limit-cycle period and first-harmonic heading amplitude against the reference table
+/// (docs/dsp.md, "HBT"), within 3 %. Period from the relay's switching instants, amplitude
+/// from the first-harmonic Fourier integral over whole periods of the linearly detrended
+/// heading.
 #[test]
 fn relay_limit_cycle_matches_domain_reference() {
     let cfg = Config::default();

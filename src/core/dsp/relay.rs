@@ -713,7 +713,8 @@ mod tests {
         (heading, switches)
     }
 
-    /// DOMAIN.md table: (u, D, period s, amplitude deg).
+    /// The reference table of this relay loop (h 5 deg, eps 1 deg; docs/dsp.md, "HBT"):
+    /// (u, D, period s, amplitude deg).
     const TABLE: [(f64, f64, f64, f64); 6] = [
         (4.0, 4000.0, 255.0, 3.38),
         (4.0, 10000.0, 345.0, 2.38),

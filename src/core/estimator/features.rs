@@ -14,19 +14,20 @@
 //! | `response_phase_rad` | `arg G(j w_u)`, in (-2 pi, 0] | rad | HBT |
 //! | `speed_log_mps` | mean speed-log reading over the test (report field `speed_log_mps`) | m/s | both |
 //!
-//! Why these (DOMAIN.md, the ship `G(s) = b / (s (s + a))`, `a = a0 u / l`,
-//! `b = 0.5 (u/l)^2 A l / V`): the phase `-pi/2 - atan(w/a)` carries `a`, hence speed, most
-//! where `w ~ a` (0.008 .. 0.021 rad/s); the gain `b / (w sqrt(w^2 + a^2))` tends to `b / w^2`
-//! at the upper tones, and `b` given the speed carries displacement. Logarithms turn the
-//! power laws into sums, which a small tanh network fits with less curvature. For HBT the
-//! period follows `a` (speed) and the amplitude `b / a^2` (displacement); but the sea moves
-//! the relay's switching instants, which shifts the period and the amplitude (a calm-sea
-//! test read by a network that cannot tell the sea state was 0.14 m/s slow on average), and
-//! spreads the periods: `period_cv` tells the network how rough the test was (calm-sea speed
-//! MSE 0.0045 -> 0.0025 with it). The response `G(j w_u)`, heading over the measured rudder
-//! at the limit-cycle frequency, reads the ship itself, whatever the switching did: its
-//! phase `-pi/2 - atan(w_u/a)` carries `a` and its gain `b`. With it the HBT speed error in a
-//! moderate sea halves (docs/estimator.md).
+//! Why these (the ship `G(s) = b / (s (s + a))`, `a = a0 u / l`, `b = 0.5 (u/l)^2 A l / V`,
+//! docs/architecture.md "The model and its units"): the phase `-pi/2 - atan(w/a)` carries
+//! `a`, hence speed, most where `w ~ a` (0.008 .. 0.021 rad/s); the gain
+//! `b / (w sqrt(w^2 + a^2))` tends to `b / w^2` at the upper tones, and `b` given the speed
+//! carries displacement. Logarithms turn the power laws into sums, which a small tanh
+//! network fits with less curvature. For HBT the period follows `a` (speed) and the
+//! amplitude `b / a^2` (displacement); but the sea moves the relay's switching instants,
+//! which shifts the period and the amplitude (a calm-sea test read by a network that cannot
+//! tell the sea state was 0.14 m/s slow on average), and spreads the periods: `period_cv`
+//! tells the network how rough the test was (calm-sea speed MSE 0.0045 -> 0.0025 with it).
+//! The response `G(j w_u)`, heading over the measured rudder at the limit-cycle frequency,
+//! reads the ship itself, whatever the switching did: its phase `-pi/2 - atan(w_u/a)`
+//! carries `a` and its gain `b`. With it the HBT speed error in a moderate sea halves
+//! (docs/estimator.md).
 //!
 //! A relay sized down by `s` (h and eps both, [`crate::core::monitor`]'s sizing) gives the
 //! same cycle at the same frequency with its amplitude times `s` (the describing function
@@ -40,7 +41,8 @@
 //!
 //! The speed network sees the test's features only; the displacement network sees them and
 //! the measured speed (`speed_log_mps`): speed from the features alone is poorly conditioned,
-//! displacement given speed is well conditioned (DOMAIN.md, "Estimator").
+//! displacement given speed is well conditioned (the gain gives `b`, which fixes `V` only
+//! once `u` is known; docs/estimator.md, "Features").
 
 use crate::core::wire::{Features, Method};
 use std::fmt;

@@ -441,7 +441,7 @@ mod tests {
 
     #[test]
     fn parameter_count_matches_the_domain_formula() {
-        // DOMAIN.md: 10 n + 131 weights.
+        // [n, 10, 10, 1] with biases: (10 n + 10) + (100 + 10) + (10 + 1) = 10 n + 131.
         for n in 1..10 {
             assert_eq!(n_params(n), 10 * n + 131);
         }

@@ -71,7 +71,8 @@ fn model_fit_recovers_exact_nomoto_tones_and_flags_a_foreign_one() {
     approx::assert_relative_eq!(f.b_per_s2, b, max_relative = 1e-6);
     assert!(f.chi2 < 1e-12, "{}", f.chi2);
     assert_eq!(f.dof, 4);
-    // Its (u, D) from DOMAIN's formulas: a = 0.0146 is u = 7 m/s; b = 5.98e-4 is D = 7000 t.
+    // Its (u, D) from the model's formulas (docs/architecture.md): a = 0.0146 is u = 7 m/s;
+    // b = 5.98e-4 is D = 7000 t.
     let j = f.report(&ship);
     approx::assert_relative_eq!(j.speed_mps, 7.008, max_relative = 1e-3);
     let d = j.displacement_t;

@@ -78,7 +78,7 @@ impl SchedulerConfig {
     }
 }
 
-/// Safety limits: bounded excitation and abort conditions (DOMAIN: Safety).
+/// Safety limits: bounded excitation and abort conditions (`[safety]`).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
 pub struct SafetyConfig {

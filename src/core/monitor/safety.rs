@@ -1,7 +1,7 @@
 //! When a test may start and when it must stop: the preconditions of a trigger, the steady
 //! course the scheduler waits for, the safety checks at every heading sample of a test, and
-//! the safety gate on every excitation value (DOMAIN: Safety). Part of [`Monitor`], in its
-//! own file so that the rules read together.
+//! the safety gate on every excitation value (docs/contract.md, "Daemon -> autopilot:
+//! excitation"). Part of [`Monitor`], in its own file so that the rules read together.
 
 use super::{AbortReason, Monitor};
 use crate::core::angle::wrap_pi;

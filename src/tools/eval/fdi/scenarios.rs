@@ -516,9 +516,10 @@ pub struct Drawn {
     pub onset_test: Option<usize>,
 }
 
-/// A scenario's range, stated on the family's box (DOMAIN's 4..10 m/s, 4000..10000 t: the
-/// default `ship.*-range`), mapped linearly onto the configured box (a vessel of another
-/// class, `train --vessel`); the same numbers when the configured box is the family's.
+/// A scenario's range, stated on the family's box (4..10 m/s, 4000..10000 t: the default
+/// `ship.*-range`, docs/architecture.md "The model and its units"), mapped linearly onto the
+/// configured box (a vessel of another class, `train --vessel`); the same numbers when the
+/// configured box is the family's.
 fn on_box(range: [f64; 2], family: [f64; 2], configured: [f64; 2]) -> [f64; 2] {
     if configured == family {
         return range;
