@@ -269,7 +269,7 @@ pub(crate) struct EvalArgs {
     /// With --fdi: which scenario sets run: `classic` (faults from commissioning's end at one
     /// operating point), `envelope` (the speed and/or the declared loading change after
     /// commissioning; displacement faults after a speed change), `commissioning` (faults
-    /// arising during commissioning), or `all` (docs/fdi.md, "Operating points").
+    /// arising during commissioning), or `all` (docs/fdi.md, "What is measured").
     #[arg(long, value_name = "SET", default_value = "classic")]
     pub(crate) scenarios: crate::tools::eval::fdi::ScenarioSet,
     /// With --fdi, classic and envelope scenarios: the fault (envelope: the change of

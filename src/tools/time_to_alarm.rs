@@ -1,7 +1,7 @@
 //! `helmwatch bench --time-to-alarm`: how long after a fault's onset the alarm comes, and how
 //! much rudder travel the scheduled tests add, per scheduler interval. The figures the
-//! scheduler's defaults are chosen from (docs/fdi.md, "Time to alarm and the scheduler's
-//! interval").
+//! scheduler's defaults are chosen from (docs/fdi.md, "What is measured"; written to
+//! docs/results/ with `--results`).
 //!
 //! One *run* is one seeded ship at its nominal speed and displacement in the chosen sea,
 //! driven by [`Lockstep`] (the simulated ship and the same monitor core as the daemon, in

@@ -23,8 +23,8 @@ pub enum Mechanism {
     OwnNoise,
     /// Off: the design's reference for good (`fdi.commissioning-tests = 0`).
     VesselReference,
-    /// Off: the offset's slopes over the operating point are the prior's (the networks'
-    /// similarity slopes), none learned from the vessel's tests.
+    /// Off: no slopes over the operating point: the offset at a point is the kernel-weighted
+    /// mean of the learned tests.
     EnvelopeSlopes,
     /// Off: one pass of the scatter's shape (no fixed point).
     ShapeFixedPoint,
@@ -34,7 +34,8 @@ pub enum Mechanism {
     ChangePoint,
     /// Off: no confirmation of the learned tests.
     Confirmation,
-    /// Off: every test that raises no alarm is learned (no hold, no noise gate).
+    /// Off: no limit, noise or typicality gate on learning (an alert still holds a test for
+    /// the window).
     LearningGate,
     /// Off: no test is learned after commissioning (the commissioning sample alone,
     /// predicted over the envelope).

@@ -111,7 +111,7 @@
 //! **A change needs two tests after it** (`MIN_CHANGED`), at commissioning's end as in the
 //! confirmation: one test alone against the others is a single test's look, which the
 //! decision makes on every later test against a reference the change moved by `1/n` of
-//! itself; the estimators' heavy tails (docs/fdi.md, "Every suite at the defaults") made it
+//! itself; the estimators' heavy tails (docs/results/fdi-commissioning-seed1.md) made it
 //! a false "inconsistent" (one HBT speed 2 m/s off at a healthy commissioning's last test,
 //! on another class of ship).
 //!

@@ -21,8 +21,8 @@ pub struct ReferenceConfig {
     /// slope: `[e_u, e_D]` [m/s per m/s, fraction of D per m/s].
     pub slope_speed: [f64; 2],
     /// Prior standard deviation of `e_b`'s slope in speed about the similarity law's [ln per
-    /// m/s]: the population's spread of the law's error (docs/fdi.md, "The gain's slope in
-    /// speed"). Its other slopes take `e_D`'s.
+    /// m/s]: the population's spread of the law's error (docs/fdi.md, "The reference follows the
+    /// ship"). Its other slopes take `e_D`'s.
     pub slope_speed_gain: f64,
     /// Prior standard deviation of the offset's slope in declared loading about the slope of
     /// `b` scaling by `1 / D`: `[e_u, e_D]` [m/s, fraction of D, per unit of ln D].
