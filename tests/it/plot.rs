@@ -439,7 +439,7 @@ fn an_mcap_recording_plots_as_its_json_lines() {
 
 #[test]
 fn a_state_file_plots_the_learned_reference_with_one_point_per_learned_test() {
-    use helmwatch::core::fdi::reference::Raw;
+    use helmwatch::core::fdi::raw::Raw;
     use helmwatch::core::fdi::Fdi;
     use helmwatch::core::monitor::VesselState;
     let cfg = Config::default();

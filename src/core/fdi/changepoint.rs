@@ -122,9 +122,10 @@
 //! 1)`, 30 for K = 8: `alpha_c / 2 / L = 4.5e-6`); in the confirmation `K` evaluations of each
 //! method over at most `4 K - 1` moments (`L_f = 2 K (4 K - 1)`, 496: 2.7e-7). Needs `n >= 6`
 //! (`nu = 4`) in a method.
-use super::envelope::{same_sea, sea_step, Sample, Settings as Envelope};
+use super::envelope::{same_sea, sea_step};
 use super::measured::{bound_factor, effective_dof};
-use super::reference::{Commissioning, Phase, Settings};
+use super::point::{Sample, Settings as Envelope};
+use super::reference::{Commissioning, Phase, Settings, MIN_TESTS};
 use super::stats::{chi2_sf, dot, hotelling_sf, Cov, P};
 use nalgebra::{Matrix3, Vector3};
 
@@ -133,32 +134,12 @@ use nalgebra::{Matrix3, Vector3};
 /// at every `nu >= 4` and every share (module doc).
 const BOUND: f64 = 0.99;
 
-/// The fewest tests the test runs on.
-pub const MIN_TESTS: usize = 6;
-
 /// The fewest tests of a method after the moment for its split to count. One test alone
 /// against the others is a single test's look, the decision's: a change at a sample's last
 /// test moves the reference by `1/n` of itself, and every later test is judged against it;
 /// while one estimator outlier there (an HBT speed 2 m/s off at a commissioning's last
 /// test) would otherwise declare a healthy commissioning inconsistent.
 pub const MIN_CHANGED: usize = 2;
-
-/// The number of (evaluation, moment) pairs a commissioning of up to `k_max` tests of each
-/// method can make: the joint test runs when a method completes its sample (twice), over
-/// at most one moment between each two of the vessel's tests (at most `2 k_max` of them).
-/// Bonferroni's count, a bound whatever the order of the methods' tests.
-pub fn looks(k_max: u32) -> usize {
-    2 * (2 * k_max.max(MIN_TESTS as u32) as usize - 1)
-}
-
-/// The number of (evaluation, moment) pairs the confirmation can make: one evaluation at
-/// each of the `k_max` tests each method learns after its commissioning (its sample then
-/// holds at most `2 k_max`), over at most `4 k_max - 1` moments (both methods' samples at
-/// most `2 k_max` tests).
-pub fn confirmation_looks(k_max: u32) -> usize {
-    let k = k_max.max(MIN_TESTS as u32) as usize;
-    2 * k * (4 * k - 1)
-}
 
 /// The vessel's change-point test when method `i` has completed its commissioning sample:
 /// [`joint_change_point`] over its sample and the other method's (still gathering, or
@@ -261,15 +242,6 @@ fn mark(c: &mut [Commissioning; 2], change: Change) -> Change {
         }
     }
     change
-}
-
-/// The vessel's number for its next test: one past the newest sample's of either method
-/// (samples restored from a state without numbers count as 0).
-pub fn next_order(c: &[Commissioning; 2]) -> u64 {
-    c.iter()
-        .flat_map(|x| x.samples.iter().map(|s| s.order))
-        .max()
-        .map_or(1, |o| o + 1)
 }
 
 /// A change the joint test found.

@@ -2,6 +2,7 @@
 //! alone, the two methods' evidence combined, and the tails the combination rests on.
 use super::*;
 use crate::core::fdi::measured::effective_dof;
+use crate::core::fdi::reference::{confirmation_looks, looks};
 use crate::core::fdi::stats::{chi2_sf, hotelling_isf};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;

@@ -88,101 +88,13 @@
 //! arithmetic covers").
 
 use super::isolation;
-use super::stats::{chi2_isf, dot, normal_isf, P};
-pub use super::window::{method_sums, Entry, MethodSums, Source};
+use super::limits::{self, Limits};
+use super::stats::{dot, P};
+use super::window::{method_sums, Entry};
 use crate::core::wire::residuals::{Look, TrackState};
 use crate::core::wire::Cause;
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
-
-/// Seconds in a year (365.25 days).
-pub const YEAR_S: f64 = 365.25 * 86400.0;
-
-/// The alert limits' per-look probability over the alarm's.
-pub const ALERT_FACTOR: f64 = 1000.0;
-
-/// The families of looks that share a test's false-alarm probability, each over the N
-/// window lengths: the servo's, the parameters' free shift, and one per parameter cause
-/// (`isolation::PARAMETER_CAUSES`).
-pub const LOOK_FAMILIES: usize = 2 + isolation::PARAMETER_CAUSES.len();
-
-/// The limits of the sequential test, from the budget.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Limits {
-    /// N: the longest window [tests].
-    pub window: usize,
-    /// `alpha_n`: each look's false-alarm probability.
-    pub alpha_look: f64,
-    /// `h_n` by the look's degrees of freedom (index; 0 unused): `P` per method in the
-    /// window, 2 for a test measured without `e_b`.
-    pub param: [f64; 2 * P + 1],
-    /// The alert limits, likewise.
-    pub param_alert: [f64; 2 * P + 1],
-    /// `k_n` for one named cause, one method in the window, both (1 dof per method).
-    pub cause: [f64; 2],
-    /// The alert limits, likewise.
-    pub cause_alert: [f64; 2],
-    /// `g`.
-    pub servo: f64,
-    /// The servo's alert limit.
-    pub servo_alert: f64,
-    /// `alpha`: per test, both channels.
-    pub alpha_test: f64,
-}
-
-impl Limits {
-    /// The limits for `false_alarms_per_year` at one test every `test_period_s` seconds
-    /// over windows of up to `window` tests.
-    pub fn new(false_alarms_per_year: f64, test_period_s: f64, window: u32) -> Self {
-        let tests_per_year = YEAR_S / test_period_s.max(1.0);
-        let alpha_test = (false_alarms_per_year / tests_per_year).min(0.5);
-        let n = window.max(1) as usize;
-        let alpha_look = alpha_test / (LOOK_FAMILIES as f64 * effective_lengths(n));
-        let factor = if super::ablation::off(super::ablation::Mechanism::AlertLevel) {
-            1.0
-        } else {
-            ALERT_FACTOR
-        };
-        let alert = (alpha_look * factor).min(0.5);
-        // chi2 with 1 dof: the square of a two-sided normal score.
-        let chi2_1 = |p: f64| normal_isf(p / 2.0).powi(2);
-        Self {
-            window: n,
-            alpha_look,
-            param: std::array::from_fn(|d| chi2_isf(alpha_look, d.max(1) as f64)),
-            param_alert: std::array::from_fn(|d| chi2_isf(alert, d.max(1) as f64)),
-            cause: [chi2_1(alpha_look), chi2_isf(alpha_look, 2.0)],
-            cause_alert: [chi2_1(alert), chi2_isf(alert, 2.0)],
-            servo: normal_isf(alpha_look),
-            servo_alert: normal_isf(alert),
-            alpha_test,
-        }
-    }
-}
-
-/// The effective number of independent window lengths among `1..=n` (Li and Ji, 2005):
-/// the looks over nested windows ending at the same test share their newest tests, the sums
-/// over `i` and `j` tests correlating `sqrt(min / max)` (independent tests of equal
-/// variance); with `l_k` the eigenvalues of that correlation matrix, `M_eff = sum_k [l_k >=
-/// 1] + (l_k - floor(l_k))`. Between 1 (one length) and `n` (independent looks): 2 for
-/// `n = 2` to 4, 4 for 8.
-pub fn effective_lengths(n: usize) -> f64 {
-    let n = n.max(1);
-    let r = nalgebra::DMatrix::from_fn(n, n, |i, j| {
-        let (a, b) = ((i.min(j) + 1) as f64, (i.max(j) + 1) as f64);
-        (a / b).sqrt()
-    });
-    let m: f64 = r
-        .symmetric_eigenvalues()
-        .iter()
-        .map(|&l| {
-            let l = l.max(0.0);
-            let whole = if l >= 1.0 { 1.0 } else { 0.0 };
-            whole + (l - l.floor())
-        })
-        .sum();
-    m.clamp(1.0, n as f64)
-}
 
 /// Which tests of the window a look covers, and its statistic.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -357,7 +269,7 @@ impl Sequential {
                 },
                 n,
             };
-            let causes = isolation::PARAMETER_CAUSES
+            let causes = limits::PARAMETER_CAUSES
                 .iter()
                 .zip(t.along.into_iter().zip(t.along_dof))
                 .filter(|_| !wide)
@@ -421,7 +333,7 @@ fn ratio(s: Option<Scored>) -> f64 {
     s.map_or(0.0, |s| s.look.statistic / s.look.threshold)
 }
 
-/// Per cause of `isolation::PARAMETER_CAUSES`, whether its size is one for every method. A
+/// Per cause of `limits::PARAMETER_CAUSES`, whether its size is one for every method. A
 /// speed-log bias is: the log enters both methods' residuals the same way, `e_u` by `-beta`
 /// exactly and `e_D` through each displacement network's own `dD/du_log`, so the whitened
 /// directions per m/s are exact and one size `beta` moves both (1 dof). A displacement's
@@ -437,7 +349,7 @@ pub struct ParamStatistics {
     pub free: f64,
     /// Its degrees of freedom: each method's components (`P`, or 2 without `e_b`).
     pub dof: usize,
-    /// `T_n,c` per cause of `isolation::PARAMETER_CAUSES`: the evidence along the cause's
+    /// `T_n,c` per cause of `limits::PARAMETER_CAUSES`: the evidence along the cause's
     /// directions (see `COMMON_SIZE`).
     pub along: [f64; 2],
     /// Their degrees of freedom: 1 for a cause of one size, else 1 per method.

@@ -4,7 +4,11 @@
 use super::*;
 use crate::core::fdi::config::{FdiConfig, ReferenceConfig};
 use crate::core::fdi::learning::{after_decision, Held, Pending};
-use crate::core::fdi::reference::{self, Basis, Commissioning, Raw};
+use crate::core::fdi::limits::{effective_lengths, Limits, YEAR_S};
+use crate::core::fdi::measured::Basis;
+use crate::core::fdi::raw::Raw;
+use crate::core::fdi::reference::{self, Commissioning};
+use crate::core::fdi::window::{Entry, Source};
 use crate::core::wire::Method;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -381,7 +385,7 @@ fn the_log_step_names_an_alarm_while_it_holds() {
         let mut e = entry(Method::Clfrt, [-8.0, 0.2], Some(0.0));
         // Per m/s of log bias 16 whitened units; the displacement's unit 3 degrees off.
         e.directions = [[-16.0, 0.0, 0.0], [-a.cos(), a.sin(), 0.0]];
-        e.log = Some(isolation::LogReading {
+        e.log = Some(crate::core::fdi::window::LogReading {
             now_mps: now,
             before_mps: None,
             sigma_mps: 0.05,

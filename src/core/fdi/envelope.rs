@@ -88,7 +88,8 @@
 //! fitted halfway to the first's, the unit test
 //! `a_second_point_is_fitted_at_its_own_offset_when_the_offset_moved_far`).
 
-pub use super::point::{Point, Sample, Settings, Slopes, X};
+use super::point::{Point, Sample, Settings, Slopes, X};
+use super::raw::Raw;
 use super::stats::{Cov, P};
 use nalgebra::{Matrix5, Vector5};
 use serde::{Deserialize, Serialize};
@@ -566,6 +567,24 @@ pub fn forget(samples: &mut Vec<Sample>, st: &Settings, memory: usize) {
         };
         if let Some(i) = samples.iter().position(|x| bin(x) == fullest) {
             samples.remove(i);
+        }
+    }
+}
+
+impl From<&Raw> for Sample {
+    /// A test's raw residual as a sample of the regression (its order set when learned).
+    fn from(r: &Raw) -> Self {
+        Sample {
+            e: r.e(),
+            s: r.s(),
+            speed_mps: r.speed_log_mps,
+            displacement_t: r.displacement_declared_t,
+            excitation_scale: r.excitation_scale,
+            sea_index: r.sea_index,
+            speed_slope: r.speed_slope,
+            loading_slope: r.loading_slope,
+            order: 0,
+            meas: r.meas,
         }
     }
 }

@@ -32,14 +32,14 @@ pub struct ModelFit {
 impl ModelFit {
     /// The report's `residuals.model_fit`, with the (u, D) the fit implies.
     pub fn report(self, ship: &ShipConfig) -> ModelFitReport {
-        let u = super::speed_from_a(self.a_per_s, ship);
+        let u = crate::core::model::speed_from_a(self.a_per_s, ship);
         ModelFitReport {
             chi2: self.chi2,
             dof: self.dof,
             a_per_s: self.a_per_s,
             b_per_s2: self.b_per_s2,
             speed_mps: u,
-            displacement_t: super::displacement_from_b(self.b_per_s2, u, ship),
+            displacement_t: crate::core::model::displacement_from_b(self.b_per_s2, u, ship),
         }
     }
 }

@@ -72,18 +72,14 @@
 //! test, mostly CLFRT's, since the onset) that is nearly always the case: the name there is
 //! the better of two explanations the evidence cannot yet separate.
 
-use super::decision::{method_sums, Entry};
-use super::envelope::Sample;
-use super::stats::{chi2_isf, chi2_sf, dot, P};
+use super::limits::PARAMETER_CAUSES;
+use super::point::Sample;
+use super::stats::{chi2_isf, chi2_sf, dot};
+use super::window::{method_sums, Entry};
 use crate::core::wire::Cause;
-use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
 
-/// The parameter causes in the order of [`Entry::directions`].
-pub const PARAMETER_CAUSES: [Cause; 2] =
-    [Cause::SpeedLog, Cause::DisplacementOrRudderEffectiveness];
-
-/// What the window says of the parameter causes (`isolation::PARAMETER_CAUSES`' order).
+/// What the window says of the parameter causes (`limits::PARAMETER_CAUSES`' order).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Costs {
     /// `J_c`: the part of the look's evidence each cause's model leaves.
@@ -92,22 +88,6 @@ pub struct Costs {
     pub dof: [f64; 2],
     /// The log's step the costs took in [m/s] (`None`: none known).
     pub log_step_mps: Option<f64>,
-}
-
-/// The speed log's reading at a test and before it.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct LogReading {
-    /// The test's mean speed log [m/s].
-    pub now_mps: f64,
-    /// The ship's previous test's (`None`: none since the daemon's state began) [m/s].
-    pub before_mps: Option<f64>,
-    /// A test's mean reading's wander on a ship at steady speed ([`log_wander`]) [m/s].
-    pub sigma_mps: f64,
-    /// Whether the test was measured at a point the vessel has learned (the report's
-    /// `commissioned`): only there does its residual say the ship is where it was
-    /// ([`look_step`]).
-    #[serde(default)]
-    pub learned_point: bool,
 }
 
 /// The prior probability that the ship changed its speed between two of its tests: once in
@@ -323,16 +303,6 @@ pub fn not_ruled_out(costs: Costs, named: Cause) -> Vec<Cause> {
         .filter(|&c| c != k && j[c].is_finite() && j[k].is_finite() && j[c] - j[k] <= q)
         .map(|c| PARAMETER_CAUSES[c])
         .collect()
-}
-
-/// `v / |v|` (0 stays 0).
-pub fn unit(v: [f64; P]) -> [f64; P] {
-    let n = dot(v, v).sqrt();
-    if n > 0.0 && n.is_finite() {
-        v.map(|x| x / n)
-    } else {
-        [0.0; P]
-    }
 }
 
 #[cfg(test)]

@@ -2,6 +2,8 @@
 //! against independent computations.
 
 use super::*;
+use crate::core::fdi::stats::P;
+use crate::core::fdi::window::LogReading;
 use crate::core::wire::Method;
 
 /// The cause the evidence does not rule out ([`not_ruled_out`]) against its bound:
@@ -145,7 +147,7 @@ fn the_log_size_is_the_joint_minimum() {
 /// The wander: a steady ship's scatter read through its changes of speed; the floor.
 #[test]
 fn the_wander_is_read_through_changes_of_speed() {
-    use crate::core::fdi::envelope::Sample;
+    use crate::core::fdi::point::Sample;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
     use rand_distr::{Distribution, Normal};

@@ -45,11 +45,16 @@
 
 use super::ablation::{self, Mechanism};
 use super::changepoint;
-use super::decision::{param_statistics, Entry, Sequential, Step};
-use super::measured::measure_entry;
-use super::reference::{Added, Basis, Raw, Settings};
+use super::decision::{param_statistics, Sequential, Step};
+use super::limits::Limits;
+use super::measured::Basis;
+use super::raw::Raw;
+use super::reference::Commissioning;
+use super::reference::{self, Added, Settings};
 use super::stats::{chi2_sf, dot, P};
-use super::{method_index, Fdi};
+use super::window::measure_entry;
+use super::window::method_index;
+use super::window::Entry;
 use crate::core::wire::residuals::TrackState;
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
@@ -168,10 +173,27 @@ pub fn after_decision(
     pending.push(held, after, window)
 }
 
-impl Fdi {
+/// What learning reads and changes of the vessel's FDI: the references, their generations,
+/// the tests held for learning and the decision's window.
+pub struct Learner<'a> {
+    /// Per method, the commissioning and the vessel's own reference.
+    pub commissioning: &'a mut [Commissioning; 2],
+    /// Per method, how many references it has had.
+    pub generation: &'a mut [u32; 2],
+    /// The tests in the window waiting to be learned.
+    pub pending: &'a mut Pending,
+    /// The vessel's sequential test.
+    pub sequential: &'a mut Sequential,
+    /// The decision's limits.
+    pub limits: &'a Limits,
+    /// `fdi.enabled`: nothing is learned without decisions.
+    pub enabled: bool,
+}
+
+impl Learner<'_> {
     /// Learns what the test just decided lets the vessel learn (see the module doc): while
     /// commissioning every completed test at once; after, by `Pending`.
-    pub(super) fn learn(
+    pub fn learn(
         &mut self,
         i: usize,
         raw: Option<Raw>,
@@ -182,20 +204,19 @@ impl Fdi {
     ) -> Added {
         let mut added = Added::Nothing;
         let mut held = None;
-        if let (true, Some(r), Some(b), Some((z, dim, noise_ratio))) =
-            (self.cfg.enabled, raw, basis, z)
+        if let (true, Some(r), Some(b), Some((z, dim, noise_ratio))) = (self.enabled, raw, basis, z)
         {
             let q = dot(z, z);
             match b {
                 // Every completed test joins the sample, one beyond the wide limits too
                 // (`decision`: there a misfit model reads the ship so, from its first test).
                 Basis::Commissioning { .. } => {
-                    let order = changepoint::next_order(&self.commissioning);
+                    let order = reference::next_order(self.commissioning);
                     added = self.commissioning[i].add(settings, &r, order);
                     if added == Added::Completed {
                         self.generation[i] += 1;
                         if !ablation::off(Mechanism::ChangePoint)
-                            && changepoint::check(&mut self.commissioning, i, settings).is_some()
+                            && changepoint::check(self.commissioning, i, settings).is_some()
                         {
                             added = Added::Inconsistent;
                         }
@@ -220,8 +241,8 @@ impl Fdi {
         if step.is_some() {
             let learned_point = basis.is_some_and(Basis::at_learned_point);
             for h in after_decision(
-                &mut self.pending,
-                &mut self.sequential,
+                self.pending,
+                self.sequential,
                 held,
                 self.limits.window,
                 learned_point,
@@ -230,11 +251,10 @@ impl Fdi {
             .flatten()
             {
                 if h.generation == self.generation[h.method] {
-                    let order = changepoint::next_order(&self.commissioning);
+                    let order = reference::next_order(self.commissioning);
                     self.commissioning[h.method].add(settings, &h.raw, order);
                     if !ablation::off(Mechanism::Confirmation)
-                        && changepoint::confirm(&mut self.commissioning, h.method, settings)
-                            .is_some()
+                        && changepoint::confirm(self.commissioning, h.method, settings).is_some()
                     {
                         added = Added::Inconsistent;
                     }
@@ -246,8 +266,8 @@ impl Fdi {
 
     /// Measures the window's held tests again against their methods' references as they are
     /// now (a test measured on wide limits, or under an older reference, stays as it was).
-    pub(super) fn remeasure_window(&mut self, settings: &Settings) {
-        let (generation, commissioning) = (self.generation, &self.commissioning);
+    pub fn remeasure_window(&mut self, settings: &Settings) {
+        let (generation, commissioning) = (*self.generation, &*self.commissioning);
         self.sequential.remeasure(|e| {
             let (src, _) = (e.source?, e.offset_var?);
             let m = method_index(e.method);
@@ -300,7 +320,8 @@ mod tests {
     /// the window; at a new point it learns it at once.
     #[test]
     fn a_quiet_but_atypical_test_is_held_for_the_window() {
-        use crate::core::fdi::decision::{Entry, Limits};
+        use crate::core::fdi::limits::Limits;
+        use crate::core::fdi::window::Entry;
         use crate::core::wire::Method;
         let limits = Limits::new(0.1, 3720.0, 4);
         let entry = |zb: f64| Entry {

@@ -2,11 +2,8 @@
 //! residual and its covariance ([`Measured`]), and the calibration of Hotelling's statistic
 //! onto the chi-square (the model: `crate::core::fdi::reference`).
 
-use super::decision::{Entry, Source};
 use super::envelope::Prediction;
-use super::reference::{Commissioning, Settings};
 use super::stats::{chi2_isf, dot, hotelling_sf, Cov, P};
-use crate::core::wire::Method;
 
 /// Which reference a test was measured against.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -183,39 +180,4 @@ impl Basis {
             Basis::Vessel(_) => "predicted",
         }
     }
-}
-
-/// A test's entry in the vessel's window, measured against `c`, its method's reference.
-pub(super) fn measure_entry(
-    c: &Commissioning,
-    settings: &Settings,
-    method: Method,
-    source: Source,
-    epoch: u32,
-    z_rate: Option<f64>,
-) -> (Basis, Measured, Entry) {
-    let (basis, m) = c.measure(settings, &source.raw);
-    // Against the vessel's reference a speed-log bias also moves the reference's predicted
-    // offset, by its slope in speed: the similarity law's (the slope prior's mean, `envelope`).
-    let mut directions = source.directions;
-    if matches!(basis, Basis::Vessel(_)) {
-        for (d, s) in directions[0].iter_mut().zip(source.raw.speed_slope) {
-            *d -= s;
-        }
-    }
-    // The components not measured take no part.
-    let directions =
-        directions.map(|v| std::array::from_fn(|j| if j < m.dim { v[j] } else { 0.0 }));
-    let entry = Entry {
-        method,
-        z: m.whitened(),
-        dim: m.dim,
-        offset_var: m.offset_var,
-        epoch,
-        directions: directions.map(|d| m.cov.whiten(d).unwrap_or([0.0; P])),
-        z_rate,
-        source: Some(source),
-        log: None,
-    };
-    (basis, m, entry)
 }

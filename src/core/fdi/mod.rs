@@ -38,10 +38,11 @@ pub mod envelope;
 mod fit;
 pub mod isolation;
 pub mod learning;
+pub mod limits;
 pub mod measured;
 pub mod noise;
 pub mod point;
-mod raw;
+pub mod raw;
 pub mod reference;
 mod report;
 pub mod sensitivity;
@@ -53,22 +54,24 @@ use crate::core::baseline::config::BaselineConfig;
 use crate::core::estimator::{Estimator, EstimatorScratch};
 use crate::core::fdi::config::{FdiConfig, ReferenceConfig};
 use crate::core::model::ShipConfig;
-pub use crate::core::model::{displacement_from_b, speed_from_a};
 use crate::core::monitor::config::CoreConfig;
 use crate::core::wire::residuals::{
     CauseCosts, DecisionReport, RawResiduals, ReferenceKind, ReferenceReport, Residuals, TrackState,
 };
 use crate::core::wire::{AlarmState, Cause, Decision, Estimate, Features, Method, Notification};
 use ablation::Mechanism;
-use decision::{Entry, Limits, Sequential, Source};
+use decision::Sequential;
 use learning::Pending;
-use measured::measure_entry;
-pub use raw::sea_index;
-use raw::{lerp, sea_fraction};
-use reference::{Added, Basis, Commissioning, Phase};
-pub use report::{Fingerprint, MISMATCH_ADVICE};
+use limits::Limits;
+use measured::Basis;
+use raw::sea_fraction;
+use raw::sea_index;
+use reference::{Added, Commissioning, Phase};
+use report::Fingerprint;
 use serde::{Deserialize, Serialize};
 use shape::LoopShape;
+use window::measure_entry;
+use window::{method_index, Entry, Source};
 
 /// A test's residuals against the design: what the networks read, and the servo check.
 #[derive(Debug, Clone, Copy)]
@@ -195,14 +198,19 @@ pub struct Fdi {
     loop_shape: LoopShape,
 }
 
-fn method_index(m: Method) -> usize {
-    match m {
-        Method::Clfrt => 0,
-        Method::Hbt => 1,
-    }
-}
-
 impl Fdi {
+    /// What learning reads and changes.
+    fn learner(&mut self) -> learning::Learner<'_> {
+        learning::Learner {
+            commissioning: &mut self.commissioning,
+            generation: &mut self.generation,
+            pending: &mut self.pending,
+            sequential: &mut self.sequential,
+            limits: &self.limits,
+            enabled: self.cfg.enabled,
+        }
+    }
+
     /// The FDI of a vessel with configuration `cfg`.
     pub fn new(cfg: &CoreConfig) -> Self {
         Self {
@@ -433,7 +441,7 @@ impl Fdi {
             self.loop_shape.slopes_at(features)
         };
         let raw = estimate.and_then(|(e, est, scratch)| {
-            self.nn_raw(method, features, e, d_nom_t, est, scratch, frac, slopes)
+            raw::nn_raw(method, features, e, d_nom_t, est, scratch, frac, slopes)
         });
         self.loop_shape.learn(features);
         Residual {
@@ -442,7 +450,7 @@ impl Fdi {
             sea_index: index,
             sea_fraction: frac,
             raw,
-            servo: self.servo_check(features),
+            servo: raw::servo_check(features, self.cfg.actuator_rate_sigma),
         }
     }
 
@@ -473,7 +481,7 @@ impl Fdi {
         // The log's reading, and its wander over the vessel's learned tests.
         let samples = self.commissioning.iter().flat_map(|c| &c.samples);
         let sigma_mps = isolation::log_wander(samples, self.cfg.floor_speed_mps);
-        let log = residual.raw.map(|(r, _, _)| isolation::LogReading {
+        let log = residual.raw.map(|(r, _, _)| window::LogReading {
             now_mps: r.speed_log_mps,
             before_mps: None,
             sigma_mps,
@@ -508,10 +516,10 @@ impl Fdi {
         settings: &reference::Settings,
     ) -> (Option<decision::Step>, Added) {
         let step = self.cfg.enabled.then(|| {
-            self.remeasure_window(settings);
+            self.learner().remeasure_window(settings);
             self.sequential.update(&self.limits, evidence.entry)
         });
-        let added = self.learn(
+        let added = self.learner().learn(
             method_index(evidence.residual.method),
             evidence.residual.raw.map(|(r, _, _)| r),
             evidence.basis.as_ref(),

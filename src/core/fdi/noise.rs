@@ -1,80 +1,11 @@
-//! A test's own measurement error, carried through the networks (docs/fdi.md, "A test's
-//! own measurement error").
-//!
-//! Model: each CLFRT tone's `ln |G|` and `arg G` carry an error of standard deviation
-//! `gain_ci90_rel / 1.645` and `phase_ci90_rad / 1.645` (their 90 % intervals,
-//! `crate::core::dsp::tones`), independent between tones and between gain and phase. The
-//! residual `(e_u [m/s], e_D [fraction of D_nom], e_b [ln])` is a smooth function of them
-//! (the networks and `sensitivity::ln_gain`), so to first order its covariance from the
-//! test's own tones is `sum_i d_i d_i^T`, `d_i` the residual's central difference over
-//! `+- 1 sd` of input `i`. An HBT test carries no per-test interval of its cycle's amplitude
-//! or response: `None`.
+//! A test's own measurement error against the vessel's typical (docs/fdi.md, "A test's own
+//! measurement error"): the scatter already holds a typical test's error, so a CLFRT test
+//! adds only its excess over the typical of the learned tests in its sea. The test's own
+//! error covariance is `raw::measurement_cov`.
 
-use super::envelope::{self, Sample, Settings};
-use super::fit::CI90_TO_SIGMA;
-use super::sensitivity;
+use super::envelope;
+use super::point::{Sample, Settings};
 use super::stats::{Cov, P};
-use crate::core::estimator::{Estimator, EstimatorScratch};
-use crate::core::wire::{Features, Method};
-
-/// The residual of `features` as the networks read it (`e_u` against `u_log`).
-fn residual(
-    method: Method,
-    features: &Features,
-    est: &Estimator,
-    scratch: &mut EstimatorScratch,
-    u_log: f64,
-    d_nom_t: f64,
-) -> Option<[f64; P]> {
-    let e = est.estimate(method, features, scratch).ok()?;
-    let g = sensitivity::ln_gain(features).unwrap_or(0.0);
-    let r = [e.speed_mps - u_log, e.displacement_t / d_nom_t, g];
-    r.iter().all(|x| x.is_finite()).then_some(r)
-}
-
-/// The residual's covariance from the test's own tone intervals (see the module doc);
-/// `None` for an HBT test or where the features do not say.
-pub fn measurement_cov(
-    method: Method,
-    features: &Features,
-    est: &Estimator,
-    scratch: &mut EstimatorScratch,
-    d_nom_t: f64,
-) -> Option<Cov> {
-    let c = features.clfrt()?;
-    let u_log = features.speed_log_mps().filter(|u| u.is_finite())?;
-    let mut cov = [[0.0; P]; P];
-    for (k, t) in c.tones.iter().enumerate() {
-        let sg = t.gain_ci90_rel * CI90_TO_SIGMA;
-        let sp = t.phase_ci90_rad * CI90_TO_SIGMA;
-        if !(sg.is_finite() && sp.is_finite() && sg >= 0.0 && sp >= 0.0) {
-            return None;
-        }
-        for (which, s) in [(0, sg), (1, sp)] {
-            if s == 0.0 {
-                continue;
-            }
-            let mut at = |sign: f64| -> Option<[f64; P]> {
-                let mut f = c.clone();
-                let tk = &mut f.tones[k];
-                if which == 0 {
-                    tk.gain *= (sign * s).exp();
-                } else {
-                    tk.phase_rad += sign * s;
-                }
-                residual(method, &Features::Clfrt(f), est, scratch, u_log, d_nom_t)
-            };
-            let (hi, lo) = (at(1.0)?, at(-1.0)?);
-            let d: [f64; P] = std::array::from_fn(|j| 0.5 * (hi[j] - lo[j]));
-            for (i, row) in cov.iter_mut().enumerate() {
-                for (j, v) in row.iter_mut().enumerate() {
-                    *v += d[i] * d[j];
-                }
-            }
-        }
-    }
-    Some(Cov(cov)).filter(Cov::is_finite)
-}
 
 /// Fewest learned tests in the test's own sea whose measurement error stands for the
 /// vessel's typical there; with fewer, every learned test's, carried by the design spreads.

@@ -1,10 +1,13 @@
 use super::*;
 use crate::core::estimator::Estimator;
 use crate::core::fdi::config::{FdiConfig, ReferenceConfig};
-use crate::core::fdi::decision::Limits;
-use crate::core::fdi::reference::{Commissioning, Raw, Settings as RefSettings};
+use crate::core::fdi::limits::Limits;
+use crate::core::fdi::raw::measurement_cov;
+use crate::core::fdi::raw::Raw;
+use crate::core::fdi::reference::{Commissioning, Settings as RefSettings};
 use crate::core::monitor::config::CoreConfig;
 use crate::core::wire::features::{sample, ClfrtFeatures};
+use crate::core::wire::{Features, Method};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
@@ -56,7 +59,7 @@ fn the_propagated_covariance_is_the_spread_of_perturbed_tones() {
             t.gain *= (sd * g).exp();
             t.phase_rad += sd * q;
         }
-        let r = residual(
+        let r = crate::core::fdi::raw::read_residual(
             Method::Clfrt,
             &Features::Clfrt(p),
             &est,

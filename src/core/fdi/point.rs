@@ -38,7 +38,7 @@ pub struct Sample {
     #[serde(default)]
     pub order: u64,
     /// The residual's covariance from the test's own tone intervals
-    /// (`crate::core::fdi::noise::measurement_cov`, physical units); `None` for an HBT test,
+    /// (`crate::core::fdi::raw::measurement_cov`, physical units); `None` for an HBT test,
     /// or in a state saved before it was kept.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub meas: Option<Cov>,

@@ -4,9 +4,9 @@
 //! the servo check (docs/fdi.md, "Residuals").
 
 use super::ablation::{self, Mechanism};
-use super::envelope::Sample;
+use super::fit::CI90_TO_SIGMA;
+use super::sensitivity;
 use super::stats::{Cov, P};
-use super::{sensitivity, Fdi};
 use crate::core::estimator::model::{Target, Uncertainty};
 use crate::core::estimator::{Estimator, EstimatorScratch};
 use crate::core::wire::residuals::ServoCheck;
@@ -93,133 +93,198 @@ pub(super) fn spread(u: &Uncertainty, frac: f64, reference: Option<f64>) -> (f64
     }
 }
 
-impl Fdi {
-    /// The neural estimator's raw residuals against the design for a completed test, and
-    /// `dD_est / du_log` [t per m/s].
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn nn_raw(
-        &self,
-        method: Method,
-        features: &Features,
-        estimate: &Estimate,
-        d_nom_t: f64,
-        est: &Estimator,
-        scratch: &mut EstimatorScratch,
-        frac: f64,
-        slopes: Option<sensitivity::Slopes>,
-    ) -> Option<(Raw, f64, [f64; P])> {
-        let u_log = features.speed_log_mps().filter(|u| u.is_finite())?;
-        let (mu, su) = spread(
-            &est.model(method, Target::Speed).file.uncertainty,
-            frac,
-            None,
-        );
-        let (md, sd) = spread(
-            &est.model(method, Target::Displacement).file.uncertainty,
-            frac,
-            Some(d_nom_t),
-        );
-        let mut at = |u: f64| -> Option<f64> {
-            est.predict_at_speed_log(method, Target::Displacement, features, u, scratch)
-                .ok()
-        };
-        let no_slopes = ablation::off(Mechanism::NetworkSlopes);
-        let g = if no_slopes {
-            0.0
-        } else {
-            (at(u_log + DU_MPS)? - at(u_log - DU_MPS)?) / (2.0 * DU_MPS)
-        };
-        let ln_gain =
-            sensitivity::ln_gain(features).filter(|_| !ablation::off(Mechanism::GainChannel));
-        // The displacement's direction through the networks and the gain: the same test on
-        // a ship with b 1 % smaller (`sensitivity`); (0, 1, 0.01) when the features cannot
-        // say.
-        let d_dir = sensitivity::scale_b_at(features, 1.0 - DB_REL, slopes)
-            .filter(|_| !no_slopes)
-            .and_then(|f| Some((est.estimate(method, &f, scratch).ok()?, gain_of(&f))))
-            .map(|(e, g)| {
-                [
-                    e.speed_mps - estimate.speed_mps,
-                    (e.displacement_t - estimate.displacement_t) / d_nom_t,
-                    g - ln_gain.unwrap_or(f64::NAN),
-                ]
-            })
-            .filter(|v| v[..2].iter().all(|x| x.is_finite()) && v[1].abs() > 0.0)
-            .map(|mut v| {
-                if !v[2].is_finite() {
-                    v[2] = 0.0;
-                }
-                v
-            })
-            .unwrap_or([0.0, 1.0, DB_REL]);
-        // How the residual moves when the ship itself goes faster (`sensitivity::scale_speed`),
-        // per m/s: the networks read the same ship's features at the other speed.
-        let mut similar = |u: f64| -> Option<[f64; P]> {
-            let f = sensitivity::scale_speed(features, u)?;
-            let e = est.estimate(method, &f, scratch).ok()?;
-            Some([e.speed_mps - u, e.displacement_t / d_nom_t, gain_of(&f)])
-        };
-        let (u_hi, u_lo) = (
-            u_log + DU_SIMILAR_MPS,
-            (u_log - DU_SIMILAR_MPS).max(0.5 * u_log),
-        );
-        let speed_slope = if no_slopes {
-            [0.0; P]
-        } else {
-            central(similar(u_hi), similar(u_lo), u_hi - u_lo)
-        };
-        // How it moves per unit of ln D when the ship is declared and is `D` heavier: `b`
-        // scales by `1 / D` (`sensitivity::scale_b`), the residual is taken against the new
-        // declared displacement.
-        let mut loaded = |dl: f64| -> Option<[f64; P]> {
-            let f = sensitivity::scale_b_at(features, (-dl).exp(), slopes)?;
-            let e = est.estimate(method, &f, scratch).ok()?;
-            Some([
-                e.speed_mps,
-                e.displacement_t / (d_nom_t * dl.exp()),
-                gain_of(&f),
-            ])
-        };
-        let loading_slope = if no_slopes {
-            [0.0; P]
-        } else {
-            central(loaded(DL_SIMILAR), loaded(-DL_SIMILAR), 2.0 * DL_SIMILAR)
-        };
-        let raw = Raw {
-            speed_slope,
-            loading_slope,
-            speed_mps: estimate.speed_mps - u_log - mu,
-            displacement: (estimate.displacement_t - d_nom_t - md) / d_nom_t,
-            speed_sigma_mps: su,
-            displacement_sigma: sd / d_nom_t,
-            speed_log_mps: u_log,
-            displacement_declared_t: d_nom_t,
-            excitation_scale: features.excitation_scale(),
-            sea_index: super::sea_index(features),
-            ln_gain,
-            ln_damping: sensitivity::ln_damping(features).map(|a| a - u_log.ln()),
-            meas: super::noise::measurement_cov(method, features, est, scratch, d_nom_t),
-        };
-        let ok = [raw.speed_mps, raw.displacement, g]
-            .iter()
-            .all(|x| x.is_finite())
-            && raw.speed_sigma_mps > 0.0
-            && raw.displacement_sigma > 0.0;
-        ok.then_some((raw, g, d_dir))
-    }
+// A test's own measurement error. Model: each CLFRT tone's `ln |G|` and `arg G` carry an
+// error of standard deviation `gain_ci90_rel / 1.645` and `phase_ci90_rad / 1.645` (their
+// 90 % intervals, `crate::core::dsp::tones`), independent between tones and between gain and
+// phase. The residual `(e_u [m/s], e_D [fraction of D_nom], e_b [ln])` is a smooth function
+// of them (the networks and `sensitivity::ln_gain`), so to first order its covariance from
+// the test's own tones is `sum_i d_i d_i^T`, `d_i` the residual's central difference over
+// `+- 1 sd` of input `i`. An HBT test carries no per-test interval of its cycle's amplitude
+// or response: `None`.
 
-    /// The servo check of a test: `(rho, z_rate)`.
-    pub(super) fn servo_check(&self, features: &Features) -> Option<ServoCheck> {
-        let (rate, nominal) = features.servo_rate_rad_s()?;
-        if !rate.is_finite() || !nominal.is_finite() || nominal <= 0.0 {
+/// The residual of `features` as the networks read it (`e_u` against `u_log`).
+pub(super) fn read_residual(
+    method: Method,
+    features: &Features,
+    est: &Estimator,
+    scratch: &mut EstimatorScratch,
+    u_log: f64,
+    d_nom_t: f64,
+) -> Option<[f64; P]> {
+    let e = est.estimate(method, features, scratch).ok()?;
+    let g = sensitivity::ln_gain(features).unwrap_or(0.0);
+    let r = [e.speed_mps - u_log, e.displacement_t / d_nom_t, g];
+    r.iter().all(|x| x.is_finite()).then_some(r)
+}
+
+/// The residual's covariance from the test's own tone intervals (see the module doc);
+/// `None` for an HBT test or where the features do not say.
+pub fn measurement_cov(
+    method: Method,
+    features: &Features,
+    est: &Estimator,
+    scratch: &mut EstimatorScratch,
+    d_nom_t: f64,
+) -> Option<Cov> {
+    let c = features.clfrt()?;
+    let u_log = features.speed_log_mps().filter(|u| u.is_finite())?;
+    let mut cov = [[0.0; P]; P];
+    for (k, t) in c.tones.iter().enumerate() {
+        let sg = t.gain_ci90_rel * CI90_TO_SIGMA;
+        let sp = t.phase_ci90_rad * CI90_TO_SIGMA;
+        if !(sg.is_finite() && sp.is_finite() && sg >= 0.0 && sp >= 0.0) {
             return None;
         }
-        let rho = rate / nominal;
-        Some(ServoCheck {
-            rate_ratio: rho,
-            z_rate: ((1.0 - rho) / self.cfg.actuator_rate_sigma).max(0.0),
-        })
+        for (which, s) in [(0, sg), (1, sp)] {
+            if s == 0.0 {
+                continue;
+            }
+            let mut at = |sign: f64| -> Option<[f64; P]> {
+                let mut f = c.clone();
+                let tk = &mut f.tones[k];
+                if which == 0 {
+                    tk.gain *= (sign * s).exp();
+                } else {
+                    tk.phase_rad += sign * s;
+                }
+                read_residual(method, &Features::Clfrt(f), est, scratch, u_log, d_nom_t)
+            };
+            let (hi, lo) = (at(1.0)?, at(-1.0)?);
+            let d: [f64; P] = std::array::from_fn(|j| 0.5 * (hi[j] - lo[j]));
+            for (i, row) in cov.iter_mut().enumerate() {
+                for (j, v) in row.iter_mut().enumerate() {
+                    *v += d[i] * d[j];
+                }
+            }
+        }
     }
+    Some(Cov(cov)).filter(Cov::is_finite)
+}
+
+/// The neural estimator's raw residuals against the design for a completed test, and
+/// `dD_est / du_log` [t per m/s].
+#[allow(clippy::too_many_arguments)]
+pub fn nn_raw(
+    method: Method,
+    features: &Features,
+    estimate: &Estimate,
+    d_nom_t: f64,
+    est: &Estimator,
+    scratch: &mut EstimatorScratch,
+    frac: f64,
+    slopes: Option<sensitivity::Slopes>,
+) -> Option<(Raw, f64, [f64; P])> {
+    let u_log = features.speed_log_mps().filter(|u| u.is_finite())?;
+    let (mu, su) = spread(
+        &est.model(method, Target::Speed).file.uncertainty,
+        frac,
+        None,
+    );
+    let (md, sd) = spread(
+        &est.model(method, Target::Displacement).file.uncertainty,
+        frac,
+        Some(d_nom_t),
+    );
+    let mut at = |u: f64| -> Option<f64> {
+        est.predict_at_speed_log(method, Target::Displacement, features, u, scratch)
+            .ok()
+    };
+    let no_slopes = ablation::off(Mechanism::NetworkSlopes);
+    let g = if no_slopes {
+        0.0
+    } else {
+        (at(u_log + DU_MPS)? - at(u_log - DU_MPS)?) / (2.0 * DU_MPS)
+    };
+    let ln_gain = sensitivity::ln_gain(features).filter(|_| !ablation::off(Mechanism::GainChannel));
+    // The displacement's direction through the networks and the gain: the same test on
+    // a ship with b 1 % smaller (`sensitivity`); (0, 1, 0.01) when the features cannot
+    // say.
+    let d_dir = sensitivity::scale_b_at(features, 1.0 - DB_REL, slopes)
+        .filter(|_| !no_slopes)
+        .and_then(|f| Some((est.estimate(method, &f, scratch).ok()?, gain_of(&f))))
+        .map(|(e, g)| {
+            [
+                e.speed_mps - estimate.speed_mps,
+                (e.displacement_t - estimate.displacement_t) / d_nom_t,
+                g - ln_gain.unwrap_or(f64::NAN),
+            ]
+        })
+        .filter(|v| v[..2].iter().all(|x| x.is_finite()) && v[1].abs() > 0.0)
+        .map(|mut v| {
+            if !v[2].is_finite() {
+                v[2] = 0.0;
+            }
+            v
+        })
+        .unwrap_or([0.0, 1.0, DB_REL]);
+    // How the residual moves when the ship itself goes faster (`sensitivity::scale_speed`),
+    // per m/s: the networks read the same ship's features at the other speed.
+    let mut similar = |u: f64| -> Option<[f64; P]> {
+        let f = sensitivity::scale_speed(features, u)?;
+        let e = est.estimate(method, &f, scratch).ok()?;
+        Some([e.speed_mps - u, e.displacement_t / d_nom_t, gain_of(&f)])
+    };
+    let (u_hi, u_lo) = (
+        u_log + DU_SIMILAR_MPS,
+        (u_log - DU_SIMILAR_MPS).max(0.5 * u_log),
+    );
+    let speed_slope = if no_slopes {
+        [0.0; P]
+    } else {
+        central(similar(u_hi), similar(u_lo), u_hi - u_lo)
+    };
+    // How it moves per unit of ln D when the ship is declared and is `D` heavier: `b`
+    // scales by `1 / D` (`sensitivity::scale_b`), the residual is taken against the new
+    // declared displacement.
+    let mut loaded = |dl: f64| -> Option<[f64; P]> {
+        let f = sensitivity::scale_b_at(features, (-dl).exp(), slopes)?;
+        let e = est.estimate(method, &f, scratch).ok()?;
+        Some([
+            e.speed_mps,
+            e.displacement_t / (d_nom_t * dl.exp()),
+            gain_of(&f),
+        ])
+    };
+    let loading_slope = if no_slopes {
+        [0.0; P]
+    } else {
+        central(loaded(DL_SIMILAR), loaded(-DL_SIMILAR), 2.0 * DL_SIMILAR)
+    };
+    let raw = Raw {
+        speed_slope,
+        loading_slope,
+        speed_mps: estimate.speed_mps - u_log - mu,
+        displacement: (estimate.displacement_t - d_nom_t - md) / d_nom_t,
+        speed_sigma_mps: su,
+        displacement_sigma: sd / d_nom_t,
+        speed_log_mps: u_log,
+        displacement_declared_t: d_nom_t,
+        excitation_scale: features.excitation_scale(),
+        sea_index: sea_index(features),
+        ln_gain,
+        ln_damping: sensitivity::ln_damping(features).map(|a| a - u_log.ln()),
+        meas: measurement_cov(method, features, est, scratch, d_nom_t),
+    };
+    let ok = [raw.speed_mps, raw.displacement, g]
+        .iter()
+        .all(|x| x.is_finite())
+        && raw.speed_sigma_mps > 0.0
+        && raw.displacement_sigma > 0.0;
+    ok.then_some((raw, g, d_dir))
+}
+
+/// The servo check of a test: `rho` and `z_rate` with `sigma` the healthy rate ratio's
+/// spread (`fdi.actuator-rate-sigma`).
+pub fn servo_check(features: &Features, sigma: f64) -> Option<ServoCheck> {
+    let (rate, nominal) = features.servo_rate_rad_s()?;
+    if !rate.is_finite() || !nominal.is_finite() || nominal <= 0.0 {
+        return None;
+    }
+    let rho = rate / nominal;
+    Some(ServoCheck {
+        rate_ratio: rho,
+        z_rate: ((1.0 - rho) / sigma).max(0.0),
+    })
 }
 
 /// One test's raw residuals against the design (see the module doc).
@@ -259,7 +324,7 @@ pub struct Raw {
     /// `1 / D` (`crate::core::fdi::sensitivity::scale_b`) [(m/s, fraction, ln) per unit ln D].
     pub loading_slope: [f64; P],
     /// The residual's covariance from the test's own tone intervals
-    /// (`crate::core::fdi::noise::measurement_cov`, physical units; `None`: HBT, or the
+    /// (`crate::core::fdi::raw::measurement_cov`, physical units; `None`: HBT, or the
     /// features do not say).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub meas: Option<Cov>,
@@ -291,21 +356,6 @@ impl Raw {
             P
         } else {
             2
-        }
-    }
-
-    pub(super) fn sample(&self) -> Sample {
-        Sample {
-            e: self.e(),
-            s: self.s(),
-            speed_mps: self.speed_log_mps,
-            displacement_t: self.displacement_declared_t,
-            excitation_scale: self.excitation_scale,
-            sea_index: self.sea_index,
-            speed_slope: self.speed_slope,
-            loading_slope: self.loading_slope,
-            order: 0,
-            meas: self.meas,
         }
     }
 }

@@ -118,13 +118,13 @@
 //! `fdi/commission` queryable, `helmwatch commission`) and when the saved reference was
 //! made under another ship configuration or other models (the daemon says which).
 
-use super::changepoint;
 use super::config::{FdiConfig, ReferenceConfig};
-use super::decision::Limits;
-use super::envelope::{self, Sample, Shape};
-pub use super::measured::{calibration, kappa, Basis, Measured};
+use super::envelope::{self, Shape};
+use super::limits::Limits;
+use super::measured::{kappa, Basis, Measured};
 use super::noise;
-pub use super::raw::Raw;
+use super::point::{self, Sample};
+use super::raw::Raw;
 use super::stats::{Cov, P};
 use serde::{Deserialize, Serialize};
 
@@ -169,7 +169,7 @@ pub struct Settings {
     /// Physical floor of the displacement residual's standard deviation [fraction].
     pub floor_displacement: f64,
     /// The regression over the operating envelope.
-    pub envelope: envelope::Settings,
+    pub envelope: point::Settings,
     /// Learn healthy tests after commissioning.
     pub learn: bool,
     /// At most this many learned tests per method.
@@ -197,15 +197,15 @@ impl Settings {
         // One ship-day of the alarm budget per commissioning, half at its end, half in the
         // confirmation after it (`changepoint`).
         let budget = fdi.false_alarms_per_year / 365.25 / 2.0;
-        let looks = changepoint::looks(fdi.commissioning_tests) as f64;
-        let confirm = changepoint::confirmation_looks(fdi.commissioning_tests) as f64;
+        let looks = looks(fdi.commissioning_tests) as f64;
+        let confirm = confirmation_looks(fdi.commissioning_tests) as f64;
         Self {
             tests: fdi.commissioning_tests,
             wide_speed_mps: fdi.commissioning_spread_speed_mps,
             wide_displacement: fdi.commissioning_spread_displacement,
             floor_speed_mps: fdi.floor_speed_mps,
             floor_displacement: fdi.floor_displacement,
-            envelope: envelope::Settings::of(r, fdi.sea_wave_yaw_deg[0]),
+            envelope: point::Settings::of(r, fdi.sea_wave_yaw_deg[0]),
             learn: !super::ablation::off(super::ablation::Mechanism::Learning),
             memory: r.memory_tests as usize,
             own_noise: !super::ablation::off(super::ablation::Mechanism::OwnNoise),
@@ -345,7 +345,7 @@ impl Commissioning {
                 let Some(shape) = self.shape else {
                     return (commissioning, wide);
                 };
-                let own = raw.sample();
+                let own = Sample::from(raw);
                 let at = own.point();
                 // The scatter as the tests near this point show it (the shape learned
                 // elsewhere where there are none).
@@ -416,7 +416,7 @@ impl Commissioning {
     pub fn add(&mut self, s: &Settings, raw: &Raw, order: u64) -> Added {
         let smp = Sample {
             order,
-            ..raw.sample()
+            ..Sample::from(raw)
         };
         let finite = smp.e.iter().chain(&smp.s).all(|v| v.is_finite())
             && smp.s.iter().all(|v| *v > 0.0)
@@ -431,7 +431,7 @@ impl Commissioning {
                 self.samples.push(smp);
                 self.tests += 1;
                 self.shape = envelope::shape(&self.samples, &s.envelope);
-                let least = s.tests.min(changepoint::MIN_TESTS as u32);
+                let least = s.tests.min(MIN_TESTS as u32);
                 if self.tests >= s.tests || (self.tests >= least && self.resolved(s)) {
                     self.phase = Phase::Learning;
                     self.summarize(s);
@@ -443,11 +443,7 @@ impl Commissioning {
             Phase::Learning if s.learn => {
                 self.samples.push(smp);
                 self.learned += 1;
-                envelope::forget(
-                    &mut self.samples,
-                    &s.envelope,
-                    s.memory.max(changepoint::MIN_TESTS),
-                );
+                envelope::forget(&mut self.samples, &s.envelope, s.memory.max(MIN_TESTS));
                 if let Some(sh) = envelope::shape(&self.samples, &s.envelope) {
                     self.shape = Some(sh);
                 }
@@ -461,7 +457,7 @@ impl Commissioning {
     /// A reference commissioned on `raws` as they are: no change-point test, no early end
     /// (the decision's Monte Carlo, tools); `None` with fewer than 5 finite tests.
     pub fn commissioned_on(s: &Settings, raws: &[Raw]) -> Option<Self> {
-        let samples: Vec<Sample> = raws.iter().map(Raw::sample).collect();
+        let samples: Vec<Sample> = raws.iter().map(Sample::from).collect();
         let shape = envelope::shape(&samples, &s.envelope)?;
         let mut c = Self {
             tests: samples.len() as u32,
@@ -523,7 +519,7 @@ impl Commissioning {
         let s_d = mean(&|x| x.s[1]);
         let s_b = mean(&|x| x.s[2]);
         let u = mean(&|x| x.speed_mps);
-        let at = envelope::Point {
+        let at = point::Point {
             speed_mps: u,
             displacement_t: mean(&|x| x.displacement_t.ln()).exp(),
             excitation_scale: mean(&|x| x.excitation_scale.ln()).exp(),
@@ -561,7 +557,7 @@ impl Commissioning {
         speeds
             .iter()
             .filter_map(|&u| {
-                let at = envelope::Point {
+                let at = point::Point {
                     speed_mps: u,
                     displacement_t: d_t,
                     excitation_scale: 1.0,
@@ -622,6 +618,35 @@ impl Commissioning {
             (_, Phase::Learning, None) => "commissioned".into(),
         }
     }
+}
+
+/// The fewest tests the test runs on.
+pub const MIN_TESTS: usize = 6;
+
+/// The number of (evaluation, moment) pairs a commissioning of up to `k_max` tests of each
+/// method can make: the joint test runs when a method completes its sample (twice), over
+/// at most one moment between each two of the vessel's tests (at most `2 k_max` of them).
+/// Bonferroni's count, a bound whatever the order of the methods' tests.
+pub fn looks(k_max: u32) -> usize {
+    2 * (2 * k_max.max(MIN_TESTS as u32) as usize - 1)
+}
+
+/// The number of (evaluation, moment) pairs the confirmation can make: one evaluation at
+/// each of the `k_max` tests each method learns after its commissioning (its sample then
+/// holds at most `2 k_max`), over at most `4 k_max - 1` moments (both methods' samples at
+/// most `2 k_max` tests).
+pub fn confirmation_looks(k_max: u32) -> usize {
+    let k = k_max.max(MIN_TESTS as u32) as usize;
+    2 * k * (4 * k - 1)
+}
+
+/// The vessel's number for its next test: one past the newest sample's of either method
+/// (samples restored from a state without numbers count as 0).
+pub fn next_order(c: &[Commissioning; 2]) -> u64 {
+    c.iter()
+        .flat_map(|x| x.samples.iter().map(|s| s.order))
+        .max()
+        .map_or(1, |o| o + 1)
 }
 
 #[cfg(test)]

@@ -1,6 +1,8 @@
 use super::*;
+use crate::core::fdi::changepoint;
 use crate::core::fdi::config::{FdiConfig, ReferenceConfig};
-use crate::core::fdi::decision::Limits;
+use crate::core::fdi::limits::Limits;
+use crate::core::fdi::measured::calibration;
 use crate::core::fdi::stats::dot;
 
 fn settings(k: u32) -> Settings {

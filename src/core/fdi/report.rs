@@ -1,10 +1,10 @@
 //! What the FDI tells people: the report's message, the notification, the baseline's
 //! comparison, the model-mismatch warning, and the fingerprint a reference was made under.
 
-use super::decision::Limits;
 use super::fit::ModelFit;
-use super::lerp;
-use super::reference::Measured;
+use super::limits::Limits;
+use super::measured::Measured;
+use super::raw::lerp;
 use super::stats::{dot, P};
 use crate::core::baseline::config::BaselineConfig;
 use crate::core::model::ShipConfig;
@@ -52,8 +52,8 @@ pub fn baseline(
         if !(a > 0.0 && b > 0.0 && u_log > 0.0) {
             return None;
         }
-        let u_est = super::speed_from_a(a, ship);
-        let d_est = super::displacement_from_b(b, u_log, ship);
+        let u_est = crate::core::model::speed_from_a(a, ship);
+        let d_est = crate::core::model::displacement_from_b(b, u_log, ship);
         let (su, sd) = cfg.sigmas(method);
         let (su, sd) = (lerp(su, frac).max(su[0]), lerp(sd, frac).max(sd[0]));
         let (ru, rd) = (u_est - u_log, d_est - d_nom_t);

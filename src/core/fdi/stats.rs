@@ -275,6 +275,16 @@ pub fn dot(a: [f64; P], b: [f64; P]) -> f64 {
     a.iter().zip(&b).map(|(x, y)| x * y).sum()
 }
 
+/// `v / |v|` (0 stays 0).
+pub fn unit(v: [f64; P]) -> [f64; P] {
+    let n = dot(v, v).sqrt();
+    if n > 0.0 && n.is_finite() {
+        v.map(|x| x / n)
+    } else {
+        [0.0; P]
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -3,6 +3,7 @@ use super::raw::spread;
 use super::reference::Commissioning;
 use super::*;
 use crate::core::estimator::model::Uncertainty;
+use crate::core::fdi::raw::servo_check;
 use crate::core::wire::features::{sample, ClfrtFeatures, ServoRateFeatures};
 
 /// Relative spreads scale with the reference; absolute ones (or files without relative
@@ -103,26 +104,31 @@ fn the_servo_check_reads_each_methods_servo_field() {
         c.servo_check = Some(sample::servo_check(p95, 0.07));
         Features::Clfrt(c)
     };
-    let z = fdi.servo_check(&hbt(0.035)).unwrap();
+    let z = servo_check(&hbt(0.035), fdi.cfg.actuator_rate_sigma).unwrap();
     approx::assert_relative_eq!(z.z_rate, 0.5 / sigma, max_relative = 1e-12);
     approx::assert_relative_eq!(z.rate_ratio, 0.5, max_relative = 1e-12);
-    assert_eq!(fdi.servo_check(&hbt(0.0707)).unwrap().z_rate, 0.0);
-    let z = fdi.servo_check(&clfrt(0.063)).unwrap();
+    assert_eq!(
+        servo_check(&hbt(0.0707), fdi.cfg.actuator_rate_sigma)
+            .unwrap()
+            .z_rate,
+        0.0
+    );
+    let z = servo_check(&clfrt(0.063), fdi.cfg.actuator_rate_sigma).unwrap();
     approx::assert_relative_eq!(z.z_rate, 0.1 / sigma, max_relative = 1e-9);
     // No servo field, or a failed check: no actuator residual.
-    assert!(fdi.servo_check(&Features::Hbt(sample::hbt())).is_none());
-    assert!(fdi.servo_check(&Features::None).is_none());
+    assert!(servo_check(&Features::Hbt(sample::hbt()), fdi.cfg.actuator_rate_sigma).is_none());
+    assert!(servo_check(&Features::None, fdi.cfg.actuator_rate_sigma).is_none());
     let mut failed = sample::servo_check(0.0, 0.07);
     failed.rudder_rate_p95_rad_s = None;
     failed.failed = Some("no rudder".into());
     let mut c = sample::clfrt(vec![]);
     c.servo_check = Some(failed);
-    assert!(fdi.servo_check(&Features::Clfrt(c)).is_none());
+    assert!(servo_check(&Features::Clfrt(c), fdi.cfg.actuator_rate_sigma).is_none());
 }
 
 /// A test's raw residual at 7 m/s and 7000 t with speed residual `e_u` [m/s].
-fn raw_7(e_u: f64) -> super::reference::Raw {
-    super::reference::Raw {
+fn raw_7(e_u: f64) -> super::raw::Raw {
+    super::raw::Raw {
         speed_mps: e_u,
         displacement: -0.2,
         speed_sigma_mps: 0.06,
@@ -309,7 +315,7 @@ fn a_commissioning_test_beyond_the_wide_limits_joins_the_sample() {
     let cfg = CoreConfig::default();
     let mut fdi = Fdi::new(&cfg);
     let s = fdi.settings();
-    let raw = super::reference::Raw {
+    let raw = super::raw::Raw {
         speed_mps: -0.2,
         displacement: 1.3,
         speed_sigma_mps: 0.3,
@@ -335,7 +341,7 @@ fn a_commissioning_test_beyond_the_wide_limits_joins_the_sample() {
         q > fdi.limits.param[m.dim],
         "{q} under the single-test limit"
     );
-    let added = fdi.learn(
+    let added = fdi.learner().learn(
         1,
         Some(raw),
         Some(&basis),
@@ -381,7 +387,7 @@ fn a_test_widened_by_its_own_noise_is_not_learned() {
         m.noise_ratio = noise_ratio;
         m.noise_local = local;
         let ratio = m.learn_noise_ratio();
-        fdi.learn(
+        fdi.learner().learn(
             0,
             Some(r),
             Some(&basis),

@@ -1,12 +1,29 @@
 //! One test in the vessel's window, and a look's sums over its newest tests: what the
 //! decision's looks (`decision`) and the causes' costs (`isolation`) are computed from.
 
-use super::isolation;
-use super::reference::Raw;
-use super::stats::{dot, P};
+use super::measured::{Basis, Measured};
+use super::raw::Raw;
+use super::reference::{Commissioning, Settings};
+use super::stats::{dot, unit, P};
 use crate::core::wire::Method;
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
+
+/// The speed log's reading at a test and before it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct LogReading {
+    /// The test's mean speed log [m/s].
+    pub now_mps: f64,
+    /// The ship's previous test's (`None`: none since the daemon's state began) [m/s].
+    pub before_mps: Option<f64>,
+    /// A test's mean reading's wander on a ship at steady speed (`isolation::log_wander`) [m/s].
+    pub sigma_mps: f64,
+    /// Whether the test was measured at a point the vessel has learned (the report's
+    /// `commissioned`): only there does its residual say the ship is where it was
+    /// (`isolation`).
+    #[serde(default)]
+    pub learned_point: bool,
+}
 
 /// One test in the vessel's window.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -36,7 +53,7 @@ pub struct Entry {
     /// bias is a jump of the reading, a change of loading leaves it where it was
     /// (`isolation`).
     #[serde(default)]
-    pub log: Option<isolation::LogReading>,
+    pub log: Option<LogReading>,
 }
 
 /// A test's raw residuals and its cause directions before whitening (speed log,
@@ -94,7 +111,7 @@ impl MethodSums {
 
     /// The sum's component along cause `j`'s unit mean direction, `u_mj . s_m`.
     pub fn along(&self, j: usize) -> f64 {
-        dot(isolation::unit(self.directions[j]), self.sum)
+        dot(unit(self.directions[j]), self.sum)
     }
 }
 
@@ -106,7 +123,7 @@ pub fn method_sums(window: &VecDeque<Entry>, n: usize) -> Vec<MethodSums> {
         let (Some(z), c) = (e.z, e.offset_var.unwrap_or(0.0)) else {
             continue;
         };
-        let d = e.directions.map(isolation::unit);
+        let d = e.directions.map(unit);
         let v = e.directions;
         let projection = v.map(|v| dot(v, z));
         let norm2 = v.map(|v| dot(v, v));
@@ -143,4 +160,47 @@ pub fn method_sums(window: &VecDeque<Entry>, n: usize) -> Vec<MethodSums> {
         }
     }
     out
+}
+
+/// The index of a method in the per-method arrays: CLFRT 0, HBT 1.
+pub fn method_index(m: Method) -> usize {
+    match m {
+        Method::Clfrt => 0,
+        Method::Hbt => 1,
+    }
+}
+
+/// A test's entry in the vessel's window, measured against `c`, its method's reference.
+pub fn measure_entry(
+    c: &Commissioning,
+    settings: &Settings,
+    method: Method,
+    source: Source,
+    epoch: u32,
+    z_rate: Option<f64>,
+) -> (Basis, Measured, Entry) {
+    let (basis, m) = c.measure(settings, &source.raw);
+    // Against the vessel's reference a speed-log bias also moves the reference's predicted
+    // offset, by its slope in speed: the similarity law's (the slope prior's mean, `envelope`).
+    let mut directions = source.directions;
+    if matches!(basis, Basis::Vessel(_)) {
+        for (d, s) in directions[0].iter_mut().zip(source.raw.speed_slope) {
+            *d -= s;
+        }
+    }
+    // The components not measured take no part.
+    let directions =
+        directions.map(|v| std::array::from_fn(|j| if j < m.dim { v[j] } else { 0.0 }));
+    let entry = Entry {
+        method,
+        z: m.whitened(),
+        dim: m.dim,
+        offset_var: m.offset_var,
+        epoch,
+        directions: directions.map(|d| m.cov.whiten(d).unwrap_or([0.0; P])),
+        z_rate,
+        source: Some(source),
+        log: None,
+    };
+    (basis, m, entry)
 }

@@ -455,7 +455,7 @@ pub fn run_one(
             return run;
         };
         let mut t = outcome_of(&r);
-        if let Some(c) = crate::core::fdi::noise::measurement_cov(
+        if let Some(c) = crate::core::fdi::raw::measurement_cov(
             r.method,
             &r.features,
             estimator,
