@@ -172,6 +172,21 @@ pub(crate) fn train(cfg: &Config, o: &TrainOptions) -> Result<(), Failure> {
             m.save(dir).map_err(|e| fail(EX_IOERR)(e.into()))?;
         }
     }
+    // The calibration beside the networks (measured where the database can, the rest
+    // carried from the shipped models'): tools::training::calibrate.
+    let calibration = crate::tools::training::calibrate::calibrate(&db, &cfg.core().calibration);
+    let mut json =
+        serde_json::to_string_pretty(&calibration).map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
+    json.push('\n');
+    for dir in &dirs {
+        let path = dir.join(crate::core::estimator::CALIBRATION_FILE);
+        crate::tools::results::write_atomic(&path, json.as_bytes())
+            .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", path.display())))?;
+    }
+    println!(
+        "calibration: sea index anchors {:.4} / {:.4} deg (the median wave yaw in a calm / moderate sea)",
+        calibration.sea_wave_yaw_deg[0], calibration.sea_wave_yaw_deg[1]
+    );
     println!();
     println!("| model | trainer | inputs | epochs (kept) | stop | MSE train | MSE validation | MSE test | RMSE test | residual std calm / moderate | file |");
     println!("|---|---|---:|---:|---|---:|---:|---:|---:|---|---|");

@@ -46,7 +46,7 @@ pub struct HbtConfig {
     /// Relay sizing: the hysteresis is never scaled below this [deg].
     pub resize_min_hysteresis_deg: f64,
     /// Relay sizing: nor below this many times the wave yaw measured on the record (rms in
-    /// `fdi.wave-band-rad-s`): the hysteresis must exceed the wave yaw. Before the relay
+    /// `calibration.wave-band-rad-s`): the hysteresis must exceed the wave yaw. Before the relay
     /// starts, h and eps are scaled up to this many times the last completed test's wave yaw
     /// where the designed hysteresis is under it (within `safety.max-excitation-deg`).
     pub resize_wave_factor: f64,

@@ -37,17 +37,17 @@ fn binary_exits_78_naming_the_key_and_range() {
             "[safety]\nmax-heading-error-deg = 90\n",
             ["safety.max-heading-error-deg", "(0, 45]"],
         ),
-        // The reference's own-noise learning limit.
+        // What commissioning must resolve.
         (
-            "noise.toml",
-            "[reference]\nlearn-noise-ratio-max = 0.5\n",
-            ["reference.learn-noise-ratio-max", "[1, 1000000]"],
+            "resolve.toml",
+            "[reference]\nresolve-displacement = 2\n",
+            ["reference.resolve-displacement", "(0, 1]"],
         ),
-        // The gain's slope prior in speed.
+        // The models' calibration is no operator key: refused by name.
         (
-            "gain.toml",
-            "[reference]\nslope-speed-gain = 0.0\n",
-            ["reference.slope-speed-gain", "(0, 1]"],
+            "calibration.toml",
+            "[fdi]\nsea-wave-yaw-deg = [0.05, 0.18]\n",
+            ["sea-wave-yaw-deg", "sea-wave-yaw-deg"],
         ),
         // An unknown key: named, with no range to give.
         (

@@ -38,6 +38,7 @@ pub mod model;
 pub mod nn;
 pub mod trainer;
 
+use crate::core::fdi::config::Calibration;
 use crate::core::monitor::config::CoreConfig;
 use crate::core::wire::{Estimate, Features, Method};
 use features::{Feature, FeatureError};
@@ -45,6 +46,9 @@ use model::{Model, ModelError, Target};
 use nn::Scratch;
 use std::path::Path;
 use std::sync::Arc;
+
+/// The calibration's file in a models directory (`crate::core::fdi::config::Calibration`).
+pub const CALIBRATION_FILE: &str = "calibration.json";
 
 /// The shipped models, embedded at build time: `(file name, text)`.
 pub const EMBEDDED_MODELS: [(&str, &str); 4] = [
@@ -101,8 +105,11 @@ pub fn slot_index(method: Method, target: Target) -> usize {
 pub struct Estimator {
     /// Models in [`SLOTS`] order.
     models: [Model; 4],
-    /// CRC-32 of each model file's content, in [`SLOTS`] order (see [`Estimator::fingerprint`]).
+    /// CRC-32 of each model file's content, in [`SLOTS`] order, then the calibration's (see
+    /// [`Estimator::fingerprint`]).
     fingerprint: String,
+    /// The models' calibration on their class of hull (`calibration.json`).
+    calibration: Calibration,
 }
 
 /// Per-caller buffers for [`Estimator::estimate`] (no allocation per estimate).
@@ -116,7 +123,11 @@ impl Estimator {
     /// Validates four models (in any order) against `cfg`: each slot filled once, the same
     /// ship, servo and test design as the configuration, the expected inputs. Each model comes
     /// with the name (path) that errors cite.
-    pub fn from_models(models: Vec<(String, Model)>, cfg: &CoreConfig) -> Result<Self, ModelError> {
+    pub fn from_models(
+        models: Vec<(String, Model)>,
+        calibration: Calibration,
+        cfg: &CoreConfig,
+    ) -> Result<Self, ModelError> {
         let mut slots: [Option<Model>; 4] = [None, None, None, None];
         for (name, m) in models {
             let i = slot_index(m.file.method, m.file.target);
@@ -141,17 +152,29 @@ impl Estimator {
             c.ok_or_else(|| missing(2))?,
             d.ok_or_else(|| missing(3))?,
         ];
+        let nyquist = std::f64::consts::PI * cfg.sensors.rate_hz;
+        if calibration.wave_band_rad_s[1] > nyquist {
+            return Err(ModelError::Invalid {
+                path: CALIBRATION_FILE.into(),
+                message: format!(
+                    "wave-band-rad-s {:?}: above pi sensors.rate-hz = {nyquist:.3}",
+                    calibration.wave_band_rad_s
+                ),
+            });
+        }
+        let crc = |bytes: Vec<u8>| format!("{:08x}", crc32fast::hash(&bytes));
         let fingerprint = models
             .iter()
-            .map(|m| {
-                let bytes = serde_json::to_vec(&m.file).unwrap_or_default();
-                format!("{:08x}", crc32fast::hash(&bytes))
-            })
+            .map(|m| crc(serde_json::to_vec(&m.file).unwrap_or_default()))
+            .chain(std::iter::once(crc(
+                serde_json::to_vec(&calibration).unwrap_or_default()
+            )))
             .collect::<Vec<_>>()
             .join("-");
         Ok(Self {
             models,
             fingerprint,
+            calibration,
         })
     }
 
@@ -164,7 +187,17 @@ impl Estimator {
                 Model::load(&path).map(|model| (path.display().to_string(), model))
             })
             .collect::<Result<Vec<_>, _>>()?;
-        Self::from_models(models, cfg)
+        let path = dir.join(CALIBRATION_FILE);
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(&path).map_err(|source| ModelError::Io {
+            path: name.clone(),
+            source,
+        })?;
+        let calibration = Calibration::from_json(&text).map_err(|e| ModelError::Invalid {
+            path: name,
+            message: e.to_string(),
+        })?;
+        Self::from_models(models, calibration, cfg)
     }
 
     /// The models embedded in the binary ([`EMBEDDED_MODELS`]), validated against `cfg`.
@@ -176,7 +209,7 @@ impl Estimator {
                 Model::from_json(text, &name).map(|m| (name, m))
             })
             .collect::<Result<Vec<_>, _>>()?;
-        Self::from_models(models, cfg)
+        Self::from_models(models, Calibration::default(), cfg)
     }
 
     /// The estimator `cfg` asks for: none when `estimator.enabled` is false, else the models
@@ -196,6 +229,11 @@ impl Estimator {
     /// vessel's commissioning reference is kept only for the models it was made with.
     pub fn fingerprint(&self) -> &str {
         &self.fingerprint
+    }
+
+    /// The models' calibration on their class of hull.
+    pub fn calibration(&self) -> &Calibration {
+        &self.calibration
     }
 
     /// The model of a slot.

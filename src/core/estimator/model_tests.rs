@@ -191,3 +191,54 @@ fn check_for_refuses_another_design_or_slot() {
     m.check_for(&longer, Method::Clfrt, Target::Displacement, "m")
         .unwrap();
 }
+
+/// A models directory is its networks and their calibration: the calibration is read with
+/// them (and is part of their fingerprint), its wave band checked against the sensors'
+/// Nyquist frequency, and a directory without one refused, naming the file.
+#[test]
+fn a_models_directory_carries_its_calibration() {
+    use crate::core::estimator::{Estimator, CALIBRATION_FILE, EMBEDDED_MODELS};
+    use crate::core::fdi::config::Calibration;
+    let cfg = crate::core::monitor::config::CoreConfig::default();
+    let dir = std::env::temp_dir().join(format!("hw-cal-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for (name, text) in EMBEDDED_MODELS {
+        std::fs::write(dir.join(name), text).unwrap();
+    }
+    let e = Estimator::load_dir(&dir, &cfg).unwrap_err().to_string();
+    assert!(e.contains(CALIBRATION_FILE), "{e}");
+    let cal = Calibration {
+        sea_wave_yaw_deg: [0.04, 0.2],
+        ..Calibration::default()
+    };
+    std::fs::write(
+        dir.join(CALIBRATION_FILE),
+        serde_json::to_string(&cal).unwrap(),
+    )
+    .unwrap();
+    let est = Estimator::load_dir(&dir, &cfg).unwrap();
+    assert_eq!(est.calibration(), &cal);
+    let embedded = Estimator::embedded(&cfg).unwrap();
+    assert_ne!(est.fingerprint(), embedded.fingerprint());
+    assert_eq!(embedded.calibration(), &Calibration::default());
+    // 2 Hz sensors: a wave band to 8 rad/s is above pi * 2 = 6.28 rad/s.
+    let slow = crate::core::monitor::config::CoreConfig {
+        sensors: crate::core::model::SensorConfig {
+            rate_hz: 2.0,
+            ..cfg.sensors.clone()
+        },
+        ..cfg.clone()
+    };
+    let wide = Calibration {
+        wave_band_rad_s: [0.4, 8.0],
+        ..Calibration::default()
+    };
+    std::fs::write(
+        dir.join(CALIBRATION_FILE),
+        serde_json::to_string(&wide).unwrap(),
+    )
+    .unwrap();
+    let e = Estimator::load_dir(&dir, &slow).unwrap_err().to_string();
+    assert!(e.contains("wave-band-rad-s"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -23,7 +23,7 @@
 //!   test): a change of operating point is no change of health. So is a change of sea:
 //!   where the segments' mean `w` (`Point::x`) differ by `dw`, `Psi` adds the reference's
 //!   sea prior over the step beyond half a bandwidth, `(tau_w sea_step(dw))^2`
-//!   (`reference.slope-sea`, mean 0: the networks' bias per sea is the hull's), nothing
+//!   (`calibration.slope-sea`, mean 0: the networks' bias per sea is the hull's), nothing
 //!   within one sea.
 //! - The slopes are common to both segments, and where the tests' operating points spread
 //!   within the segments (CLFRT's tones resized in some tests and not in others: its
@@ -216,7 +216,7 @@ fn confirmation_sample(x: &Commissioning, env: &Envelope) -> Vec<Sample> {
         .collect()
 }
 
-/// Nothing forgotten (`reference.memory-tests`): the commissioning tests come first.
+/// Nothing forgotten (`reference::MEMORY_TESTS`): the commissioning tests come first.
 fn intact(x: &Commissioning) -> bool {
     x.samples.len() == (x.tests + x.learned) as usize
 }

@@ -2,7 +2,7 @@
 //! Carlo on its own model.
 
 use super::*;
-use crate::core::fdi::config::{FdiConfig, ReferenceConfig};
+use crate::core::fdi::config::{Calibration, FdiConfig, ReferenceConfig};
 use crate::core::fdi::learning::{after_decision, Held, Pending};
 use crate::core::fdi::limits::{effective_lengths, Limits, YEAR_S};
 use crate::core::fdi::measured::Basis;
@@ -450,11 +450,10 @@ fn monte_carlo(
         // The whole sample: a known covariance needs all K tests.
         resolve_speed_mps: 1e-9,
         resolve_displacement: 1e-9,
-        ..ReferenceConfig::default()
     };
     let settings = reference::Settings {
         learn,
-        ..reference::Settings::new(&fdi, &reference, &l)
+        ..reference::Settings::new(&fdi, &reference, &Calibration::default(), &l)
     };
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let (mut alarms, mut decided) = (0, 0);

@@ -8,7 +8,7 @@
 //! of the excitation's scale against its design: HBT's relay scale, CLFRT's tones' geometric
 //! mean, 0 when the test played as designed; `w = ln(max(i, i_calm) / i_calm)` of the test's
 //! sea index `i`, its measured wave yaw [deg], `i_calm` the calm anchor
-//! `fdi.sea-wave-yaw-deg[0]`: 0 in a calm sea, 1.3 in a moderate one, 2.3 in a rough one at
+//! `calibration.sea-wave-yaw-deg[0]`: 0 in a calm sea, 1.3 in a moderate one, 2.3 in a rough one at
 //! the defaults) has the raw residual
 //! (`crate::core::fdi::reference`) `e = m(x) + eps`, with
 //!
@@ -42,13 +42,13 @@
 //! d^2 = ((u - u*) / b_u)^2 + ((l - l*) / b_l)^2 + ((g - g*) / b_g)^2 + ((w - w*) / b_w)^2
 //! ```
 //!
-//! (`reference.bandwidth-speed-mps`, `-loading`, `-excitation`, `-sea`; a test that does not
+//! (`calibration.bandwidth-speed-mps`, `-loading`, `-excitation`, `-sea`; a test that does not
 //! know its sea adds no distance in it): a soft bin, the method
 //! of bins of wind-turbine power curves (IEC 61400-12) made continuous, and ISO 19030's
 //! reference conditions made local. The slopes carry a Gaussian prior with standard
-//! deviations `reference.slope-speed`, `-loading`, `-excitation` and `-sea` (per component,
+//! deviations `calibration.slope-speed`, `-loading`, `-excitation` and `-sea` (per component,
 //! `e_b` taking the displacement's: both are fractions of the ship's own value; in speed
-//! its own, `reference.slope-speed-gain`): how
+//! its own, `calibration.slope-speed-gain`): how
 //! fast a network's bias on a ship unlike its training model may change across the
 //! envelope beyond what physics predicts. The prior's mean is 0 (in the sea: the model
 //! files' per-sea bias is already removed), except in declared loading,
@@ -67,7 +67,7 @@
 //! to 5.5 m/s over-predicts the gain's move by 0.11, the trapezoid by 0.011 (its error is
 //! third order in the move). The test's slope is one test's reading: a quarter of the
 //! learned slopes' scatter near `x*` joins the prior's variance. `e_b`'s prior in speed is
-//! its own (`reference.slope-speed-gain`: the spread of the law's error over a population
+//! its own (`calibration.slope-speed-gain`: the spread of the law's error over a population
 //! of hulls, docs/fdi.md). The intercept has a flat prior. The fit's intercept is the
 //! predicted offset at `x*`; its posterior variance `(A^-1)_00` is the prediction's own:
 //! small where the ship has been tested, growing with the distance from what was learned
@@ -169,7 +169,7 @@ fn condition_distance(st: &Settings, a: X, b: X) -> f64 {
         .sqrt()
 }
 
-/// Whether two tests' `w` are one sea: within one `reference.bandwidth-sea` (a NaN `w`, a
+/// Whether two tests' `w` are one sea: within one `calibration.bandwidth-sea` (a NaN `w`, a
 /// test at every sea, is in any). A sea state apart is about 1 (calm to moderate 1.3,
 /// moderate to rough 0.9 at the default anchors); one sea's own tests scatter by about 0.1.
 pub fn same_sea(st: &Settings, w: f64, at: f64) -> bool {

@@ -3,11 +3,11 @@
 //! Model: `G(jw) = b / (jw (jw + a))`, so `ln|G| = ln b - ln w - ln|jw + a|` and
 //! `arg G = -pi/2 - atan(w / a)`. Unknowns `x = (ln a, ln b)`; per tone two residuals
 //! (`ln` gain and phase) weighted by the tone's own 90 % interval (`ci / 1.645`, floored by
-//! `fdi.model-fit-floor-ln-gain` and `fdi.model-fit-floor-phase-deg`). Gauss-Newton from the
+//! `calibration.model-fit-floor-ln-gain` and `calibration.model-fit-floor-phase-deg`). Gauss-Newton from the
 //! phase-only estimate of `a`; `chi2 = sum (e / s)^2` with `2 n - 2` degrees of freedom.
 
 use crate::core::angle::wrap_pi;
-use crate::core::fdi::config::FdiConfig;
+use crate::core::fdi::config::Calibration;
 use crate::core::model::ShipConfig;
 use crate::core::wire::residuals::ModelFitReport;
 use crate::core::wire::Features;
@@ -52,7 +52,7 @@ struct Tone {
     s_p: f64,
 }
 
-fn tones(features: &Features, cfg: &FdiConfig) -> Option<Vec<Tone>> {
+fn tones(features: &Features, cfg: &Calibration) -> Option<Vec<Tone>> {
     let floor_p = cfg.model_fit_floor_phase_deg.to_radians();
     let finite = |x: f64| x.is_finite().then_some(x);
     features
@@ -91,7 +91,7 @@ fn residuals(t: &[Tone], x: [f64; 2], e: &mut Vec<f64>, j: &mut Vec<[f64; 2]>) {
 }
 
 /// Fits the Nomoto model to the CLFRT tones of `features`; `None` without usable tones.
-pub fn model_fit(features: &Features, _ship: &ShipConfig, cfg: &FdiConfig) -> Option<ModelFit> {
+pub fn model_fit(features: &Features, _ship: &ShipConfig, cfg: &Calibration) -> Option<ModelFit> {
     let t = tones(features, cfg)?;
     if t.len() < 2 {
         return None;

@@ -223,7 +223,7 @@ impl Learner<'_> {
                     }
                 }
                 // A test read with its own wider interval is judged, not learned
-                // (`reference.learn-noise-ratio-max`).
+                // (`calibration.learn-noise-ratio-max`).
                 Basis::Vessel(_)
                     if ablation::off(Mechanism::LearningGate)
                         || (q <= self.limits.param[dim]

@@ -61,7 +61,7 @@ pub struct Measured {
 }
 
 impl Measured {
-    /// The widening that keeps a test from being learned (`reference.learn-noise-ratio-max`):
+    /// The widening that keeps a test from being learned (`calibration.learn-noise-ratio-max`):
     /// `noise_ratio` against its own sea's typical, 1 against a typical carried from other
     /// seas (a sea new to the vessel learns its own typical first).
     pub fn learn_noise_ratio(&self) -> f64 {

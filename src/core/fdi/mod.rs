@@ -6,8 +6,8 @@
 //!    and `e_D = (D_est(f, u_log) - D_nom - m_D) / D_nom`, with the estimator's own bias `m`
 //!    and spread `s` on its validation set, per sea state (model files' `uncertainty.by_sea`),
 //!    interpolated by the test's sea index: its wave yaw (`features.wave_yaw_rad`, the
-//!    heading's rms in `fdi.wave-band-rad-s`) between the calm and moderate anchors
-//!    `fdi.sea-wave-yaw-deg` (beyond the moderate one the spread keeps growing, up to 3 x; a
+//!    heading's rms in `calibration.wave-band-rad-s`) between the calm and moderate anchors
+//!    `calibration.sea-wave-yaw-deg` (beyond the moderate one the spread keeps growing, up to 3 x; a
 //!    test without a wave yaw gets the moderate spread).
 //! 2. **The reference** (`reference`): the design's (commissioning off), the design's with
 //!    wide limits (commissioning, outside the commissioned speed band), or the vessel's own:
@@ -16,7 +16,7 @@
 //!    with that covariance.
 //! 3. **The servo check** (both methods): the rudder's measured rate over the healthy
 //!    servo's, `rho`, gives the one-sided score `z_rate = max(0, 1 - rho) /
-//!    fdi.actuator-rate-sigma` (CLFRT: the servo-check burst's 95th-percentile rate; HBT: the
+//!    calibration.actuator-rate-sigma` (CLFRT: the servo-check burst's 95th-percentile rate; HBT: the
 //!    median of the relay periods' peak rates, which the steps drive to the rate limit).
 //! 4. **One decision for the vessel** (`decision`): a window GLR over its last
 //!    `fdi.window-tests` tests of both methods, a parameter channel and a servo channel,
@@ -25,7 +25,7 @@
 //!
 //! The CLFRT model fit (`fit`: a first-order Nomoto model through the three tones, a
 //! chi-square in the four directions no (u, D) explains) is reported and, above
-//! `fdi.model-mismatch-chi2`, adds a `model_mismatch` warning; it never decides. The
+//! `calibration.model-mismatch-chi2`, adds a `model_mismatch` warning; it never decides. The
 //! equation-error baseline (`crate::core::baseline`) is judged test by test at the same
 //! per-test limit, for comparison only. A heading-sensor drift moves none of the residuals:
 //! the features are drift-free by construction (docs/fdi.md).
@@ -52,7 +52,7 @@ pub mod window;
 
 use crate::core::baseline::config::BaselineConfig;
 use crate::core::estimator::{Estimator, EstimatorScratch};
-use crate::core::fdi::config::{FdiConfig, ReferenceConfig};
+use crate::core::fdi::config::{Calibration, FdiConfig, ReferenceConfig};
 use crate::core::model::ShipConfig;
 use crate::core::monitor::config::CoreConfig;
 use crate::core::wire::residuals::{
@@ -184,6 +184,8 @@ where
 pub struct Fdi {
     cfg: FdiConfig,
     reference_cfg: ReferenceConfig,
+    /// The models' calibration on the class of hull.
+    cal: Calibration,
     baseline_cfg: BaselineConfig,
     ship: ShipConfig,
     servo_time_constant_s: f64,
@@ -216,6 +218,7 @@ impl Fdi {
         Self {
             cfg: cfg.fdi.clone(),
             reference_cfg: cfg.reference.clone(),
+            cal: cfg.calibration.clone(),
             baseline_cfg: cfg.baseline.clone(),
             ship: cfg.ship.clone(),
             servo_time_constant_s: cfg.servo.time_constant_s,
@@ -242,7 +245,7 @@ impl Fdi {
 
     /// What the reference needs (`[fdi]`, `[reference]` and the limits).
     pub fn settings(&self) -> reference::Settings {
-        reference::Settings::new(&self.cfg, &self.reference_cfg, &self.limits)
+        reference::Settings::new(&self.cfg, &self.reference_cfg, &self.cal, &self.limits)
     }
 
     /// Per method (CLFRT, HBT), what the vessel has learned.
@@ -433,7 +436,7 @@ impl Fdi {
         let frac = if ablation::off(Mechanism::SeaInterpolation) {
             1.0
         } else {
-            sea_fraction(self.cfg.sea_wave_yaw_deg, index)
+            sea_fraction(self.cal.sea_wave_yaw_deg, index)
         };
         let slopes = if ablation::off(Mechanism::LoopShape) {
             None
@@ -450,7 +453,7 @@ impl Fdi {
             sea_index: index,
             sea_fraction: frac,
             raw,
-            servo: raw::servo_check(features, self.cfg.actuator_rate_sigma),
+            servo: raw::servo_check(features, self.cal.actuator_rate_sigma),
         }
     }
 
@@ -556,7 +559,7 @@ impl Fdi {
             .measured
             .map(|(m, z)| report::parameter_report(&m, z, d_nom_t));
         let fit = match method {
-            Method::Clfrt => fit::model_fit(features, &self.ship, &self.cfg),
+            Method::Clfrt => fit::model_fit(features, &self.ship, &self.cal),
             Method::Hbt => None,
         };
         let baseline = report::baseline(
@@ -603,7 +606,7 @@ impl Fdi {
             parameters,
             servo_check: servo,
             model_fit: fit.map(|f| f.report(&self.ship)),
-            model_mismatch: fit.and_then(|f| report::mismatch(&f, self.cfg.model_mismatch_chi2)),
+            model_mismatch: fit.and_then(|f| report::mismatch(&f, self.cal.model_mismatch_chi2)),
             reference: basis.map(|b| self.reference_report(i, &b, d_nom_t)),
             decision: step.as_ref().map(|s| DecisionReport {
                 // The vessel's: an inconsistent commissioning holds it at alert.

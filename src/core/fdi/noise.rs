@@ -24,7 +24,7 @@ fn median(v: &mut [f64]) -> f64 {
 
 /// The vessel's typical measurement variances at a test of design spreads `s` in the sea `w`
 /// (`envelope` coordinates): per component, the median, in design-spread units, of the
-/// learned tests' own (`Sample::meas`) in that sea (within one `reference.bandwidth-sea`;
+/// learned tests' own (`Sample::meas`) in that sea (within one `calibration.bandwidth-sea`;
 /// every learned test's where fewer than `MIN_TYPICAL` are there), carried to the test by
 /// `s`. A median, because the tests it stands for are the typical ones, not the few whose
 /// tones a wave spoiled. `None` where no learned test carries its own.

@@ -1,6 +1,6 @@
 use super::*;
 use crate::core::estimator::Estimator;
-use crate::core::fdi::config::{FdiConfig, ReferenceConfig};
+use crate::core::fdi::config::{Calibration, FdiConfig, ReferenceConfig};
 use crate::core::fdi::limits::Limits;
 use crate::core::fdi::raw::measurement_cov;
 use crate::core::fdi::raw::Raw;
@@ -113,7 +113,12 @@ fn settings() -> RefSettings {
         ..FdiConfig::default()
     };
     let limits = Limits::new(fdi.false_alarms_per_year, 3720.0, fdi.window_tests);
-    RefSettings::new(&fdi, &ReferenceConfig::default(), &limits)
+    RefSettings::new(
+        &fdi,
+        &ReferenceConfig::default(),
+        &Calibration::default(),
+        &limits,
+    )
 }
 
 /// A CLFRT test's raw residual at 7 m/s, 7000 t in sea index `sea` with its own measurement

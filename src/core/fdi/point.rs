@@ -143,7 +143,7 @@ pub struct Settings {
     pub slope_excitation: [f64; 2],
     /// Prior standard deviation of the slopes in the sea's `w` `(e_u [m/s], e_D [fraction])`.
     pub slope_sea: [f64; 2],
-    /// The calm sea's index [deg] (`fdi.sea-wave-yaw-deg`'s first): `w = 0` there.
+    /// The calm sea's index [deg] (`calibration.sea-wave-yaw-deg`'s first): `w = 0` there.
     pub sea_calm_deg: f64,
 }
 
@@ -157,8 +157,8 @@ impl Settings {
         }
     }
 
-    /// The settings of `[reference]`, the calm sea's index `sea_calm_deg`.
-    pub fn of(r: &super::config::ReferenceConfig, sea_calm_deg: f64) -> Self {
+    /// The regression's settings in the models' calibration.
+    pub fn of(r: &super::config::Calibration) -> Self {
         Self {
             bandwidth: [
                 r.bandwidth_speed_mps,
@@ -171,7 +171,7 @@ impl Settings {
             slope_loading: r.slope_loading,
             slope_excitation: r.slope_excitation,
             slope_sea: r.slope_sea,
-            sea_calm_deg,
+            sea_calm_deg: r.sea_wave_yaw_deg[0],
         }
     }
 }

@@ -274,7 +274,7 @@ pub fn nn_raw(
 }
 
 /// The servo check of a test: `rho` and `z_rate` with `sigma` the healthy rate ratio's
-/// spread (`fdi.actuator-rate-sigma`).
+/// spread (`calibration.actuator-rate-sigma`).
 pub fn servo_check(features: &Features, sigma: f64) -> Option<ServoCheck> {
     let (rate, nominal) = features.servo_rate_rad_s()?;
     if !rate.is_finite() || !nominal.is_finite() || nominal <= 0.0 {

@@ -22,7 +22,7 @@
 //!
 //! ## Commissioning: the first tests of each method
 //!
-//! Decisions use the design reference with wide limits (`fdi.commissioning-spread-*`,
+//! Decisions use the design reference with wide limits (`calibration.commissioning-spread-*`,
 //! uncorrelated): no ship of the family alerts on its own structural bias; a test beyond
 //! them alerts, never alarms (a ship unlike the family, or declared wrong, and a gross fault
 //! look alike before the vessel has a reference: `crate::core::fdi::decision`). Every
@@ -113,12 +113,12 @@
 //! learning all but alarms). A CLFRT test whose tones were measured worse than the vessel's
 //! typical is read with its own error's excess over the typical (`crate::core::fdi::noise`),
 //! and not learned when that widened it beyond
-//! `reference.learn-noise-ratio-max`. At most `reference.memory-tests` are kept; beyond, the oldest
+//! `calibration.learn-noise-ratio-max`. At most `reference::MEMORY_TESTS` are kept; beyond, the oldest
 //! test of the most populated soft bin goes. Commissioning starts again on request (the
 //! `fdi/commission` queryable, `helmwatch commission`) and when the saved reference was
 //! made under another ship configuration or other models (the daemon says which).
 
-use super::config::{FdiConfig, ReferenceConfig};
+use super::config::{Calibration, FdiConfig, ReferenceConfig};
 use super::envelope::{self, Shape};
 use super::limits::Limits;
 use super::measured::{kappa, Basis, Measured};
@@ -131,6 +131,11 @@ use serde::{Deserialize, Serialize};
 /// The degrees of freedom of the prior on the shape (an inverse Wishart about the vessel's
 /// learned variances, uncorrelated): `P + 2`, the weakest whose mean exists. The calibration
 /// keeps the shape's own dof: the prior's centre is the sample's variances.
+/// Learned tests kept per method (the fullest soft bin forgets first): enough for every
+/// point of a vessel's operating envelope, each a few times over.
+pub const MEMORY_TESTS: usize = 200;
+
+/// The inverse-Wishart prior's degrees of freedom (module doc).
 pub const PRIOR_DOF: f64 = P as f64 + 2.0;
 
 /// The one-sided normal quantile of the power commissioning resolves its faults with (95 %).
@@ -187,13 +192,13 @@ pub struct Settings {
     pub confirm_alpha: f64,
     /// Read a CLFRT test with its own measurement error beyond the vessel's typical.
     pub own_noise: bool,
-    /// `reference.learn-noise-ratio-max`.
+    /// `calibration.learn-noise-ratio-max`.
     pub learn_noise_ratio_max: f64,
 }
 
 impl Settings {
     /// What the reference needs, from `[fdi]`, `[reference]` and the decision's `limits`.
-    pub fn new(fdi: &FdiConfig, r: &ReferenceConfig, limits: &Limits) -> Self {
+    pub fn new(fdi: &FdiConfig, r: &ReferenceConfig, cal: &Calibration, limits: &Limits) -> Self {
         // One ship-day of the alarm budget per commissioning, half at its end, half in the
         // confirmation after it (`changepoint`).
         let budget = fdi.false_alarms_per_year / 365.25 / 2.0;
@@ -201,15 +206,15 @@ impl Settings {
         let confirm = confirmation_looks(fdi.commissioning_tests) as f64;
         Self {
             tests: fdi.commissioning_tests,
-            wide_speed_mps: fdi.commissioning_spread_speed_mps,
-            wide_displacement: fdi.commissioning_spread_displacement,
+            wide_speed_mps: cal.commissioning_spread_speed_mps,
+            wide_displacement: cal.commissioning_spread_displacement,
             floor_speed_mps: fdi.floor_speed_mps,
             floor_displacement: fdi.floor_displacement,
-            envelope: point::Settings::of(r, fdi.sea_wave_yaw_deg[0]),
+            envelope: point::Settings::of(cal),
             learn: !super::ablation::off(super::ablation::Mechanism::Learning),
-            memory: r.memory_tests as usize,
+            memory: MEMORY_TESTS,
             own_noise: !super::ablation::off(super::ablation::Mechanism::OwnNoise),
-            learn_noise_ratio_max: r.learn_noise_ratio_max,
+            learn_noise_ratio_max: cal.learn_noise_ratio_max,
             resolve_speed_mps: r.resolve_speed_mps,
             resolve_displacement: r.resolve_displacement,
             single_limit: limits.param[P],

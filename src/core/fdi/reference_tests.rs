@@ -1,6 +1,6 @@
 use super::*;
 use crate::core::fdi::changepoint;
-use crate::core::fdi::config::{FdiConfig, ReferenceConfig};
+use crate::core::fdi::config::{Calibration, FdiConfig, ReferenceConfig};
 use crate::core::fdi::limits::Limits;
 use crate::core::fdi::measured::calibration;
 use crate::core::fdi::stats::dot;
@@ -8,14 +8,17 @@ use crate::core::fdi::stats::dot;
 fn settings(k: u32) -> Settings {
     let fdi = FdiConfig {
         commissioning_tests: k,
-        commissioning_spread_speed_mps: 1.0,
-        commissioning_spread_displacement: 0.1,
         floor_speed_mps: 0.0,
         floor_displacement: 0.0,
         ..FdiConfig::default()
     };
     let limits = Limits::new(fdi.false_alarms_per_year, 3720.0, fdi.window_tests);
-    Settings::new(&fdi, &ReferenceConfig::default(), &limits)
+    let cal = Calibration {
+        commissioning_spread_speed_mps: 1.0,
+        commissioning_spread_displacement: 0.1,
+        ..Calibration::default()
+    };
+    Settings::new(&fdi, &ReferenceConfig::default(), &cal, &limits)
 }
 
 /// `c` with its correlations times `k`, the variances kept (the prior at one point, by hand).
@@ -553,7 +556,7 @@ fn outliers_after_commissioning_are_no_change_inside_it() {
 #[test]
 fn a_new_sea_after_commissioning_is_no_change_inside_it() {
     let s = settings(16);
-    let calm = FdiConfig::default().sea_wave_yaw_deg[0];
+    let calm = Calibration::default().sea_wave_yaw_deg[0];
     let mut both: [Commissioning; 2] = Default::default();
     for order in 0..80u64 {
         let m = (order % 2) as usize;

@@ -3,6 +3,7 @@ use super::raw::spread;
 use super::reference::Commissioning;
 use super::*;
 use crate::core::estimator::model::Uncertainty;
+use crate::core::fdi::config::Calibration;
 use crate::core::fdi::raw::servo_check;
 use crate::core::wire::features::{sample, ClfrtFeatures, ServoRateFeatures};
 
@@ -63,7 +64,7 @@ fn nomoto_tones(a: f64, b: f64, ws: &[f64]) -> ClfrtFeatures {
 
 #[test]
 fn model_fit_recovers_exact_nomoto_tones_and_flags_a_foreign_one() {
-    let c = FdiConfig::default();
+    let c = Calibration::default();
     let ship = CoreConfig::default().ship;
     let (a, b) = (0.0146, 5.98e-4);
     let ws = [0.032, 0.0745, 0.181];
@@ -90,7 +91,7 @@ fn model_fit_recovers_exact_nomoto_tones_and_flags_a_foreign_one() {
 #[test]
 fn the_servo_check_reads_each_methods_servo_field() {
     let fdi = Fdi::new(&CoreConfig::default());
-    let sigma = FdiConfig::default().actuator_rate_sigma;
+    let sigma = Calibration::default().actuator_rate_sigma;
     let hbt = |peak: f64| {
         let mut h = sample::hbt();
         h.servo_rate = Some(ServoRateFeatures {
@@ -104,26 +105,26 @@ fn the_servo_check_reads_each_methods_servo_field() {
         c.servo_check = Some(sample::servo_check(p95, 0.07));
         Features::Clfrt(c)
     };
-    let z = servo_check(&hbt(0.035), fdi.cfg.actuator_rate_sigma).unwrap();
+    let z = servo_check(&hbt(0.035), fdi.cal.actuator_rate_sigma).unwrap();
     approx::assert_relative_eq!(z.z_rate, 0.5 / sigma, max_relative = 1e-12);
     approx::assert_relative_eq!(z.rate_ratio, 0.5, max_relative = 1e-12);
     assert_eq!(
-        servo_check(&hbt(0.0707), fdi.cfg.actuator_rate_sigma)
+        servo_check(&hbt(0.0707), fdi.cal.actuator_rate_sigma)
             .unwrap()
             .z_rate,
         0.0
     );
-    let z = servo_check(&clfrt(0.063), fdi.cfg.actuator_rate_sigma).unwrap();
+    let z = servo_check(&clfrt(0.063), fdi.cal.actuator_rate_sigma).unwrap();
     approx::assert_relative_eq!(z.z_rate, 0.1 / sigma, max_relative = 1e-9);
     // No servo field, or a failed check: no actuator residual.
-    assert!(servo_check(&Features::Hbt(sample::hbt()), fdi.cfg.actuator_rate_sigma).is_none());
-    assert!(servo_check(&Features::None, fdi.cfg.actuator_rate_sigma).is_none());
+    assert!(servo_check(&Features::Hbt(sample::hbt()), fdi.cal.actuator_rate_sigma).is_none());
+    assert!(servo_check(&Features::None, fdi.cal.actuator_rate_sigma).is_none());
     let mut failed = sample::servo_check(0.0, 0.07);
     failed.rudder_rate_p95_rad_s = None;
     failed.failed = Some("no rudder".into());
     let mut c = sample::clfrt(vec![]);
     c.servo_check = Some(failed);
-    assert!(servo_check(&Features::Clfrt(c), fdi.cfg.actuator_rate_sigma).is_none());
+    assert!(servo_check(&Features::Clfrt(c), fdi.cal.actuator_rate_sigma).is_none());
 }
 
 /// A test's raw residual at 7 m/s and 7000 t with speed residual `e_u` [m/s].
@@ -354,7 +355,7 @@ fn a_commissioning_test_beyond_the_wide_limits_joins_the_sample() {
 }
 
 /// After commissioning, a quiet test the vessel's reference predicts healthy is learned; the
-/// same test widened by its own measurement error beyond `reference.learn-noise-ratio-max`
+/// same test widened by its own measurement error beyond `calibration.learn-noise-ratio-max`
 /// against its own sea's typical is judged, not learned; against a typical carried from
 /// another sea it is learned (a new sea learns its own typical first).
 #[test]

@@ -93,7 +93,7 @@ pub struct ClfrtReport {
     pub servo_check: Option<ServoCheck>,
     /// The time-domain baseline on the measured windows, or why it failed.
     pub baseline: Result<BaselineEstimate, BaselineError>,
-    /// Wave yaw: rms of the heading in `fdi.wave-band-rad-s` over the measured windows [rad]
+    /// Wave yaw: rms of the heading in `calibration.wave-band-rad-s` over the measured windows [rad]
     /// ([`crate::core::dsp::band_rms`]; none when it could not be computed).
     pub wave_yaw_rad: Option<f64>,
     /// Per tone, its scale against the design when the sizing lowered any (none at full
@@ -468,7 +468,10 @@ impl ClfrtRun {
             scratch: [Vec::new(), Vec::new(), Vec::new()],
             analysed: false,
             wave: (
-                (cfg.fdi.wave_band_rad_s[0], cfg.fdi.wave_band_rad_s[1]),
+                (
+                    cfg.calibration.wave_band_rad_s[0],
+                    cfg.calibration.wave_band_rad_s[1],
+                ),
                 Spectrum::new(),
                 Vec::new(),
             ),

@@ -5,7 +5,7 @@ use crate::core::baseline::config::BaselineConfig;
 use crate::core::config::{check_count, check_range, check_range_open_low, fail, ConfigError};
 use crate::core::design::{ClfrtConfig, HbtConfig};
 use crate::core::estimator::config::EstimatorConfig;
-use crate::core::fdi::config::{FdiConfig, ReferenceConfig};
+use crate::core::fdi::config::{Calibration, FdiConfig, ReferenceConfig};
 use crate::core::model::{SensorConfig, ServoConfig, ShipConfig};
 use crate::core::wire::Method;
 use serde::{Deserialize, Serialize};
@@ -227,8 +227,11 @@ pub struct CoreConfig {
     pub estimator: EstimatorConfig,
     /// Fault detection and isolation.
     pub fdi: FdiConfig,
-    /// The vessel's own reference over its operating envelope.
+    /// What commissioning must resolve.
     pub reference: ReferenceConfig,
+    /// The models' calibration on the class of hull (not a section of the file: the
+    /// models directory's `calibration.json`, or the shipped models').
+    pub calibration: Calibration,
     /// The time-domain baseline.
     pub baseline: BaselineConfig,
 }
@@ -253,10 +256,10 @@ impl CoreConfig {
         self.fdi.check()?;
         self.reference.check()?;
         let nyquist = std::f64::consts::PI * self.sensors.rate_hz;
-        if self.fdi.wave_band_rad_s[1] > nyquist {
+        if self.calibration.wave_band_rad_s[1] > nyquist {
             return Err(fail(
-                "fdi.wave-band-rad-s",
-                format!("{:?}", self.fdi.wave_band_rad_s),
+                "calibration.wave-band-rad-s",
+                format!("{:?}", self.calibration.wave_band_rad_s),
                 &format!("[lo, hi] with hi <= pi sensors.rate-hz = {nyquist:.3}"),
             ));
         }

@@ -91,7 +91,7 @@ pub struct HbtReport {
     pub switches: usize,
     /// The time-domain baseline on the measured periods, or why it failed.
     pub baseline: Result<BaselineEstimate, BaselineError>,
-    /// Wave yaw: rms of the heading in `fdi.wave-band-rad-s` over the measured periods [rad]
+    /// Wave yaw: rms of the heading in `calibration.wave-band-rad-s` over the measured periods [rad]
     /// ([`crate::core::dsp::band_rms`]; none when it could not be computed).
     pub wave_yaw_rad: Option<f64>,
     /// First harmonics at `omega_u` over the measured periods of the heading and of the
@@ -277,7 +277,10 @@ impl HbtRun {
             scratch: [Vec::new(), Vec::new()],
             grid_t0_s: None,
             wave: (
-                (cfg.fdi.wave_band_rad_s[0], cfg.fdi.wave_band_rad_s[1]),
+                (
+                    cfg.calibration.wave_band_rad_s[0],
+                    cfg.calibration.wave_band_rad_s[1],
+                ),
                 Spectrum::new(),
                 Vec::new(),
             ),

@@ -323,6 +323,13 @@ impl Monitor {
         multisine: Option<Multisine>,
         estimator: Option<Arc<Estimator>>,
     ) -> Self {
+        // The models' calibration on their class of hull, else the shipped models'.
+        let cfg = &CoreConfig {
+            calibration: estimator
+                .as_ref()
+                .map_or_else(Default::default, |e| e.calibration().clone()),
+            ..cfg.clone()
+        };
         let c = &cfg.clfrt;
         let multisine = match multisine {
             Some(ms)

@@ -73,7 +73,7 @@
 //! `h` and `eps` are scaled by `s = fraction limit / (k A)`, but never `eps` below
 //! `max(hbt.resize-min-hysteresis-deg, hbt.resize-wave-factor x wave yaw)` (the hysteresis
 //! must exceed the wave yaw or the relay chatters; the wave yaw: the vessel's sea as its last
-//! completed test measured it, or, with none yet, the rms in `fdi.wave-band-rad-s` of the
+//! completed test measured it, or, with none yet, the rms in `calibration.wave-band-rad-s` of the
 //! heading on the same record less the fitted ship's answer to the recorded rudder: the
 //! heading as it is would count the relay's own swing, the band's lower edge being the
 //! short record's second or third bin). When even that smallest relay is predicted past the heading

@@ -97,7 +97,10 @@ impl RelaySizing {
             },
             ship: cfg.ship.clone(),
             wave: (
-                (cfg.fdi.wave_band_rad_s[0], cfg.fdi.wave_band_rad_s[1]),
+                (
+                    cfg.calibration.wave_band_rad_s[0],
+                    cfg.calibration.wave_band_rad_s[1],
+                ),
                 Spectrum::new(),
                 Vec::new(),
             ),

@@ -122,7 +122,7 @@ impl Features {
         }
     }
 
-    /// Wave yaw: rms of the heading in `fdi.wave-band-rad-s` over the measurement [rad].
+    /// Wave yaw: rms of the heading in `calibration.wave-band-rad-s` over the measurement [rad].
     pub fn wave_yaw_rad(&self) -> Option<f64> {
         match self {
             Features::Clfrt(f) => f.wave_yaw_rad,

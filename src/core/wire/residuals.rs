@@ -131,7 +131,7 @@ pub struct ParameterResiduals {
     /// How much the test's own measurement error beyond the vessel's typical widened its
     /// covariance, in the direction it widened most (`1 +` that share); absent when it did
     /// not (a test as clean as the vessel's typical, an HBT test, or against the design or
-    /// commissioning's wide limits). Above `reference.learn-noise-ratio-max` the test is
+    /// commissioning's wide limits). Above `calibration.learn-noise-ratio-max` the test is
     /// judged but not learned.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noise_ratio: Option<f64>,
@@ -146,7 +146,7 @@ fn two() -> usize {
 pub struct ServoCheck {
     /// `rho`: measured rate over the healthy servo's.
     pub rate_ratio: f64,
-    /// `max(0, 1 - rho) / fdi.actuator-rate-sigma`.
+    /// `max(0, 1 - rho) / calibration.actuator-rate-sigma`.
     pub z_rate: f64,
 }
 
@@ -172,7 +172,7 @@ pub struct ModelFitReport {
 pub struct ModelMismatch {
     /// The model fit's chi-square.
     pub chi2: f64,
-    /// `fdi.model-mismatch-chi2`.
+    /// `calibration.model-mismatch-chi2`.
     pub threshold: f64,
     /// What to do.
     pub advice: String,

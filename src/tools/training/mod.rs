@@ -2,5 +2,6 @@
 //! ([`train`]: Levenberg-Marquardt and Fletcher-Reeves) and the model build ([`build`]).
 
 pub mod build;
+pub mod calibrate;
 pub mod database;
 pub mod train;
