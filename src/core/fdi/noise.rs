@@ -5,22 +5,11 @@
 
 use super::envelope;
 use super::point::{Sample, Settings};
-use super::stats::{Cov, P};
+use super::stats::{median, Cov, P};
 
 /// Fewest learned tests in the test's own sea whose measurement error stands for the
 /// vessel's typical there; with fewer, every learned test's, carried by the design spreads.
 pub const MIN_TYPICAL: usize = 3;
-
-/// The median of `v` (not empty).
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
 
 /// The vessel's typical measurement variances at a test of design spreads `s` in the sea `w`
 /// (`envelope` coordinates): per component, the median, in design-spread units, of the

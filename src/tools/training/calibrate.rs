@@ -11,25 +11,12 @@
 
 use super::database::Database;
 use crate::core::fdi::config::Calibration;
+use crate::core::fdi::stats::median;
 use crate::core::model::SeaState;
-
-/// The median of `v` (NaN when empty).
-fn median(mut v: Vec<f64>) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
 
 /// The median wave yaw [deg] of the completed tests of `db` in `sea`, both methods.
 pub fn wave_yaw_deg(db: &Database, sea: SeaState) -> f64 {
-    let v = db
+    let mut v = db
         .spec
         .methods
         .iter()
@@ -38,8 +25,8 @@ pub fn wave_yaw_deg(db: &Database, sea: SeaState) -> f64 {
         .filter_map(|(_, f)| f.wave_yaw_rad())
         .filter(|w| w.is_finite())
         .map(f64::to_degrees)
-        .collect();
-    median(v)
+        .collect::<Vec<_>>();
+    median(&mut v)
 }
 
 /// `base` with what `db` measures (the module doc); a sea the database lacks keeps its
@@ -72,10 +59,81 @@ pub fn calibrate(db: &Database, base: &Calibration) -> Calibration {
 mod tests {
     use super::*;
 
+    /// A database of CLFRT tests whose wave yaw is known: the anchors are the medians of
+    /// each sea's, a failed test and a rough sea's left out; a database without a moderate
+    /// sea keeps that anchor.
+    #[test]
+    fn the_sea_anchors_are_the_medians_of_the_databases_wave_yaw() {
+        use crate::core::wire::features::sample;
+        use crate::core::wire::{Features, Method};
+        use crate::tools::training::database::{DatabaseSpec, Point, Purpose, TestRun};
+        let test = |deg: f64| TestRun {
+            features: Ok(Features::Clfrt(crate::core::wire::features::ClfrtFeatures {
+                wave_yaw_rad: Some(f64::to_radians(deg)),
+                ..sample::clfrt(vec![])
+            })),
+            duration_s: 1200.0,
+        };
+        let point = |sea| Point {
+            sea,
+            speed_mps: 7.0,
+            displacement_t: 7000.0,
+            seed: 1,
+            ship: None,
+        };
+        let seas = [
+            (SeaState::Calm, 0.04),
+            (SeaState::Calm, 0.06),
+            (SeaState::Calm, 0.05),
+            (SeaState::Moderate, 0.2),
+            (SeaState::Moderate, 0.3),
+            (SeaState::Rough, 0.9),
+        ];
+        let mut runs: Vec<TestRun> = seas.iter().map(|&(_, d)| test(d)).collect();
+        runs.push(TestRun {
+            features: Err("aborted".into()),
+            duration_s: f64::NAN,
+        });
+        let mut points: Vec<Point> = seas.iter().map(|&(s, _)| point(s)).collect();
+        points.push(point(SeaState::Calm));
+        let db = Database {
+            spec: DatabaseSpec {
+                seed: 1,
+                purpose: Purpose::Training,
+                points_per_sea: 3,
+                seas: vec![SeaState::Calm, SeaState::Moderate, SeaState::Rough],
+                methods: vec![Method::Clfrt],
+                faults: vec![],
+                family: false,
+            },
+            points,
+            runs: vec![runs],
+        };
+        let base = Calibration::default();
+        let c = calibrate(&db, &base);
+        approx::assert_relative_eq!(c.sea_wave_yaw_deg[0], 0.05, max_relative = 1e-12);
+        approx::assert_relative_eq!(c.sea_wave_yaw_deg[1], 0.25, max_relative = 1e-12);
+        assert_eq!(
+            Calibration {
+                sea_wave_yaw_deg: base.sea_wave_yaw_deg,
+                ..c
+            },
+            base
+        );
+        let calm_only = Database {
+            points: db.points[..3].to_vec(),
+            runs: vec![db.runs[0][..3].to_vec()],
+            ..db
+        };
+        let c = calibrate(&calm_only, &base);
+        approx::assert_relative_eq!(c.sea_wave_yaw_deg[0], 0.05, max_relative = 1e-12);
+        assert_eq!(c.sea_wave_yaw_deg[1], base.sea_wave_yaw_deg[1]);
+    }
+
     #[test]
     fn the_median_is_the_middle_value() {
-        assert_eq!(median(vec![3.0, 1.0, 2.0]), 2.0);
-        assert_eq!(median(vec![4.0, 1.0, 2.0, 3.0]), 2.5);
-        assert!(median(vec![]).is_nan());
+        assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&mut [4.0, 1.0, 2.0, 3.0]), 2.5);
+        assert!(median(&mut []).is_nan());
     }
 }
