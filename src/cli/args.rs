@@ -404,6 +404,10 @@ pub(crate) struct BenchArgs {
     /// under the command, the commit and the seed (docs/results/).
     #[arg(long, value_name = "DIR")]
     pub(crate) results: Option<PathBuf>,
+    /// With --time-to-alarm --results: add the same file of an earlier run in DIR below the
+    /// tables (the before-and-after pair).
+    #[arg(long, value_name = "DIR")]
+    pub(crate) compare: Option<PathBuf>,
 }
 
 /// The simulated ship of one run.

@@ -220,10 +220,29 @@ fn time_to_alarm(cfg: &Config, a: &BenchArgs) -> Result<(), Failure> {
     let per = run(cfg, &o, &faults).map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
     let mut out = Vec::new();
     print(cfg, &o, &faults, &per, &mut out).map_err(|e| fail(EX_IOERR)(e.into()))?;
-    let text = String::from_utf8_lossy(&out);
+    let mut text = String::from_utf8_lossy(&out).into_owned();
+    let name = format!("time-to-alarm-{}-seed{}", o.sea.name(), o.seed);
+    if let Some(dir) = &a.compare {
+        let path = dir.join(format!("{name}.md"));
+        let before = std::fs::read_to_string(&path)
+            .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", path.display())))?;
+        // The earlier file's tables, without its header, their titles two levels down.
+        let body = before.find("\n# ").map_or(before.as_str(), |i| &before[i + 1..]);
+        let body: Vec<String> = body
+            .lines()
+            .map(|l| match l.starts_with('#') {
+                true => format!("##{l}"),
+                false => l.to_string(),
+            })
+            .collect();
+        text.push_str(&format!(
+            "\n## Before: {}\n\n{}\n",
+            path.display(),
+            body.join("\n")
+        ));
+    }
     print!("{text}");
     if let Some(dir) = &a.results {
-        let name = format!("time-to-alarm-{}-seed{}", o.sea.name(), o.seed);
         let path = crate::tools::results::write(dir, &name, o.seed, &text)
             .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", dir.display())))?;
         eprintln!("wrote {}", path.display());
