@@ -227,7 +227,9 @@ fn time_to_alarm(cfg: &Config, a: &BenchArgs) -> Result<(), Failure> {
         let before = std::fs::read_to_string(&path)
             .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", path.display())))?;
         // The earlier file's tables, without its header, their titles two levels down.
-        let body = before.find("\n# ").map_or(before.as_str(), |i| &before[i + 1..]);
+        let body = before
+            .find("\n# ")
+            .map_or(before.as_str(), |i| &before[i + 1..]);
         let body: Vec<String> = body
             .lines()
             .map(|l| match l.starts_with('#') {

@@ -1,127 +1,28 @@
-//! A change inside the commissioning sample: the two-segment mean-shift test.
+//! The commissioning sample's change-point test (docs/fdi.md, "Commissioning"): a fault that
+//! arises during commissioning splits the sample in two (one present from its first test
+//! does not: only the wide limits see it).
 //!
-//! A fault present from the first commissioning test is indistinguishable from the ship's
-//! own normal (only the wide design limits can see it); one that arises *during*
-//! commissioning splits the sample in two. For every split `k` (the first `k` tests, the
-//! other `n - k`), the difference of the segments' mean residuals `d = mean_B - mean_A` is
-//! compared with its healthy covariance
+//! For every split `k` of a method's sample the difference `d` of the segments' mean
+//! residuals, less the operating point's move along their common slopes (prior: the physical
+//! slopes, updated by the points' own spread), is judged against its healthy covariance:
 //!
 //! ```text
-//! C_k = (S_p / nu + F) (1/k + 1/(n - k)) + Psi       nu = n - 2
-//! T_k = d' C_k^-1 d
+//! C_k = (S_r / nu + F) (1/k + 1/(n - k)) + Psi,    T_k = d' C_k^-1 d
 //! ```
 //!
-//! - `S_p` the within-segment scatter matrix (sum of squares about each segment's mean),
-//!   `F = diag(floors^2)` the physical floors (`fdi.floor-*`);
-//! - `Psi` the operating point's share: when the segments' mean speed or declared loading
-//!   differ by `(du, dl)`, the offset may move by the slope prior's `(tau_u du, tau_l dl)`
-//!   (`crate::core::fdi::envelope`) about the physical move: `d` is taken less the
-//!   trapezoid of the segments' mean similarity slopes times `du` and of their mean loading
-//!   slopes times `dl` (`Sample::speed_slope`, `Sample::loading_slope`, the slope priors'
-//!   means; the law bends, and the sample's mean slope weighs the longer segment's end, which
-//!   missed the Mariner's gain by 0.10 over 4 to 5.5 m/s with the change after its second
-//!   test): a change of operating point is no change of health. So is a change of sea:
-//!   where the segments' mean `w` (`Point::x`) differ by `dw`, `Psi` adds the reference's
-//!   sea prior over the step beyond half a bandwidth, `(tau_w sea_step(dw))^2`
-//!   (`calibration.slope-sea`, mean 0: the networks' bias per sea is the hull's), nothing
-//!   within one sea.
-//! - The slopes are common to both segments, and where the tests' operating points spread
-//!   within the segments (CLFRT's tones resized in some tests and not in others: its
-//!   excitation alternating between two sizes) the sample itself tells them: per component
-//!   `j`, the prior `N(beta_0, T)` (`T = diag(tau^2)`) updated by the points' scatter about
-//!   their segments' means `W` and its cross-products with the component `c_j`, at the
-//!   test's noise `s_j^2` (the scatter's and the floor's),
+//! `S_r` the scatter about the segments' fits, `nu = n - 2` less the slopes' effective number
+//! (at least 1), `F` the floors, `Psi` the slopes' error and the sea prior's allowance. Two
+//! looks, `(e_u, e_D)` and `e_b` alone, each at Hotelling's tail for the dof its learned share
+//! leaves (the share at its `BOUND` upper bound, `measured::effective_dof`); a split's tail is
+//! the smaller doubled, in `[0, 1]`. At each moment between two of the vessel's tests the
+//! methods it splits combine tails by Fisher's rule, healthy `-2 sum_m ln p_m ~ chi2(2 M)`.
 //!
-//!   ```text
-//!   A_j = T^-1 + W / s_j^2,   beta_j = A_j^-1 (T^-1 beta_0 + c_j / s_j^2)
-//!   d_j = mean_B - mean_A - beta_j . dx,   Psi_jj = dx' A_j^-1 dx
-//!   ```
-//!
-//!   and `S_p` is the scatter about the segments' fits, with `nu` less the slopes' effective
-//!   number `max_j tr(W A_j^-1) / s_j^2` (two passes, the first from the scatter about the
-//!   means). Without a spread within the segments (every test at one point, or one point per
-//!   segment) `W = 0`: the prior as it is. Without it, a healthy test at the smaller
-//!   excitation alone before a change (the change at the sample's second test) would be
-//!   judged against the prior's allowance for the segments' mean excitations' move, 0.3 per
-//!   unit ln s, several times a 12 % displacement's move in `e_b` on some hulls.
-//!
-//! Two looks per split, each with half the budget: the networks' pair `(e_u, e_D)` (`p = 2`)
-//! and the gain `e_b` alone (`p = 1`: at the few tests of a commissioning, Hotelling's tail in
-//! three dimensions, `nu (nu - 2)^-1 3 F(3, nu - 2)`, is so heavy at `nu = 4` that it would
-//! cost the gain's evidence more than the third dimension adds). Without floors and `Psi`,
-//! each `T_k` is Hotelling's two-sample statistic `T^2 (p, nu)` (`stats::hotelling_isf`),
-//! heavy at small `nu` (a scatter matrix from 4 dof is sometimes far too small). The floors
-//! and `Psi` are known variance: the less of the statistic the scatter carries, the nearer
-//! its tail is the chi-square's. Each look's limit is Hotelling's at the dof the learned
-//! share leaves, `nu / share` with the share `y' (S_p / nu) y (1/k + 1/(n-k)) / T_k` (`y =
-//! C_k^-1 d`) taken at its 99 % upper confidence bound (`measured::effective_dof`, the rule
-//! the decision's calibration uses at 95 %). The bound is what keeps the tail: with the share
-//! as estimated (Satterthwaite's plug-in), a scatter small by chance makes its own share
-//! small and its limit the chi-square's; the exact size of a one-dof look (integrated over
-//! the scatter's chi-square, docs/fdi.md) at `nu = 4` is then 24 times its budget where the
-//! known part is 7 % of the scatter's; at the 95 % bound at most 2.1 times, at the 99 %
-//! bound at most 0.97 at every `nu` from 4 and every known share (the unit test
-//! `a_one_dof_look_keeps_its_budget_whatever_the_known_share`). Student's limit at `nu`,
-//! whatever the floors (as before this rule), holds the budget too but pays for it: a 0.5 m/s
-//! speed-log bias arising in a moderate sea moves `e_b` by `-2 beta / u` (0.1-0.25, 5-25
-//! standard deviations of the difference) and met a limit of 203 (`t = 14`) at `nu = 6`.
-//!
-//! Each look's statistic gives its tail probability at its dof, and a split's tail is the
-//! smaller of its two looks' doubled (Bonferroni). The exact size of that tail as a p-value,
-//! `P(p < alpha)`, stays within `alpha` at every level (the unit test checks 5 %, 1e-3 and
-//! 7.5e-6): what lets the methods combine.
-//!
-//! **Both methods at once.** A fault arises at a moment of the vessel's time and moves both
-//! methods' residuals from their next test on. Their tests are independent (other tests,
-//! other sea), so at every moment between two of the vessel's tests, the methods whose
-//! sample the moment splits (each with at least 6 tests) combine their split's tails by
-//! Fisher's rule, `X = -2 sum_m ln p_m`, chi-square with `2 M` dof on a healthy sample; one
-//! method's combined tail is its own. Where each method alone is a few standard deviations
-//! short of its limit (a moderate sea: a change after a method's first or second test is a
-//! difference against one test's scatter from 4-6 dof, heavy-tailed), two tails of 1e-4
-//! combine to 2e-7 (the unit test: a displacement change of 5 scatter standard deviations
-//! at the vessel's 7th test of 16 is flagged at the moment far more often jointly than by
-//! either method alone).
-//!
-//! The vessel's commissioning is declared inconsistent at the moment whose combined tail is
-//! the smallest, if under its budget; each method whose sample it splits is inconsistent
-//! (a reference it had just completed is not used). The test runs when a method completes
-//! its sample, over it and the other method's sample (gathering, or completed or found
-//! inconsistent from tests that overlap it in time): the budget is spent where the
-//! reference would be set.
-//!
-//! **Confirmation.** A change after a method's first or second test leaves one or two tests
-//! against the others' scatter from `nu = 6` dof, and Hotelling's tail there is so heavy
-//! that a shift of 6 scatter standard deviations is no proof (`T^2(2, 6)` at 4.5e-6 is 29
-//! standard deviations). The tests a commissioned method learns after its commissioning
-//! (those the decision calls healthy, `learning`) add to the changed segment and to the
-//! scatter's dof: at each of them, while its sample holds at most twice its commissioning
-//! tests (`2 k`, `k <= K`) and nothing has been forgotten, the joint test runs again over
-//! the methods' samples as they are (each commissioned method's first `2 k`), and a change
-//! found makes the methods it splits inconsistent as at commissioning's end (at `nu = 14`,
-//! `T^2(2, 14)` at 2.7e-7 is 11 standard deviations). After that the reference is the
-//! vessel's. Only moments inside a method's commissioning split it there: its learned tests
-//! join the changed segment, but a change among them is the decision's (it was called
-//! healthy test by test against the reference), and a split there would set the test's
-//! whole budget against the last one or two tests, where one estimator outlier (a CLFRT
-//! speed 2-3 m/s off, as on the Mariner in a moderate sea) looks like a change. And only the
-//! learned tests in the commissioning's sea join (`confirmation_sample`): the test is over
-//! one sea, and a test in another is another operating point, not a change of health.
-//!
-//! **A change needs two tests after it** (`MIN_CHANGED`), at commissioning's end as in the
-//! confirmation: one test alone against the others is a single test's look, which the
-//! decision makes on every later test against a reference the change moved by `1/n` of
-//! itself; the estimators' heavy tails (docs/results/fdi-commissioning-seed1.md) made it
-//! a false "inconsistent" (one HBT speed 2 m/s off at a healthy commissioning's last test,
-//! on another class of ship).
-//!
-//! Budget: one ship-day of the alarm budget per commissioning, `alpha_c = F / 365.25`
-//! (`fdi.false-alarms-per-year` = 0.1: 2.7e-4), half at its end and half in the
-//! confirmation, each spent evenly over the (evaluation, moment) pairs it can make
-//! (Bonferroni): at the end two evaluations over at most `2 K - 1` moments (`L = 2 (2 K -
-//! 1)`, 30 for K = 8: `alpha_c / 2 / L = 4.5e-6`); in the confirmation `K` evaluations of each
-//! method over at most `4 K - 1` moments (`L_f = 2 K (4 K - 1)`, 496: 2.7e-7). Needs `n >= 6`
-//! (`nu = 4`) in a method.
+//! [`check`] runs when a method completes its sample; [`confirm`] at each test it learns while
+//! its sample holds at most twice its commissioning tests and nothing was forgotten (only
+//! moments inside a commissioning split it; only learned tests in its sea join). The moment
+//! of smallest combined tail, if under `Settings::change_alpha` (`confirm_alpha`), makes each
+//! method it splits `Phase::Inconsistent`. A method with fewer than [`MIN_TESTS`] tests, or
+//! fewer than [`MIN_CHANGED`] after the moment, is not split.
 use super::envelope::{same_sea, sea_step};
 use super::measured::{bound_factor, effective_dof};
 use super::point::{Sample, Settings as Envelope};
@@ -131,14 +32,13 @@ use nalgebra::{Matrix3, Vector3};
 
 /// The confidence level of the upper bound on the scatter's share of a look
 /// (`measured::effective_dof`): at 99 % a one-dof look's exact size stays within its budget
-/// at every `nu >= 4` and every share (module doc).
+/// at every `nu >= 4` and every share (the unit test
+/// `a_one_dof_look_keeps_its_budget_whatever_the_known_share`).
 const BOUND: f64 = 0.99;
 
 /// The fewest tests of a method after the moment for its split to count. One test alone
 /// against the others is a single test's look, the decision's: a change at a sample's last
-/// test moves the reference by `1/n` of itself, and every later test is judged against it;
-/// while one estimator outlier there (an HBT speed 2 m/s off at a commissioning's last
-/// test) would otherwise declare a healthy commissioning inconsistent.
+/// test moves the reference by `1/n` of itself, and every later test is judged against it.
 pub const MIN_CHANGED: usize = 2;
 
 /// The vessel's change-point test when method `i` has completed its commissioning sample:
@@ -455,7 +355,7 @@ impl Slopes {
 
 /// Component `j`'s slopes in the operating point `(u, ln D, ln s)` common to a split's two
 /// segments: the Gaussian prior (mean `prior_mean`, the physical slopes; standard deviations
-/// `reference.slope-*`) updated by the segments' own spread of points about their means
+/// `calibration.slope-*`) updated by the segments' own spread of points about their means
 /// (`within`, and `cross` their cross-products with the component), each test's noise
 /// `noise` (the scatter's variance and the floor's): `A = P0 + W / s2`, `beta = A^-1 (P0
 /// beta_0 + c / s2)`. Returns the posterior mean and covariance, and the noise (infinite

@@ -1,91 +1,28 @@
-//! One decision for the vessel: a window GLR over its last tests, both methods, whose limits
-//! follow from one number, `fdi.false-alarms-per-year`.
+//! The vessel's one decision (docs/fdi.md, "Decision"; its statistics and limits in "The
+//! window GLR and its limits"): a window GLR over the last `N = fdi.window-tests` tests of both
+//! methods, a parameter channel and a servo channel.
 //!
-//! ## Model
+//! [`Sequential::update`] takes a test's [`Entry`] and returns its [`Step`]:
 //!
-//! Each completed test k of method m gives a whitened parameter residual `z_k = L_k^-1 r_k`
-//! (`L_k L_k' = Sigma_k`, the covariance of its residual against the reference it was
-//! measured against, the reference's own error included: `crate::core::fdi::reference`) and,
-//! when it had a servo check, the servo's one-sided score `z_rate,k >= 0`. For a healthy ship
-//! (H0): the `z_k` are standard normal 2-vectors; the part of each that is the reference
-//! offset's error, at most a share `c_m` of its variance in any direction, is shared by every
-//! test of a method (0 for the design's reference; `1 / (K + 1)` for K tests at one point;
-//! near 1 at an operating point the vessel has not been tested at); the rest is independent
-//! from test to test; `z_rate` is a normal score clipped at 0. A fault that began `n` tests ago (H1(n)) shifts every later
-//! `z_k` of method m by a constant `d_m` (each method sees the fault its own way: the two are
-//! free) and the servo score by a constant `d_s > 0`.
+//! - The window keeps at most `N` entries and one reference per method: the test's method's
+//!   entries of an older epoch leave. Looks cover the newest `n = 1..N` entries.
+//! - An entry on wide design limits (`offset_var` `None`) enters only its own look, the free
+//!   shift's at `n = 1`: it alerts, never alarms; while it is the newest no other parameter
+//!   look is taken.
+//! - Parameter looks: the free shift `T_n` (each method's components summed, 1 to `2 P` dof)
+//!   and one per cause of `limits::PARAMETER_CAUSES` ([`param_statistics`]; [`COMMON_SIZE`]
+//!   says which cause has one size for both methods). The servo look `S_n` is taken only when
+//!   the newest test has a servo check.
+//! - A look over its limit (`limits::Limits`) raises the alarm and empties the window; the
+//!   alarm clears after `N` tests in a row under every alert limit. A look over an alert limit
+//!   with no alarm is an alert; otherwise the state is normal.
+//! - The name: `steering_actuator` when the servo look is at least as near its limit as the
+//!   parameter look, else isolation's over the parameter look's window (`isolation`). An
+//!   alarm keeps its name until a later look over the alarm limit renames it; normal names
+//!   nothing.
 //!
-//! ## Statistics
-//!
-//! The generalised likelihood ratio of H1(n) against H0, the `d`'s at their maximum
-//! likelihood, is, per channel,
-//!
-//! ```text
-//! T_n     = sum_m |s_m|^2 / (n_m (1 + (n_m - 1) c_m))           chi2, 2 M_n dof
-//! T_n,D   = sum_m (u_mD . s_m)^2 / (n_m (1 + (n_m - 1) c_m))    chi2, M_n dof
-//! T_n,log = (sum_k v_k . z_k)^2 / sum_m ((1 - c_m) sum_k |v_k|^2 + c_m |sum_k v_k|^2)
-//!                                                               chi2, 1 dof
-//! S_n     = sum_{k in last n} z_rate,k / sqrt(n_s)              N(0, 1) or below
-//! ```
-//!
-//! (`s_m = sum_{k in last n, method m} z_k`.) The cause looks are the ratio under narrower
-//! H1s: the shift lies along the direction in which the cause moves each test's whitened
-//! residual (`isolation`): for a displacement or rudder-effectiveness change along `u_mD`,
-//! the unit mean of the method's displacement directions, with a size per method; for a
-//! speed-log bias `beta` by exactly `beta v_k` (`v_k` the whitened log direction per m/s),
-//! one size for both methods (`COMMON_SIZE`). The alarm is named by isolation over the
-//! raising look's window, whichever look raised it.
-//!
-//! (`n_m` of the last n tests are of method m, `M_n` methods among them; the sum's covariance
-//! is at most `n_m (1 + (n_m - 1) c_m) I`, so `T_n` errs low where the share is below `c_m`:
-//! conservative; the servo's clip at 0 makes `S_n` stochastically smaller than a normal
-//! score: conservative too). A test measured on
-//! wide design limits (commissioning, or after a commissioning sample held a change) enters
-//! only its own look, `n = 1`: its residual is the model's bias on this ship, the same at
-//! every test, and no average shrinks it. Over its limit it raises an **alert, never an
-//! alarm**: the wide limits bound how far the networks may misread a ship of the family they
-//! were trained for, and a test beyond them (its displacement read about 1.3 D_nom off, or
-//! its speed about 11 m/s: no loading, rudder or log fault does that) says the ship is unlike
-//! that family at this operating point, or was declared wrong, steadily from its first test. A fault and a
-//! model that does not fit cannot be told apart before the vessel has a reference of its
-//! own; the test joins the commissioning sample (`crate::core::fdi::learning`), whose
-//! change-point test catches a change inside it, and the vessel's own reference judges the
-//! tests after it. (Measured: the Mariner hull with models trained on its own linearised
-//! particulars read HBT's displacement at +1.3 D steadily at its fast and light corner, and
-//! each of that run's tests alarmed.)
-//!
-//! ## Limits from the budget
-//!
-//! With `F = fdi.false-alarms-per-year` and the scheduler's test rate `N_y = 365.25 x 86400 /
-//! (scheduler.interval-s + scheduler.steady-time-s)` tests a year (at most: a test's own
-//! duration is left out, so the rate is over-counted and the limits err high), each test may
-//! raise a false alarm with probability `alpha = F / N_y`, split evenly over the four families
-//! of looks (the servo's, the free shift's, one per parameter cause; Bonferroni: a cause's
-//! look is part of the free one's evidence, so the true rate is below it) and over the `N =
-//! fdi.window-tests` window lengths counted as the `M_eff` independent looks they are worth
-//! (`effective_lengths`: Li and Ji's count from the eigenvalues of the nested windows'
-//! correlations `sqrt(n / m)`; 2 for N = 2 to 4, where Bonferroni would count N):
-//!
-//! ```text
-//! alpha_n = alpha / (4 M_eff)
-//! T_n > h_n = chi2_{2 M_n}^-1(1 - alpha_n)     T_n,c > k_n = chi2_{M_n}^-1(1 - alpha_n)
-//! S_n > g = Phi^-1(1 - alpha_n)
-//! ```
-//!
-//! Defaults (F = 0.1, 3720 s, N = 4, `M_eff` = 2): `alpha = 1.18e-5`, `alpha_n = 1.47e-6`,
-//! `h = 26.9` (one method, 2 components) / 29.9 (3) / 32.6 (both, 2 each) / 37.4 (both, 3
-//! each), `k = 23.2` / 26.9, `g = 4.67`. A look over its limit raises the alarm at once;
-//! the evidence is spent (the window empties), so the alarm holds on new tests or clears
-//! after N tests in a row under the alert limits, which are the same statistics at a
-//! thousand times the per-look probability (`alpha_n x 1000`: `h = 13.0` / 15.4 / 17.6 /
-//! 21.5, `k = 10.1` / 13.0, `g = 2.97`): an alert says evidence is building.
-//!
-//! What the arithmetic does not cover: residuals that are not Gaussian (heavy tails of a hull
-//! unlike the training model), a covariance learned from few tests (the K-sample factor
-//! makes it right on average, not for every vessel), and serial correlation of the sea.
-//! The family suite counts false alarms on simulated ships directly; a Monte Carlo on the
-//! model itself checks the arithmetic (`decision_tests.rs`, docs/fdi.md "What the
-//! arithmetic covers").
+//! A [`Step`]'s looks are each channel's nearest its limit (largest `T / h`), `None` when the
+//! window holds nothing for that channel.
 
 use super::isolation;
 use super::limits::{self, Limits};

@@ -14,7 +14,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 
-/// An entry measured in `(e_u, e_D)` only (2 dof, the figures of the module doc).
+/// An entry measured in `(e_u, e_D)` only (2 dof).
 pub(crate) fn entry(method: Method, z: [f64; 2], c: Option<f64>) -> Entry {
     Entry {
         method,

@@ -1,92 +1,29 @@
-//! The vessel's healthy residual over its operating envelope: a local linear regression with
-//! a prior on its slopes, and the prediction interval it gives at a new operating point.
+//! The vessel's healthy offset `mu(x)`, its error `Omega(x)` and the scatter's shape `S~` over
+//! the operating envelope (docs/fdi.md, "How the normal is learned", "The reference follows
+//! the ship"): a kernel-weighted local linear regression with a Gaussian prior on its slopes.
 //!
-//! ## Model
-//!
-//! A healthy test of one method at the operating point `x = (u, l, g, w)` (`u` the speed
-//! log [m/s], `l = ln D_decl` the declared displacement's logarithm, `g = ln s` the logarithm
-//! of the excitation's scale against its design: HBT's relay scale, CLFRT's tones' geometric
-//! mean, 0 when the test played as designed; `w = ln(max(i, i_calm) / i_calm)` of the test's
-//! sea index `i`, its measured wave yaw [deg], `i_calm` the calm anchor
-//! `calibration.sea-wave-yaw-deg[0]`: 0 in a calm sea, 1.3 in a moderate one, 2.3 in a rough one at
-//! the defaults) has the raw residual
-//! (`crate::core::fdi::reference`) `e = m(x) + eps`, with
-//!
-//! - `m(x)` the networks' structural bias on this ship: smooth in `x`, unknown, learned.
-//!   The excitation's scale is part of the point because a test sized down to the loop it
-//!   found (`crate::core::monitor::sizing`) is read back to the design by the describing
-//!   function of a linear ship: on a nonlinear hull the read-back is biased, by as much as
-//!   0.4 m/s of HBT's speed for a relay at 0.83 of its design (KVLCC2, 9.5 m/s), and a
-//!   ship near the sizing's threshold plays one scale or the other from test to test. The
-//!   sea is part of it because the wave-induced yaw biases what a test reads (the relay
-//!   switches early on a wave, the tones' gains gather the waves' power at their
-//!   frequencies), and the networks' bias per sea (the model files' calm and moderate
-//!   means) is the training ship's, not this hull's: measured on the family, a matured
-//!   reference met a sea one state rougher with HBT's `e_u` moved by 0.1-1.5 m/s per unit
-//!   of `w` and `e_D` by up to 0.1;
-//! - `eps ~ N(0, S_sea S~ S_sea)`: the test-to-test scatter, its *shape* `S~` (a 3 x 3
-//!   covariance in units of the design spreads) carried to a test's sea by that test's
-//!   design spreads `S_sea = diag(s_u, s_D, s_D)` (`e_b`, the ln of the test's own
-//!   high-frequency gain, is a relative quantity like `e_D`). The shape is the same over
-//!   the envelope but for the sea: in another sea only the tests there vouch for it
-//!   (`local_shape`), the design spreads carrying it there as a prior worth `CARRIED_DOF`.
-//!
-//! Near a point `x*`, `m(x) ~ a_0 + a_u (u - u*) + a_l (l - l*) + a_g (g - g*) + a_w
-//! step(w - w*)` per component (`step` the part beyond half the sea's bandwidth: one sea's
-//! own scatter of the sea index is no change of sea, `sea_step`). Each
-//! component is fitted by weighted least squares over the learned tests, each test weighted
-//! by its noise (`1 / (s_ij^2 S~_jj)`) and by a kernel of its distance from `x*`,
+//! At `x* = (u, ln D, ln s, w)` (`point::Point::x`) each component `j` is fitted by weighted
+//! least squares, each learned test weighted `1 / (1 + d^2)` over its noise `s_ij^2 S~_jj`:
 //!
 //! ```text
-//! w = 1 / (1 + d^2),
-//! d^2 = ((u - u*) / b_u)^2 + ((l - l*) / b_l)^2 + ((g - g*) / b_g)^2 + ((w - w*) / b_w)^2
+//! e_j = a_0 + a_u du + a_l dl + a_g dg + a_w sea_step(dw)
+//! d^2 = (du / b_u)^2 + (dl / b_l)^2 + (dg / b_g)^2 + (dw / b_w)^2
 //! ```
 //!
-//! (`calibration.bandwidth-speed-mps`, `-loading`, `-excitation`, `-sea`; a test that does not
-//! know its sea adds no distance in it): a soft bin, the method
-//! of bins of wind-turbine power curves (IEC 61400-12) made continuous, and ISO 19030's
-//! reference conditions made local. The slopes carry a Gaussian prior with standard
-//! deviations `calibration.slope-speed`, `-loading`, `-excitation` and `-sea` (per component,
-//! `e_b` taking the displacement's: both are fractions of the ship's own value; in speed
-//! its own, `calibration.slope-speed-gain`): how
-//! fast a network's bias on a ship unlike its training model may change across the
-//! envelope beyond what physics predicts. The prior's mean is 0 (in the sea: the model
-//! files' per-sea bias is already removed), except in declared loading,
-//! where it is the learned tests' own slope of `b` scaling by `1 / D` (`Sample::loading_slope`,
-//! `crate::core::fdi::sensitivity::scale_b`), and in speed: there it is the **similarity
-//! law's slope**, the kernel-weighted mean of the learned tests' own
-//! (`Sample::speed_slope`, `crate::core::fdi::sensitivity::scale_speed`): each test's
-//! features moved to a neighbouring speed as the same ship would play them there, read by
-//! the networks. On the first-order ship the networks were trained on it is near 0; on a
-//! hull unlike it, it is how the networks misread that hull at another speed (measured on
-//! the family: `e_D` of CLFRT on the T2/T1 0.1 hull -0.107 for 0.5 m/s slower, predicted
-//! -0.104; on the upper-strength hull -0.316 for 2 m/s, predicted -0.308). For a test
-//! (`predict_for`) the mean in speed and in loading is the **trapezoid** of the learned
-//! tests' slope and the test's own, `(beta_learned + beta_test) / 2`: the law bends (the
-//! gain moves as `2 ln u`, its slope `2 / u`), and the learned slope carried straight from 4
-//! to 5.5 m/s over-predicts the gain's move by 0.11, the trapezoid by 0.011 (its error is
-//! third order in the move). The test's slope is one test's reading: a quarter of the
-//! learned slopes' scatter near `x*` joins the prior's variance. `e_b`'s prior in speed is
-//! its own (`calibration.slope-speed-gain`: the spread of the law's error over a population
-//! of hulls, docs/fdi.md). The intercept has a flat prior. The fit's intercept is the
-//! predicted offset at `x*`; its posterior variance `(A^-1)_00` is the prediction's own:
-//! small where the ship has been tested, growing with the distance from what was learned
-//! (the kernel and the slope prior), never the design's wide limits.
+//! `b` the widths `calibration.bandwidth-*` (a test without a sea index adds no distance in
+//! it). `a_0` has a flat prior, the slopes sd `calibration.slope-*` about 0, but in speed and
+//! loading about the physical slopes: for a test ([`predict_for`]) the trapezoid of the
+//! learned tests' kernel-weighted slope and its own, with a quarter of the learned slopes'
+//! scatter added to the prior's variance. A [`Prediction`] holds `a_0` in physical units, its
+//! covariance (growing away from the learned tests), the kernel support, the nearest learned
+//! test's distances in bandwidths and the slope prior's share of each variance; `None` when
+//! the normal equations are singular or not finite.
 //!
-//! The shape `S~` is the scatter of the learned tests about the fit at their own points,
-//! normalised by their design spreads, over the effective degrees of freedom `nu = n -
-//! sum_i h_ii` (`h_ii` the leverage of test i at its own point): `n - 1` when every test was
-//! at one point, the sample covariance. It is computed in passes to its fixed point (at most
-//! `SHAPE_PASSES`): the first with the raw scatter about the sample's mean as the noise
-//! weights and the slopes all but free (the prior `LOOSE` times wider), then with the
-//! previous pass's shape and the prior. At one operating point the first pass is the fixed
-//! point (the fit is the sample's mean whatever the weights). Across points the raw scatter
-//! counts the offset's move between them as noise, many times the real scatter; a fit
-//! weighted with that noise leans on the slope prior, is pulled towards the other points'
-//! offset and leaves the move in the residuals, which keeps the noise large: a fixed point
-//! of its own, which two passes from the raw scatter stayed near (a second point's offset
-//! fitted halfway to the first's, the unit test
-//! `a_second_point_is_fitted_at_its_own_offset_when_the_offset_moved_far`).
+//! [`shape`]: the scatter about the fits at the tests' own points in design-spread units, over
+//! `nu = n - sum h_ii` (at least 1), in passes to a fixed point, the first with the slopes all
+//! but free so that an offset moved between points is not read as scatter; `None` under two
+//! tests. [`local_shape`]: the tests in the point's sea, pooled with the global shape as a
+//! prior worth [`CARRIED_DOF`] where other seas were learned too.
 
 use super::point::{Point, Sample, Settings, Slopes, X};
 use super::raw::Raw;
@@ -102,11 +39,7 @@ const MIN_SHAPE_VAR: f64 = 1e-8;
 const SHAPE_PASSES: usize = 12;
 
 /// The degrees of freedom the shape carried to another sea by the design spreads is worth
-/// there: an inverse-Wishart prior about
-/// it, `P + 2`, the weakest whose mean exists. Measured on the family (`eval --fdi --family
-/// --scenarios envelope`, the seas' commissioning samples), the scatter in design-spread
-/// units moves between a calm and a moderate sea by up to 3 times in standard deviation,
-/// which this prior's 1 % tail (9 times the variance) covers.
+/// there: an inverse-Wishart prior about it, `P + 2`, the weakest whose mean exists.
 pub const CARRIED_DOF: f64 = P as f64 + 2.0;
 
 /// How much wider the slope prior is in the shape's first pass.
@@ -170,18 +103,16 @@ fn condition_distance(st: &Settings, a: X, b: X) -> f64 {
 }
 
 /// Whether two tests' `w` are one sea: within one `calibration.bandwidth-sea` (a NaN `w`, a
-/// test at every sea, is in any). A sea state apart is about 1 (calm to moderate 1.3,
-/// moderate to rough 0.9 at the default anchors); one sea's own tests scatter by about 0.1.
+/// test at every sea, is in any).
 pub fn same_sea(st: &Settings, w: f64, at: f64) -> bool {
     let d = w - at;
     d.is_nan() || (d / st.bandwidth[3]).abs() <= 1.0
 }
 
 /// The sea's regressor for a difference `dw` in `w`: the part beyond half a bandwidth. One
-/// test's sea index is its wave yaw over that test, which scatters by about 0.1 in `w`
-/// within one sea (measured on the family: calm 0.02 +- 0.05, moderate 1.34 +- 0.1, rough
-/// 2.27 +- 0.1); a slope fitted to that scatter is noise, and the next sea would be
-/// predicted along it. Within half a bandwidth the offset is one sea's.
+/// test's sea index is its wave yaw over that test, which scatters within one sea; a slope
+/// fitted to that scatter is noise, and the next sea would be predicted along it. Within half
+/// a bandwidth the offset is one sea's.
 pub(super) fn sea_step(st: &Settings, dw: f64) -> f64 {
     let dead = 0.5 * st.bandwidth[3];
     dw.signum() * (dw.abs() - dead).max(0.0)

@@ -1,76 +1,28 @@
-//! Isolation: which cause explains the window's evidence best.
+//! Isolation (docs/fdi.md, "Isolation", under "The model" and under "Decision"): which
+//! parameter cause explains the window's evidence best, and which other it does not rule out.
 //!
-//! Each parameter cause moves a method's raw residual `(e_u [m/s], e_D [fraction])` along a
-//! direction of its own:
-//!
-//! - a speed-log bias `beta`: `e_u` by `-beta` (the log is the speed residual's reference) and
-//!   `e_D` by `g beta / D_nom` (the displacement network reads the log; `g = dD_est/du_log`,
-//!   through the network at this test): `v_log = (-1, g / D_nom)`;
-//! - a displacement change or a rudder effectiveness loss (both lower `b`; nothing in the
-//!   features tells them apart): `v_D = (0, 1)`.
-//!
-//! Whitened with the test's covariance, `v~ = L^-1 v`. Each cause is a model of the look's
-//! n tests: the cause began within them and moved each test's whitened residual along its
-//! direction, by a size the look fits. The part of the summed residuals the fitted model
-//! leaves is the cause's cost (the free shift's statistic less the cause's look,
-//! `crate::core::fdi::decision`):
+//! Each cause is a model of a look's tests: a shift along the cause's whitened directions
+//! (`window::Entry::directions`), the speed log by one size for both methods, the displacement
+//! by one per method (`decision::COMMON_SIZE`). Its cost `J_c` ([`costs`]) is what the model
+//! leaves of the free shift's statistic, its dof the look's components less the sizes:
 //!
 //! ```text
-//! J_log = sum_m |s_m|^2 / k_m - (sum_k v_k . z_k)^2 / sum_m ((1 - c_m) sum_k |v_k|^2 + c_m |sum_k v_k|^2)
-//! J_D   = sum_m |s_m - (u_mD . s_m) u_mD|^2 / k_m,       k_m = n_m (1 + (n_m - 1) c_m)
+//! J_log = T_n - T_n,log,    J_D = sum_m (|s_m|^2 - (u_mD . s_m)^2) / k_m
 //! ```
 //!
-//! (`s_m` the sum of method m's whitened residuals in the look, `u_mD` the unit mean of its
-//! displacement directions). A speed-log bias is one number for the vessel: it moves both
-//! methods' residuals by `beta v_k` with directions that are exact per m/s, so its model has
-//! one size (`decision::COMMON_SIZE`), and how much each method moved is evidence for or
-//! against it. A displacement's direction is read through a model of the features that a
-//! hull unlike the training model can bend: a size per method. Under the true cause its cost
-//! is chi-square with the look's components less the sizes it fitted (`d_log = sum_m p_m - 1`,
-//! `d_D = sum_m p_m - M`); the cause whose cost is the likelier, `P(chi2_d > J_c)`, is named
-//! (on a tie, the cause with fewer sizes: a model that fits as well with less freedom). So a
-//! look with more freedom does not win the name by it, and a log bias seen by both methods
-//! in the ratio it predicts is named the log even where each method alone cannot tell the
-//! two apart (the second-order hulls, where a test's two directions are a few degrees apart).
-//! The name is taken over the raising look's window, whichever look raised the alarm. The
-//! servo channel names `steering_actuator` by itself (`crate::core::fdi::decision`): one
-//! fault at a time, and a slow servo also moves the parameter residuals (its lag changes the
-//! loop the networks learned), which the servo check measures directly.
-//!
-//! **The log's step.** A speed-log bias arising between two tests is a jump of the log's
-//! reading; a change of loading or of the rudder leaves the reading where it was (the ship
-//! does not know its displacement changed). The residuals alone barely tell the two apart at
-//! one test on many hulls (their directions a few degrees apart), the reading does: each
-//! model also explains the look's step `s` (the mean reading over its tests less the reading
-//! before the fault, [`look_step`]; spread `sigma sqrt(1 + 1/n)`, `sigma` the steady ship's
-//! wander, [`log_wander`]). What the ship's own speed did between the tests is unknown: steady (the
-//! wander) or, with the prior [`SPEED_CHANGE_PRIOR`], a change of any size. So the
-//! displacement's model pays `C(s)` ([`step_cost`]) and the log's `C(s - beta)`, its one
-//! size `beta` fitted to the residuals and the step together:
-//!
-//! ```text
-//! J_log = J_log,resid(beta^) + min_beta [var (beta - beta^)^2 + C(s - beta)]    J_D = J_D,resid + C(s)
-//! ```
-//!
-//! one component more in each (`d + 1`). A step the steady ship makes costs nothing either
-//! way; a jump no steady ship makes costs at most the prior of a change (`C` 12.8 for a 0.5
-//! m/s jump at the floor's wander), so a residual that plainly says the other cause still
-//! names it; and a change of speed with a loading change costs both models alike (the flat
-//! prior of its size: no size of log bias is favoured). A log bias that creeps in over many
-//! tests makes no step and is named by the residuals alone. The step is taken only at
-//! points the vessel has learned ([`look_step`]: at a predicted point the prediction's error
-//! makes any log bias cheap to the residual).
-//!
-//! **Not yet ruled out.** Where the evidence cannot exclude the other cause, the report says
-//! so beside the name ([`not_ruled_out`]). In the stacked whitened space, with `U` the span
-//! of both causes' directions, `J_t - J_o = |(H_U - H_t) z|^2 - |(H_U - H_o) z|^2 <= |(H_U -
-//! H_t) n|^2` under the true cause `t` (its directions leave no trace in `(H_U - H_t) z`),
-//! chi-square with at most `p_o` dof (the other model's sizes). So the true cause's cost
-//! exceeds the other's by more than `chi2_{p_o}(0.95)` with probability at most 5 %: a cause
-//! whose cost exceeds the named one's by less than that (the named model's sizes: the log 1,
-//! the displacement one per method) is not ruled out. On the family's first alarms (one
-//! test, mostly CLFRT's, since the onset) that is nearly always the case: the name there is
-//! the better of two explanations the evidence cannot yet separate.
+//! - **The log's step.** Where every test of the look was at a point the vessel has learned,
+//!   each model also explains the step `s` of the log's reading from before the fault, spread
+//!   `sigma sqrt(1 + 1/n)`, `sigma` the steady ship's wander ([`log_wander`]: at least
+//!   `fdi.floor-speed-mps` and 1 mm/s). The displacement's model adds `step_cost(s)`, the
+//!   log's `step_cost(s - beta)`, its size `beta` fitted to residuals and step together; one
+//!   dof more each. [`step_cost`] is 0 for no step and bounded by the prior of a speed change
+//!   ([`SPEED_CHANGE_PRIOR`]).
+//! - **The name** ([`name`]): the cause with the larger tail `P(chi2_dof > J_c)`; on a tie the
+//!   one nearer its chi-square's bulk, then the one with fewer sizes. Nothing is named when a
+//!   cost or dof is not finite, or a dof is not positive.
+//! - **Not ruled out** ([`not_ruled_out`]): a cause whose cost exceeds the named one's by at
+//!   most `chi2_q^-1(RULE_OUT_CONFIDENCE)`, `q` the named model's sizes: under the true cause
+//!   the difference exceeds that with probability at most 5 %.
 
 use super::limits::PARAMETER_CAUSES;
 use super::point::Sample;
@@ -169,11 +121,9 @@ pub fn reading_before(window: &VecDeque<Entry>) -> Option<f64> {
 /// one measured at a point the vessel has not learned).
 ///
 /// At a point not yet learned the reference is a prediction whose error is most of the
-/// test's covariance (at 1.5 m/s from the learned points, 0.75 m/s of `e_u` by the slope
-/// prior): a log bias the size of the jump is then as cheap to the residual as the
-/// prediction's error, and the step would name the log for every change of speed (measured:
-/// a 25 % loading change with a 1.5 m/s change of speed). Whether the ship stayed where it
-/// was is only said by a residual against a learned point.
+/// test's covariance: a log bias the size of the jump is then as cheap to the residual as the
+/// prediction's error, and the step would name the log for every change of speed. Whether
+/// the ship stayed where it was is only said by a residual against a learned point.
 fn look_step(window: &VecDeque<Entry>, n: usize, onset: Option<f64>) -> Option<(f64, f64)> {
     let taken = taken(window, n);
     let oldest = taken.last()?.log?;

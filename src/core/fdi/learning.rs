@@ -1,47 +1,24 @@
-//! When a test against the vessel's reference is learned: once the decision has seen all it
-//! can of it.
+//! When a test is learned into its method's reference (docs/fdi.md, "Learning"): once the
+//! decision has seen all it can of it, so that a reference never holds the evidence it judges.
 //!
-//! ## Model
+//! - While commissioning every completed test joins the sample at once
+//!   (`reference::Commissioning::add`); a completed sample goes to the change-point test.
+//! - After commissioning a test is eligible when its own `|z|^2` was under the single-test
+//!   alarm limit at its dof and its own error widened it by at most
+//!   `calibration.learn-noise-ratio-max` (against its own sea's typical). A method found
+//!   inconsistent learns nothing.
+//! - An eligible test is learned at once when the decision after it is quiet (every look under
+//!   its alert limit, no alarm holding) and, at a learned point, it is typical: each of its
+//!   own looks has a tail of at least [`LEARN_TAIL`]. At a predicted point a quiet test is
+//!   learned at once.
+//! - Otherwise it is held ([`Pending`]) and learned as it leaves the window, `N` tests later.
+//!   An alarm drops every held test; one held under an older reference of its method is
+//!   dropped as it leaves.
+//! - After each learned test the confirmation runs (`changepoint::confirm`). The window's
+//!   tests are measured again against their method's newest reference
+//!   ([`Learner::remeasure_window`]); one learned at once stays as it was measured.
 //!
-//! The decision (`decision`) judges each test within a window of the vessel's last N tests
-//! (`fdi.window-tests`): a fault's evidence is added up over up to N tests, against a
-//! reference that must not already contain them. A test learned at once moves the
-//! reference towards itself by `1 / (n + 1)` of its residual at a point with n learned
-//! tests, and at a point the vessel has not been tested at (n near 0) by nearly all of it:
-//! a moderate fault, or a speed-log bias that moves the operating point itself, would be
-//! learned by its first test and never reach its window's limit.
-//!
-//! So a test after commissioning is learned at once only when the decision after it is
-//! quiet (every look under its alert limit: nothing is building up). A test under an alert
-//! is held while it is in the window and learned as it leaves it (N tests of the ship
-//! later), if the vessel raised no alarm in between: every look that could contain it has
-//! then been taken. An alarm empties the queue as it empties the window (the evidence is
-//! spent; a step the prediction calls a fault is never a new point). A test is eligible when
-//! its own look was under the single-test alarm limit, as before (an alert does not stop
-//! learning, it delays it: a reference whose covariance came out too small alerts on
-//! healthy tests, and only learning them cures it). A test held under one reference is
-//! dropped if the method has been commissioned again since (its generation). The window's
-//! held tests are measured again at every test against their method's newest reference
-//! (`decision::Sequential::remeasure`), which never contains them.
-//!
-//! A quiet decision is not enough on its own: with a reference learned from few tests the
-//! look's Hotelling factor makes a test that sits 6-8 of its scatter's standard deviations
-//! off in the gain alone (a 12 % loading change on KVLCC2 in a moderate sea) a quiet one, and
-//! learned at once it inflates the scatter the next tests are judged by (their gain's score
-//! fell from 7-8 to 2-3 and the window never reached its limit). So at a point the reference
-//! has learned (a learned test within one bandwidth: the report's `commissioned`) a quiet
-//! test is learned at once only when it is typical of the healthy scatter: each of its own
-//! looks (the newest entry alone: the free shift's at its dof, each cause's at 1) has a tail
-//! probability of at least [`LEARN_TAIL`], 1 %; an atypical one is held as under an alert.
-//! Holding costs only time (a healthy ship's atypical 1 % are learned N tests later), never a
-//! false alarm: the decision's looks do not change. At a new point (`predicted`) a quiet
-//! test is learned at once whatever its tail: there the prediction's own error is what the
-//! test measures (held, a new point 2.6 standard deviations off its prediction stayed
-//! unlearned, and a 10 % loading change four tests later moved the tests back towards the
-//! biased prediction instead of away from the point's offset).
-//!
-//! The price: an alerting new operating point is learned N tests later than it could be,
-//! its tests meanwhile judged against the prediction's wider interval.
+//! With `fdi.enabled = false` nothing is learned.
 
 use super::ablation::{self, Mechanism};
 use super::changepoint;

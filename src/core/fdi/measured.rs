@@ -1,6 +1,6 @@
 //! A test's residual against the vessel's reference: which reference ([`Basis`]), the
 //! residual and its covariance ([`Measured`]), and the calibration of Hotelling's statistic
-//! onto the chi-square (the model: `crate::core::fdi::reference`).
+//! onto the chi-square (docs/fdi.md, "The model").
 
 use super::envelope::Prediction;
 use super::stats::{chi2_isf, dot, hotelling_sf, Cov, P};

@@ -1,34 +1,24 @@
-//! Parity-space fault detection and isolation: the vessel's own normal, one sequential test.
+//! Parity-space fault detection and isolation of one vessel. The model is stated once, in
+//! docs/fdi.md, "The model"; the keys and the models' calibration in "Keys and calibration".
 //!
-//! After every completed test, in this order:
+//! [`Fdi::assess`] takes a completed test through four steps, the evidence flowing one way:
 //!
-//! 1. **Raw residuals** against the design (`reference`): `e_u = u_est - u_log - m_u` [m/s]
-//!    and `e_D = (D_est(f, u_log) - D_nom - m_D) / D_nom`, with the estimator's own bias `m`
-//!    and spread `s` on its validation set, per sea state (model files' `uncertainty.by_sea`),
-//!    interpolated by the test's sea index: its wave yaw (`features.wave_yaw_rad`, the
-//!    heading's rms in `calibration.wave-band-rad-s`) between the calm and moderate anchors
-//!    `calibration.sea-wave-yaw-deg` (beyond the moderate one the spread keeps growing, up to 3 x; a
-//!    test without a wave yaw gets the moderate spread).
-//! 2. **The reference** (`reference`): the design's (commissioning off), the design's with
-//!    wide limits (commissioning, outside the commissioned speed band), or the vessel's own:
-//!    the commissioning sample's mean and full covariance, carried to the test's sea, with
-//!    the K-sample factor and the physical floors. The residual `r = e - mu` is whitened
-//!    with that covariance.
-//! 3. **The servo check** (both methods): the rudder's measured rate over the healthy
-//!    servo's, `rho`, gives the one-sided score `z_rate = max(0, 1 - rho) /
-//!    calibration.actuator-rate-sigma` (CLFRT: the servo-check burst's 95th-percentile rate; HBT: the
-//!    median of the relay periods' peak rates, which the steps drive to the rate limit).
-//! 4. **One decision for the vessel** (`decision`): a window GLR over its last
-//!    `fdi.window-tests` tests of both methods, a parameter channel and a servo channel,
-//!    with limits from `fdi.false-alarms-per-year` at the scheduler's test rate.
-//! 5. **Isolation** (`isolation`) from the same whitened residuals over the same window.
+//! 1. `residual`: the raw residuals `(e_u, e_D, e_b)` against the design and the servo check
+//!    (`raw`), HBT's displacement direction read through the vessel's loop (`shape`).
+//! 2. `normal`: the residual measured against the method's reference, whitened and
+//!    calibrated into the window's entry (`window`, `reference`, `envelope`, `measured`,
+//!    `noise`), with the log's wander (`isolation`).
+//! 3. `decide`: the vessel's window GLR and the cause it names (`decision`, `limits`,
+//!    `isolation`), then what the reference learns (`learning`, `reference`, `changepoint`).
+//! 4. `report`: the report's `residuals`, decision and summary, and a notification when the
+//!    vessel's alarm state changed (`report`, `fit`, the equation-error baseline).
 //!
-//! The CLFRT model fit (`fit`: a first-order Nomoto model through the three tones, a
-//! chi-square in the four directions no (u, D) explains) is reported and, above
-//! `calibration.model-mismatch-chi2`, adds a `model_mismatch` warning; it never decides. The
-//! equation-error baseline (`crate::core::baseline`) is judged test by test at the same
-//! per-test limit, for comparison only. A heading-sensor drift moves none of the residuals:
-//! the features are drift-free by construction (docs/fdi.md).
+//! Invariants: with `fdi.enabled = false` the residuals are reported, the reference learns
+//! nothing and the decision is `inconclusive`; so is a test with neither a parameter residual
+//! nor a servo check. An inconsistent commissioning holds the vessel at alert at least. The
+//! saved [`FdiState`] restores an alarm as an alarm; a part in an older format comes back
+//! empty, and a reference made under another ship configuration or other models is
+//! discarded (docs/fdi.md, "Saved state and restarts").
 
 pub mod ablation;
 pub mod changepoint;

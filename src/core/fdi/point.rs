@@ -128,7 +128,7 @@ impl Point {
     }
 }
 
-/// The regression's settings (from `[reference]`).
+/// The regression's settings (from the models' calibration, `Calibration`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Settings {
     /// Kernel widths `(b_u [m/s], b_l [ln D], b_g [ln s], b_w [ln of the sea index])`.

@@ -314,7 +314,7 @@ pub struct Raw {
     /// `e_a = ln(a^ / u_log)`: the test's own yaw damping over the speed log
     /// (`crate::core::fdi::sensitivity::ln_damping`; `None`: the features do not say)
     /// [ln 1/m]. The similarity law makes it the same at every speed; a speed-log bias
-    /// `beta` moves it by `-beta / u`. Reported, not decided on (docs/fdi.md, "Isolation").
+    /// `beta` moves it by `-beta / u`. Reported, not decided on (docs/fdi.md, "Residuals").
     #[serde(default)]
     pub ln_damping: Option<f64>,
     /// How `(e_u, e_D, e_b)` move per m/s of the ship's own speed by the similarity law

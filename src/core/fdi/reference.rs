@@ -1,122 +1,28 @@
-//! The parity reference of one method: the design's, or the vessel's own, learned from its
-//! healthy tests over its operating envelope.
+//! The parity reference of one method (docs/fdi.md, "The vessel's normal"): the design's,
+//! the design's with wide limits while commissioning, or the vessel's own over its operating
+//! envelope (`envelope`). [`Commissioning::measure`] returns the basis and the residual
+//! `(e_u [m/s], e_D [fraction of D_nom], e_b [ln])` with a healthy ship's covariance:
 //!
-//! A real ship is never the training model (a second-order hull, Norrbin damping, a dead band,
-//! an autopilot of its own): on such a ship the networks' estimates carry a bias of their own,
-//! which depends on the operating point (speed, loading) and is constant there, that the
-//! design spreads (the estimator's error on the training model) read as a fault. The paper's
-//! premise is that the features are nominal if, and only if, the plant's parameters are: so
-//! the reference a test is compared with is the vessel's own healthy behaviour at the test's
-//! operating point.
+//! - commissioning off: the design spreads, `(e_u, e_D)` only, offset share 0;
+//! - commissioning or inconsistent (or no prediction possible): the design spreads widened to
+//!   `calibration.commissioning-spread-*`, `(e_u, e_D)` only, no offset share (wide limits);
+//! - commissioned: `r = e - mu(x)`, its covariance the local shape pooled with an
+//!   inverse-Wishart prior of [`PRIOR_DOF`] dof and carried by the design spreads, plus
+//!   `Omega(x)`, the floors and a CLFRT test's own excess error (`noise`). At a loading,
+//!   excitation or sea over a bandwidth from every learned test the dof are at most the
+//!   kernel weight there less one.
 //!
-//! ## Raw residuals
-//!
-//! Per completed test with an estimate, against the design:
-//!
-//! ```text
-//! e_u = u_est - u_log - m_u            [m/s]
-//! e_D = (D_est - D_nom - m_D) / D_nom  [-]     (D_nom the declared displacement)
-//! ```
-//!
-//! with `s_u`, `s_D` (relative) the design spreads at the test's sea index.
-//!
-//! ## Commissioning: the first tests of each method
-//!
-//! Decisions use the design reference with wide limits (`calibration.commissioning-spread-*`,
-//! uncorrelated): no ship of the family alerts on its own structural bias; a test beyond
-//! them alerts, never alarms (a ship unlike the family, or declared wrong, and a gross fault
-//! look alike before the vessel has a reference: `crate::core::fdi::decision`). Every
-//! completed test joins the sample (a hull whose own bias is beyond the wide limits still
-//! commissions; a fault arising in the sample is the change-point test's, `changepoint`).
-//! Commissioning
-//! ends as soon as the evidence allows (`resolved`): at `n >= 6` tests (5 when
-//! `fdi.commissioning-tests` is 5) when the reference resolves the faults it must
-//! (`reference.resolve-speed-mps`, `reference.resolve-displacement`): per component,
+//! [`Commissioning::add`] takes only finite tests with positive spreads and displacement, none
+//! with commissioning off, and keeps at most [`MEMORY_TESTS`] (`envelope::forget`). The sample
+//! ends at `K = fdi.commissioning-tests`, or from `min(K, MIN_TESTS)` tests once it resolves
+//! `reference.resolve-*` (`h_1` the single-test alarm limit, `s_j` the mean design spread):
 //!
 //! ```text
-//! resolve_j >= (sqrt(t_j) + z_0.95) sd_j,   sd_j^2 = sbar_j^2 S~_jj (1 + 1/n) + f_j^2
-//! t_j = nu_j (exp(h_1 / (nu_j - 1)) - 1),   nu_j = nu (1 + f_j^2 / (sd_j^2 - f_j^2))
+//! resolve_j >= (sqrt(t_j) + RESOLVE_POWER_Z) sd_j,    sd_j^2 = s_j^2 S~_jj (1 + 1/n) + f_j^2
+//! t_j = nu_j (exp(h_1 / (nu_j - 1)) - 1),             nu_j = nu sd_j^2 / (sd_j^2 - f_j^2)
 //! ```
 //!
-//! (`h_1` the decision's single-test limit; `t_j` the statistic whose calibrated value is
-//! `h_1`; `z_0.95` = 1.645: a fault of that size crosses the limit in one test with 95 %
-//! probability), and at `fdi.commissioning-tests` tests at the latest.
-//! When a method completes its sample, the vessel runs the change-point test over it and the
-//! other method's (`crate::core::fdi::changepoint`, `Fdi::learn`): a change inside it
-//! ("commissioning inconsistent: a change at test k") raises an alert and the sample sets
-//! no reference; decisions stay on the wide limits until commissioning starts again
-//! (`helmwatch commission`).
-//!
-//! ## The vessel's own reference, and learning
-//!
-//! After commissioning the reference is the local regression of the learned tests
-//! (`crate::core::fdi::envelope`): at a test's operating point `x` it predicts the offset
-//! `mu(x)` with the error covariance `Omega(x)`, and the scatter's shape `S~` (design-spread
-//! units, `nu` effective dof). For a test with design spreads `s = (s_u, s_D)`:
-//!
-//! ```text
-//! r     = e - mu(x)                                         residual [m/s, fraction]
-//! Sigma = diag(s) S^ diag(s) + Omega(x) + diag(f_u^2, f_D^2, f_D^2)
-//! T     = r' Sigma^-1 r,   T' = chi2_p^-1(P(T^2(p, nu) > T))  calibrated
-//! c     = max share of Sigma that Omega(x) is                shared by later tests
-//! ```
-//!
-//! - With `S~` estimated from `nu` dof, `T` is Hotelling's `T^2(2, nu)` for a healthy test
-//!   (tests at one point, no floors: exactly), whose tail
-//!   `P(T^2 > t) = (1 + t / nu)^(-(nu - 1) / 2)` is far heavier than the chi-square's at
-//!   small `nu` (a covariance from 8 tests is sometimes much too small). `T'` is the chi-square (2 dof) statistic of the same tail
-//!   probability: the whitened residual is scaled by `sqrt(T' / T)` (`Measured::whitened`),
-//!   so the decision's chi-square limits hold test by test; `T' -> T` as the vessel's tests
-//!   are learned. The floors, being known, add degrees of freedom along the residual, and
-//!   so does the slope prior's part of the offset's error (a stated model: `envelope`):
-//!   `nu_eff = nu / (the learned part's share of the residual's variance in its own
-//!   direction)`, that share at a visited point at its 95 % upper confidence bound
-//!   (`Measured::effective_dof`; the conservative root of Satterthwaite's approximation, as
-//!   in `changepoint`), with `nu` the shape's dof. At a new speed at a learned loading,
-//!   excitation and sea (within one bandwidth of a learned test's in those three) that
-//!   holds as it is: the similarity law carries the offset, whose error is in the
-//!   prediction's `c`, and the scatter's shape is the vessel's there (`envelope::local_shape`:
-//!   the tests in that sea, pooled, where the vessel has been in others too, with the
-//!   shape carried by the design spreads as a prior worth `envelope::CARRIED_DOF`). At
-//!   a declared loading, an excitation or a sea farther than one bandwidth from every
-//!   learned test's, `nu` is at most that prior's and the learned tests' kernel weight there
-//!   less one, the share unbounded: there the prediction rests on the slope priors, which a
-//!   hull can break (KVLCC2's HBT speed estimate moved 0.7 m/s with its relay resized to
-//!   0.83 at +20 % loading), so the tail is Hotelling's with few dof until the point's own
-//!   tests are learned.
-//! - `kappa = nu / (nu - p - 1)` (the mean of Hotelling's over the chi-square's) sizes what
-//!   commissioning must resolve: 4 at K = 5, 1.75 at K = 8, 1.05 after 60 tests.
-//! - `S^ = (nu S~(x) + nu_0 diag S~) / (nu + nu_0)`: the shape near the point pooled with an
-//!   inverse-Wishart prior of `nu_0 = PRIOR_DOF` dof about the vessel's variances
-//!   everywhere, uncorrelated (at one point: the correlations shrunk by `nu / (nu + nu_0)`);
-//!   `T` is still calibrated at the shape's own `nu` (the prior's centre is the sample's own
-//!   variances, which it cannot vouch for).
-//!   Three components from 7 or 8 tests can lie nearly on a plane by chance; whitening would
-//!   read every later test just off it as far out, and the decision's window would add up
-//!   tests that share that one too-small covariance.
-//! - `f_u = fdi.floor-speed-mps` (the speed log's noise) and `f_D = fdi.floor-displacement`
-//!   (how well a healthy ship's displacement is known between declarations; `e_b`'s too):
-//!   error sources the learned tests cannot see.
-//! - `c` (the decision's `offset_var`) is the offset error's share, the same for every later
-//!   test at this point: the decision does not average it away (`crate::core::fdi::decision`).
-//!
-//! A test at a point never visited gets the prediction from the points learned, with its
-//! wider interval (the kernel's and the slope prior's); a fault the prediction calls one is a
-//! fault. A test is learned when its own look was under the alarm's
-//! single-test limit: at once when the decision after it is quiet, else once it has left the
-//! decision's window with no alarm raised meanwhile (`crate::core::fdi::learning`): the new
-//! point is learned from its own healthy tests, the reference follows slow changes, and what
-//! the vessel's scatter looks like stops resting on a handful of tests, while evidence that
-//! is building up is never learned before it is judged. An alert does not stop learning:
-//! learning only the quiet tests of a reference whose covariance came out too small keeps it
-//! too small (measured by the decision's Monte Carlo: 4.8 times the budget that way, 1.02
-//! learning all but alarms). A CLFRT test whose tones were measured worse than the vessel's
-//! typical is read with its own error's excess over the typical (`crate::core::fdi::noise`),
-//! and not learned when that widened it beyond
-//! `calibration.learn-noise-ratio-max`. At most `reference::MEMORY_TESTS` are kept; beyond, the oldest
-//! test of the most populated soft bin goes. Commissioning starts again on request (the
-//! `fdi/commission` queryable, `helmwatch commission`) and when the saved reference was
-//! made under another ship configuration or other models (the daemon says which).
+//! A completed sample goes to the change-point test (`changepoint`).
 
 use super::config::{Calibration, FdiConfig, ReferenceConfig};
 use super::envelope::{self, Shape};
@@ -128,14 +34,14 @@ use super::raw::Raw;
 use super::stats::{Cov, P};
 use serde::{Deserialize, Serialize};
 
-/// The degrees of freedom of the prior on the shape (an inverse Wishart about the vessel's
-/// learned variances, uncorrelated): `P + 2`, the weakest whose mean exists. The calibration
-/// keeps the shape's own dof: the prior's centre is the sample's variances.
 /// Learned tests kept per method (the fullest soft bin forgets first): enough for every
 /// point of a vessel's operating envelope, each a few times over.
 pub const MEMORY_TESTS: usize = 200;
 
-/// The inverse-Wishart prior's degrees of freedom (module doc).
+/// The degrees of freedom of the prior the local shape is pooled with (an inverse Wishart
+/// about the vessel's learned variances, uncorrelated): `P + 2`, the weakest whose mean
+/// exists. The calibration keeps the shape's own dof: the prior's centre is the sample's
+/// variances.
 pub const PRIOR_DOF: f64 = P as f64 + 2.0;
 
 /// The one-sided normal quantile of the power commissioning resolves its faults with (95 %).

@@ -1,62 +1,28 @@
-//! How a change of `b` (displacement, rudder effectiveness) moves a test's features on this
-//! vessel, so that isolation reads the displacement's direction through the networks at
-//! the vessel's own operating point instead of assuming it.
+//! How a change of `b` (displacement, rudder effectiveness) or of the ship's speed moves a
+//! test's features on this vessel: the residuals' directions and slopes (docs/fdi.md,
+//! "Residuals"), read through the networks at the test's own point.
 //!
-//! `b` is the ship's high-frequency gain: `psi/delta = b / (s (s + a))` on the training model,
-//! and on any hull whose rudder force and inertia scale together it multiplies the whole
-//! transfer function. Scaling it by `k`:
-//!
-//! - **CLFRT**: the tones sit at fixed frequencies, so every tone's gain is multiplied by `k`
-//!   and no phase moves: exact for any hull of that kind.
-//! - **HBT**: the relay with height `h` and hysteresis `eps` holds the limit cycle where
-//!   `k G(jw) = -(pi / 4h) (sqrt(A^2 - eps^2) + j eps)`; the cycle moves. Locally the ship is
-//!   the first-order model with the `a` its measured response phase gives at the cycle,
-//!   `phi = -pi/2 - atan(w/a)`. Then, with `q = w^2 / (w^2 + a^2)`:
+//! **`b`** multiplies the transfer function by `k`. CLFRT ([`scale_b`]): every tone's gain
+//! times `k`, no phase moves. HBT: the relay's cycle, `k G(jw) N(A) = -1`, moves by the
+//! harmonic balance with the loop's local slopes at the cycle, `m = d ln|G| / d ln w` and
+//! `p = d arg G / d ln w`, and the relay's lag:
 //!
 //! ```text
-//! d ln w / d ln k        = 1 / (1 + 2 q)                (from k Im G(jw) = -pi eps / 4h)
-//! d ln sqrt(A^2 - eps^2) = d ln k - 2 q d ln w          (from k Re G(jw))
-//! d ln |G(jw)| / d ln k  = 1 - (1 + q) d ln w / d ln k  (the response gain, measured rudder)
-//! d phi / d ln k         = -sqrt(q (1 - q)) d ln w / d ln k
+//! d ln w / d ln k = -1 / (m + p tan(lag)),     d ln A / d ln k = -p tan(lag) d ln w / d ln k
+//! d ln |G(jw)| = d ln k + m d ln w,            d phi = p d ln w,    periods scale with 1/w
 //! ```
 //!
-//! and the periods scale with `1/w` (their relative spread unchanged).
+//! [`scale_b`] takes the first-order model at the cycle (`q = sin^2(lag)`: `d ln w / d ln k =
+//! 1 / (1 + 2 q)`); [`scale_b_at`] the vessel's measured slopes ([`tone_slopes`], `shape`),
+//! and the first-order model without them or where the cycle would not be stable
+//! (`m + p tan(lag)` not below -1/2).
 //!
-//! That is the first-order model's loop. On any linear ship the same harmonic balance holds
-//! with the loop's own local slopes at the cycle, `m = d ln|G| / d ln w` and `p = d arg G /
-//! d ln w`, and the relay's lag `theta` (`sin theta = eps / A`, at the cycle `arg G = -pi +
-//! theta`, so `tan theta = cot(lag)`):
-//!
-//! ```text
-//! d ln w / d ln k = -1 / (m + p tan(lag))         (magnitude and phase of k G N(A) = -1)
-//! d ln A / d ln k = -p tan(lag) d ln w / d ln k
-//! d ln |G(jw)|    = d ln k + m d ln w,   d phi = p d ln w
-//! ```
-//!
-//! (the first-order model's `m = -(1 + q)`, `p = -sqrt(q (1 - q))`, `tan(lag)^2 = q / (1 - q)`
-//! give the lines above). A higher-order hull's phase falls faster or slower than the
-//! first-order model's with the same lag, so its cycle moves otherwise when `b` changes, and
-//! the networks read the move otherwise (the second-order hulls': HBT's displacement
-//! direction leaning towards the speed log's). The slopes are measured on the vessel: by its
-//! CLFRT tests' tones around the cycle's frequency, moved to the HBT test's speed by the
-//! similarity law below ([`tone_slopes`], `crate::core::fdi::shape`).
-//!
-//! How a change of the ship's **speed** moves them, by the similarity law of manoeuvring: with
-//! non-dimensional coefficients that do not depend on the speed (Nomoto's `K' = K l / u`,
-//! `T' = T u / l`, and every time constant of a higher-order or MMG hull likewise), the
-//! ship's transfer function at speed `u1` is the one at `u0` with the frequency scaled,
-//! `G_u1(jw) = G_u0(jw u0 / u1)`: the same response, faster. So
-//!
-//! - **HBT**: the relay's cycle is the same cycle `u1 / u0` times faster: its frequency
-//!   scales, its amplitude, its response gain and phase and the periods' relative spread
-//!   stay. Exact for the linear ship and the relay (its height and hysteresis are angles);
-//! - **CLFRT**: each tone, at its fixed frequency `w_k`, reads the response at
-//!   `w_k u0 / u1`: `ln G` (gain and unwrapped phase) interpolated over `ln w` through the
-//!   test's own tones (a parabola through three, a line through two), a shift of
-//!   `ln(u0 / u1)` (7 % for 0.5 m/s at 7 m/s, a third of the tones' spacing).
-//!
-//! What it leaves out: the servo's rate and time constant and the sea do not scale with the
-//! ship; the networks, trained with them, read the rest.
+//! **Speed**, by the similarity law ([`scale_speed`]): `G_u1(jw) = G_u0(jw u0 / u1)`. HBT's
+//! cycle is the same cycle `u1 / u0` times faster; each CLFRT tone reads `ln G` interpolated
+//! at `w_k u0 / u1` through the test's own tones. The servo and the sea do not scale.
+//! [`ln_gain`] and [`ln_damping`] read `ln b` and `ln a` from the features, no network. Every
+//! function returns `None` when the features do not say (no response, a lag outside
+//! `(0, pi/2)`, too few tones, no speed log).
 
 use crate::core::wire::Features;
 
@@ -71,8 +37,7 @@ use crate::core::wire::Features;
 ///   `ln(|G| w^2 / sin(lag))`.
 ///
 /// `b` scales with `1 / D` (rudder force over inertia) and with `u^2` (the similarity law):
-/// on a hull whose networks cannot read its displacement it still moves with it (KVLCC2's
-/// highest tone moves 5 % for 10 % of D, 16 times its scatter in a moderate sea). `None`
+/// on a hull whose networks cannot read its displacement it still moves with it. `None`
 /// when the features do not say (an HBT test without its response, a lag outside the
 /// model's range).
 pub fn ln_gain(features: &Features) -> Option<f64> {
@@ -110,9 +75,8 @@ pub fn ln_gain(features: &Features) -> Option<f64> {
 ///
 /// `a` carries the speed (`a = a0 u / l`, and by the similarity law every hull's time
 /// constants scale with `l / u`); on the Nomoto model not the displacement or the rudder
-/// (they scale `b`, which moves no phase at a fixed frequency), on the simulated family it
-/// leans with them (docs/fdi.md, "Isolation"). `None` when the features do not say (no
-/// phase in the model's range).
+/// (they scale `b`, which moves no phase at a fixed frequency). Reported only (docs/fdi.md,
+/// "Residuals"). `None` when the features do not say (no phase in the model's range).
 pub fn ln_damping(features: &Features) -> Option<f64> {
     use std::f64::consts::FRAC_PI_2;
     let in_range = |lag: f64| lag > 0.0 && lag < FRAC_PI_2;

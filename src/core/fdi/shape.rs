@@ -1,35 +1,20 @@
-//! The vessel's loop shape: how its measured frequency response (rudder to heading) bends
-//! around HBT's cycle, from its own CLFRT tests, so that HBT's displacement direction is read
-//! through the harmonic balance of this ship's loop (`sensitivity::scale_b_at`) and not the
-//! first-order model's.
+//! The vessel's loop shape (docs/fdi.md, "Residuals"): the slopes of its measured frequency
+//! response (rudder to heading) around HBT's cycle, from its own last CLFRT tests, so that
+//! HBT's displacement direction follows this ship's harmonic balance
+//! (`sensitivity::scale_b_at`) and not the first-order model's.
 //!
-//! ## Model
+//! [`LoopShape::learn`] keeps the last [`TESTS`] completed CLFRT tests that have a speed log
+//! and at least two tones of positive frequency and gain, healthy or not: a change of `b`
+//! moves no slope, and a speed-log bias `beta` moves where the shape is read by only
+//! `beta / u` in `ln w`.
 //!
-//! A CLFRT test measures `G(jw_k)` at its tones (gain and phase, `w_k` fixed). By the
-//! similarity law (`sensitivity`), the ship at speed `u_h` responds at `w` as it did at
-//! speed `u_i` at `w u_i / u_h`: an HBT test at `(w_u, u_h)` reads CLFRT test `i`'s response
-//! at `ln(w_u u_i / u_h)`: the slopes of the parabola through its tones nearest there
-//! (`sensitivity::tone_slopes`; within the tones' span and half a spacing beyond). The slopes
-//! of the last [`TESTS`] CLFRT tests that cover the cycle are averaged: a tone's phase
-//! interval in a moderate sea is 0.01-0.04 rad.
-//!
-//! What it leaves out: the tones are an octave or more apart, and on a second-order hull the
-//! parabola through them misses the phase's slope between them (the unit test's hull: -0.155
-//! against -0.109 rad per unit of `ln w`, so the cycle's amplitude move 35 % large where the
-//! first-order model's is 3.2 times the truth). The cycle's own response `G(jw_u)` placed
-//! among the tones makes that 3 % on a linear hull, but the relay's square wave through a
-//! rate-limited servo and a hull whose response depends on its amplitude put that point off
-//! the tones' curve: on the family it named displacement steps worse and the speed log
-//! better (at the first alarm, pooled: 82.2 against 83.5 % and 81.1 against 80.3 %; over every
-//! alarm 81.5 against 84.9 % and 86.8 against 84.4 %), the trade of two directions a few
-//! degrees apart; it is not used: the tones are one measurement, at one amplitude.
-//!
-//! A change of `b` (displacement, rudder effectiveness) moves no slope (it multiplies `G`),
-//! and a speed-log bias moves the frequency the shape is read at by `beta / u` in `ln w`
-//! (7 % at 0.5 m/s and 7 m/s, a tenth of the tones' spacing), so the shape is learned from
-//! every completed CLFRT test with at least two tones, not only the healthy ones; a slower
-//! servo bends it (its own channel names that fault). Until the vessel has a CLFRT test that
-//! covers the cycle, HBT takes the first-order model.
+//! [`LoopShape::slopes_at`] reads each kept test `i` at an HBT test's cycle moved by the
+//! similarity law, `ln(w_u u_i / u_h)`, as the derivatives of the parabola through its
+//! nearest tones (`sensitivity::tone_slopes`, within the tones' span and half a spacing
+//! beyond), and returns their mean over the tests that cover it. It returns `None` for a
+//! CLFRT test, an HBT test without a speed log, or when no kept test covers the cycle: HBT
+//! then takes the first-order model. The tones are an octave or more apart: where a hull's
+//! phase bends between them the parabola misses its slope.
 
 use super::sensitivity::{tone_slopes, unwrap, Slopes};
 use crate::core::wire::Features;

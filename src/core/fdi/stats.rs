@@ -1,17 +1,16 @@
-//! The distributions the decision's limits come from, and `P x P` covariance algebra.
+//! The distributions the decision's limits come from, and `P x P` covariance algebra
+//! (docs/fdi.md, "The window GLR and its limits").
 //!
-//! - The standard normal's upper tail (the servo channel): `P(Z > z) = erfc(z / sqrt 2) / 2`,
-//!   with `erfc` from a Chebyshev expansion (Numerical Recipes, 3rd ed., `Erf::erfccheb`:
-//!   relative error about 1e-16, far below anything a limit needs).
-//! - Quantiles by bisection on the tails (monotone; 200 halvings reach the f64 grain).
-//! - Chi-square with any number of degrees of freedom, and Hotelling's `T^2`, from the
-//!   regularised incomplete gamma and beta functions of `statrs` (checked in the tests
-//!   against the exact even-dof sum `P(X > x) = e^{-x/2} sum_{j<k} (x/2)^j / j!` and the
-//!   closed form at `p = 2`).
-//!
-//! A covariance of the `P` parameter residuals (speed [m/s], displacement [fraction], ln
-//! gain) whitens a residual by its Cholesky factor: `z = L^-1 r` with `L L' = Sigma`, so
-//! `|z|^2 = r' Sigma^-1 r` and, for a healthy ship, `z` is standard normal.
+//! - The standard normal's tail, `erfc(z / sqrt 2) / 2`, with `erfc` from the Chebyshev
+//!   expansion of Numerical Recipes (3rd ed., `Erf::erfccheb`). The chi-square's tail at any
+//!   dof and Hotelling's `T^2(p, nu)` from `statrs`' regularised incomplete gamma and beta
+//!   functions: 1 at or below 0 and for NaN; Hotelling's is the chi-square's at infinite `nu`
+//!   and 1 when `nu <= p - 1`.
+//! - Quantiles by bisection on the decreasing tails, to the f64 grain.
+//! - [`Cov`], the covariance of the `P` parameter residuals (speed [m/s], displacement
+//!   [fraction], ln gain): `whiten` gives `z = L^-1 r` (`L L' = Sigma`, so `|z|^2 = r' Sigma^-1
+//!   r`), `solve` gives `Sigma^-1 r`; both `None` unless `Sigma` is finite and positive
+//!   definite and the result finite.
 
 use serde::{Deserialize, Serialize};
 

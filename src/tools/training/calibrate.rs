@@ -68,10 +68,12 @@ mod tests {
         use crate::core::wire::{Features, Method};
         use crate::tools::training::database::{DatabaseSpec, Point, Purpose, TestRun};
         let test = |deg: f64| TestRun {
-            features: Ok(Features::Clfrt(crate::core::wire::features::ClfrtFeatures {
-                wave_yaw_rad: Some(f64::to_radians(deg)),
-                ..sample::clfrt(vec![])
-            })),
+            features: Ok(Features::Clfrt(
+                crate::core::wire::features::ClfrtFeatures {
+                    wave_yaw_rad: Some(f64::to_radians(deg)),
+                    ..sample::clfrt(vec![])
+                },
+            )),
             duration_s: 1200.0,
         };
         let point = |sea| Point {
