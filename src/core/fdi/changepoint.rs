@@ -25,7 +25,7 @@
 //! fewer than [`MIN_CHANGED`] after the moment, is not split.
 use super::envelope::{same_sea, sea_step};
 use super::measured::{bound_factor, effective_dof};
-use super::point::{Sample, Settings as Envelope};
+use super::point::{Regression as Envelope, Sample};
 use super::reference::{Commissioning, Phase, Settings, MIN_TESTS};
 use super::stats::{chi2_sf, dot, hotelling_sf, Cov, P};
 use nalgebra::{Matrix3, Vector3};
@@ -256,7 +256,7 @@ pub fn split_tails(samples: &[Sample], env: &Envelope, floors: [f64; P]) -> Vec<
                 let v = noise[j] + floors[j] * floors[j];
                 common_slopes(env, j, prior_mean, v, within, cross[j])
             });
-            Slopes::fitted(sp, nu, within, &cross, slopes)
+            CommonSlopes::fitted(sp, nu, within, &cross, slopes)
         };
         let fit = fit_at(fit_at(sp.times(1.0 / nu)).per);
         let (nu, per) = (fit.nu, fit.per);
@@ -306,7 +306,7 @@ pub fn split_tails(samples: &[Sample], env: &Envelope, floors: [f64; P]) -> Vec<
 }
 
 /// A split's common slopes and the scatter about them.
-struct Slopes {
+struct CommonSlopes {
     /// Per component, the slopes' posterior mean and covariance.
     beta: [(Vector3<f64>, Matrix3<f64>); P],
     /// The scatter about the segments' fits per test, `S_r / nu`, and its dof.
@@ -314,7 +314,7 @@ struct Slopes {
     nu: f64,
 }
 
-impl Slopes {
+impl CommonSlopes {
     /// The scatter about the fitted slopes, `S_r = S_p - b_j' c_k - c_j' b_k + b_j' W b_k`
     /// (`W` the points' scatter, `c` their cross-products with the components), over `nu`
     /// less the slopes' effective number, `h = max_j tr(W A_j^-1) / s_j^2` (at most one

@@ -13,7 +13,7 @@
 //!   and one per cause of `limits::PARAMETER_CAUSES` ([`param_statistics`]; [`COMMON_SIZE`]
 //!   says which cause has one size for both methods). The servo look `S_n` is taken only when
 //!   the newest test has a servo check.
-//! - A look over its limit (`limits::Limits`) raises the alarm and empties the window; the
+//! - A look over its limit (`limits::DecisionLimits`) raises the alarm and empties the window; the
 //!   alarm clears after `N` tests in a row under every alert limit. A look over an alert limit
 //!   with no alarm is an alert; otherwise the state is normal.
 //! - The name: `steering_actuator` when the servo look is at least as near its limit as the
@@ -25,7 +25,7 @@
 //! window holds nothing for that channel.
 
 use super::isolation;
-use super::limits::{self, Limits};
+use super::limits::{self, DecisionLimits};
 use super::stats::{dot, P};
 use super::window::{method_sums, Entry};
 use crate::core::wire::residuals::{Look, TrackState};
@@ -100,7 +100,7 @@ impl Sequential {
     }
 
     /// Takes one completed test; `limits` from the budget.
-    pub fn update(&mut self, limits: &Limits, mut entry: Entry) -> Step {
+    pub fn update(&mut self, limits: &DecisionLimits, mut entry: Entry) -> Step {
         // The reading before this test is the last test's (`isolation::LogReading`).
         if let Some(log) = entry.log.as_mut() {
             log.before_mps = self.last_log_mps;
@@ -184,7 +184,7 @@ impl Sequential {
 
     /// The parameter look nearest its limit: over every window length, the free shift's
     /// and each cause's.
-    fn param_look(&self, limits: &Limits) -> Option<Scored> {
+    fn param_look(&self, limits: &DecisionLimits) -> Option<Scored> {
         let newest = self.window.back()?;
         // A newest test on wide limits has only its own look, the free shift's.
         let wide = newest.offset_var.is_none();
@@ -234,7 +234,7 @@ impl Sequential {
     }
 
     /// The servo look nearest its limit.
-    fn servo_look(&self, limits: &Limits) -> Option<Scored> {
+    fn servo_look(&self, limits: &DecisionLimits) -> Option<Scored> {
         self.window.back()?.z_rate?;
         let mut best: Option<Scored> = None;
         let (mut sum, mut count) = (0.0, 0usize);

@@ -4,7 +4,7 @@
 use super::*;
 use crate::core::fdi::config::{Calibration, FdiConfig, ReferenceConfig};
 use crate::core::fdi::learning::{after_decision, Held, Pending};
-use crate::core::fdi::limits::{effective_lengths, Limits, YEAR_S};
+use crate::core::fdi::limits::{effective_lengths, DecisionLimits, YEAR_S};
 use crate::core::fdi::measured::Basis;
 use crate::core::fdi::raw::Raw;
 use crate::core::fdi::reference::{self, Commissioning};
@@ -53,7 +53,7 @@ fn the_effective_number_of_window_lengths_is_li_and_ji() {
 
 #[test]
 fn the_limits_follow_from_the_budget_by_hand() {
-    let l = Limits::new(0.1, 3720.0, 4);
+    let l = DecisionLimits::new(0.1, 3720.0, 4);
     let tests = YEAR_S / 3720.0;
     assert!((l.alpha_test - 0.1 / tests).abs() < 1e-18);
     // Four families of looks (servo, free shift, speed log, displacement) over 4 lengths,
@@ -97,13 +97,13 @@ fn the_limits_follow_from_the_budget_by_hand() {
         "{l:?}"
     );
     // A bigger budget lowers every limit.
-    let loose = Limits::new(10.0, 3720.0, 4);
+    let loose = DecisionLimits::new(10.0, 3720.0, 4);
     assert!(loose.param[3] < l.param[3] && loose.servo < l.servo);
 }
 
 #[test]
 fn a_persistent_shift_adds_up_over_the_window_as_the_glr_says() {
-    let l = Limits::new(0.1, 3720.0, 4);
+    let l = DecisionLimits::new(0.1, 3720.0, 4);
     let mut s = Sequential::default();
     // K = 8 tests at one point: the offset's error is a share 1 / (K + 1) of each test's
     // variance, shared by all.
@@ -158,7 +158,7 @@ fn a_persistent_shift_adds_up_over_the_window_as_the_glr_says() {
 
 #[test]
 fn both_methods_add_their_evidence_with_two_more_degrees_of_freedom() {
-    let l = Limits::new(0.1, 3720.0, 4);
+    let l = DecisionLimits::new(0.1, 3720.0, 4);
     let mut s = Sequential::default();
     // CLFRT and HBT see the fault in different directions: (0, 4) and (3, 2.6).
     s.update(&l, entry(Method::Clfrt, [0.0, 4.0], Some(0.0)));
@@ -180,7 +180,7 @@ fn both_methods_add_their_evidence_with_two_more_degrees_of_freedom() {
 /// displacement's 23.2, which names its cause.
 #[test]
 fn a_shift_along_a_cause_alarms_with_one_degree_of_freedom_per_method() {
-    let l = Limits::new(0.1, 3720.0, 4);
+    let l = DecisionLimits::new(0.1, 3720.0, 4);
     let mut s = Sequential::default();
     let first = s.update(&l, entry(Method::Clfrt, [0.0, 3.6], Some(0.0)));
     assert_eq!(first.state, TrackState::Alert);
@@ -217,7 +217,7 @@ fn a_shift_along_a_cause_alarms_with_one_degree_of_freedom_per_method() {
 /// (2 dof) would need 26.9. Opposite residuals in the two methods are no log bias at all.
 #[test]
 fn a_speed_log_bias_is_one_size_for_both_methods() {
-    let l = Limits::new(0.1, 3720.0, 4);
+    let l = DecisionLimits::new(0.1, 3720.0, 4);
     let v = [-1.0, 0.3];
     let z = [3.5 * v[0], 3.5 * v[1]];
     let mut s = Sequential::default();
@@ -247,7 +247,7 @@ fn a_speed_log_bias_is_one_size_for_both_methods() {
 
 #[test]
 fn a_test_on_wide_limits_counts_alone_and_is_left_out_of_longer_windows() {
-    let l = Limits::new(0.1, 3720.0, 4);
+    let l = DecisionLimits::new(0.1, 3720.0, 4);
     let mut s = Sequential::default();
     for _ in 0..3 {
         let st = s.update(&l, entry(Method::Hbt, [0.0, 3.0], None));
@@ -275,7 +275,7 @@ fn a_test_on_wide_limits_counts_alone_and_is_left_out_of_longer_windows() {
 
 #[test]
 fn the_servo_channel_alarms_and_names_the_actuator_alone() {
-    let l = Limits::new(0.1, 3720.0, 4);
+    let l = DecisionLimits::new(0.1, 3720.0, 4);
     let mut s = Sequential::default();
     let mut e = entry(Method::Clfrt, [2.0, 1.0], Some(0.125));
     e.z_rate = Some(5.8);
@@ -304,7 +304,7 @@ fn the_servo_channel_alarms_and_names_the_actuator_alone() {
 
 #[test]
 fn isolation_tells_the_speed_log_from_the_displacement_by_direction() {
-    let l = Limits::new(0.1, 3720.0, 4);
+    let l = DecisionLimits::new(0.1, 3720.0, 4);
     // A speed-log bias: every method's residual along its own log direction.
     let mut s = Sequential::default();
     let mut e = entry(Method::Clfrt, [-5.0, 1.5], Some(0.0));
@@ -364,7 +364,7 @@ fn isolation_reads_a_log_bias_from_both_methods_in_the_ratio_it_predicts() {
         vec![Cause::DisplacementOrRudderEffectiveness]
     );
     // Under the alarm, the same naming: the sequential test names the window's cause.
-    let l = Limits::new(0.1, 3720.0, 4);
+    let l = DecisionLimits::new(0.1, 3720.0, 4);
     let mut s = Sequential::default();
     s.update(&l, with(Method::Clfrt, [0.0, 4.0], 2.0, 1.0));
     let st = s.update(&l, with(Method::Hbt, [0.0, 8.0], 1.0, 2.0));
@@ -379,7 +379,7 @@ fn isolation_reads_a_log_bias_from_both_methods_in_the_ratio_it_predicts() {
 /// The same tests with the reading steady name the displacement throughout.
 #[test]
 fn the_log_step_names_an_alarm_while_it_holds() {
-    let l = Limits::new(0.1, 3720.0, 4);
+    let l = DecisionLimits::new(0.1, 3720.0, 4);
     let a = 3f64.to_radians();
     let test = |now: f64| {
         let mut e = entry(Method::Clfrt, [-8.0, 0.2], Some(0.0));
@@ -439,7 +439,7 @@ fn monte_carlo(
     seed: u64,
     learn: bool,
 ) -> (usize, usize) {
-    let l = Limits::new(budget, 3720.0, 4);
+    let l = DecisionLimits::new(budget, 3720.0, 4);
     let fdi = FdiConfig {
         commissioning_tests: k,
         floor_speed_mps: floors[0],
@@ -577,7 +577,7 @@ fn monte_carlo_scan() {
     ] {
         for (budget, vessels) in [(30.0, 300), (8.0, 1000)] {
             let (alarms, decided) = monte_carlo(budget, k, floors, vessels, 100, 7, learn);
-            let want = Limits::new(budget, 3720.0, 4).alpha_test;
+            let want = DecisionLimits::new(budget, 3720.0, 4).alpha_test;
             let ratio = alarms as f64 / decided as f64 / want;
             println!(
                 "K {k} floors {floors:?} learn {learn} budget {budget}: {alarms} in {decided}: ratio {ratio:.3}"
@@ -611,7 +611,7 @@ fn monte_carlo_false_alarm_rate_is_within_a_factor_two_of_the_budget() {
     let k = FdiConfig::default().commissioning_tests;
     let (alarms, decided) = monte_carlo(budget, k, [0.0, 0.0], 20_000, 100, 7, true);
     let per_test = alarms as f64 / decided as f64;
-    let want = Limits::new(budget, 3720.0, 4).alpha_test;
+    let want = DecisionLimits::new(budget, 3720.0, 4).alpha_test;
     let ratio = per_test / want;
     eprintln!("{alarms} alarms in {decided} tests: ratio {ratio:.3}");
     assert!(

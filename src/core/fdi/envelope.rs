@@ -25,7 +25,7 @@
 //! tests. [`local_shape`]: the tests in the point's sea, pooled with the global shape as a
 //! prior worth [`CARRIED_DOF`] where other seas were learned too.
 
-use super::point::{Point, Sample, Settings, Slopes, X};
+use super::point::{PhysicalSlopes, Point, Regression, Sample, X};
 use super::raw::Raw;
 use super::stats::{Cov, P};
 use nalgebra::{Matrix5, Vector5};
@@ -94,7 +94,7 @@ fn same(a: &X, b: &X) -> bool {
 
 /// The distance between two operating points in their conditions alone (declared loading,
 /// excitation and sea; speed left out), in bandwidths.
-fn condition_distance(st: &Settings, a: X, b: X) -> f64 {
+fn condition_distance(st: &Regression, a: X, b: X) -> f64 {
     let d = delta(a, b);
     (1..4)
         .map(|i| (d[i] / st.bandwidth[i]).powi(2))
@@ -104,7 +104,7 @@ fn condition_distance(st: &Settings, a: X, b: X) -> f64 {
 
 /// Whether two tests' `w` are one sea: within one `calibration.bandwidth-sea` (a NaN `w`, a
 /// test at every sea, is in any).
-pub fn same_sea(st: &Settings, w: f64, at: f64) -> bool {
+pub fn same_sea(st: &Regression, w: f64, at: f64) -> bool {
     let d = w - at;
     d.is_nan() || (d / st.bandwidth[3]).abs() <= 1.0
 }
@@ -113,13 +113,13 @@ pub fn same_sea(st: &Settings, w: f64, at: f64) -> bool {
 /// test's sea index is its wave yaw over that test, which scatters within one sea; a slope
 /// fitted to that scatter is noise, and the next sea would be predicted along it. Within half
 /// a bandwidth the offset is one sea's.
-pub(super) fn sea_step(st: &Settings, dw: f64) -> f64 {
+pub(super) fn sea_step(st: &Regression, dw: f64) -> f64 {
     let dead = 0.5 * st.bandwidth[3];
     dw.signum() * (dw.abs() - dead).max(0.0)
 }
 
 /// The kernel weight and squared distance between two operating points.
-fn kernel(st: &Settings, a: X, b: X) -> (f64, f64) {
+fn kernel(st: &Regression, a: X, b: X) -> (f64, f64) {
     let d = delta(a, b);
     let d2 = (0..4)
         .map(|i| (d[i] / st.bandwidth[i]).powi(2))
@@ -143,11 +143,11 @@ fn trapezoid(m: f64, v: f64, own: Option<f64>) -> (f64, f64) {
 /// (the module doc's trapezoid).
 fn fit_component(
     samples: &[Sample],
-    st: &Settings,
+    st: &Regression,
     at: X,
     j: usize,
     noise: f64,
-    own: Option<&Slopes>,
+    own: Option<&PhysicalSlopes>,
 ) -> Option<(f64, f64, f64)> {
     // The slopes' prior means in speed and loading: the physical slopes (the similarity law,
     // `b` scaling by `1 / D`) of the tests near `at`, and their scatter about them.
@@ -220,10 +220,10 @@ type Fit = [(f64, f64, f64); P];
 /// test whose own physical slopes are `own` when given.
 fn fit(
     samples: &[Sample],
-    st: &Settings,
+    st: &Regression,
     at: X,
     noise: [f64; P],
-    own: Option<&Slopes>,
+    own: Option<&PhysicalSlopes>,
 ) -> Option<Fit> {
     let mut out = [(0.0, 0.0, 0.0); P];
     for (j, o) in out.iter_mut().enumerate() {
@@ -252,7 +252,7 @@ fn add_outer(acc: &mut [[f64; P]; P], r: [f64; P], w: f64) {
 }
 
 /// The shape of the scatter of `samples` (at least 2 of them) about their local fit.
-pub fn shape(samples: &[Sample], st: &Settings) -> Option<Shape> {
+pub fn shape(samples: &[Sample], st: &Regression) -> Option<Shape> {
     let n = samples.len();
     if n < 2 {
         return None;
@@ -282,7 +282,7 @@ pub fn shape(samples: &[Sample], st: &Settings) -> Option<Shape> {
         })
         .collect();
     // Pass 0 fits with the slopes all but free (the module doc says why).
-    let loose = Settings {
+    let loose = Regression {
         slope_speed: st.slope_speed.map(|v| v * LOOSE),
         slope_loading: st.slope_loading.map(|v| v * LOOSE),
         slope_excitation: st.slope_excitation.map(|v| v * LOOSE),
@@ -349,7 +349,7 @@ pub fn shape(samples: &[Sample], st: &Settings) -> Option<Shape> {
 /// scatter is not the commissioning point's (an estimator pressed against its training
 /// box's edge scatters less there than inside it), the tests at that point speak for it,
 /// with the few dof they are worth.
-pub fn local_shape(samples: &[Sample], st: &Settings, global: &Shape, at: &Point) -> Shape {
+pub fn local_shape(samples: &[Sample], st: &Regression, global: &Shape, at: &Point) -> Shape {
     let noise = global.cov.variances();
     let at = at.x(st);
     let mut fits: Vec<(X, Fit)> = Vec::new();
@@ -410,7 +410,12 @@ pub fn local_shape(samples: &[Sample], st: &Settings, global: &Shape, at: &Point
 
 /// The predicted offset at the operating point `at`, the learned tests moved there along
 /// their own physical slopes (for a test at `at`, `predict_for`).
-pub fn predict(samples: &[Sample], st: &Settings, shape: &Shape, at: &Point) -> Option<Prediction> {
+pub fn predict(
+    samples: &[Sample],
+    st: &Regression,
+    shape: &Shape,
+    at: &Point,
+) -> Option<Prediction> {
     predict_with(samples, st, shape, at, None)
 }
 
@@ -418,20 +423,20 @@ pub fn predict(samples: &[Sample], st: &Settings, shape: &Shape, at: &Point) -> 
 /// tests moved there along the trapezoid of their slopes and the test's (module doc).
 pub fn predict_for(
     samples: &[Sample],
-    st: &Settings,
+    st: &Regression,
     shape: &Shape,
     at: &Point,
-    own: &Slopes,
+    own: &PhysicalSlopes,
 ) -> Option<Prediction> {
     predict_with(samples, st, shape, at, Some(own))
 }
 
 fn predict_with(
     samples: &[Sample],
-    st: &Settings,
+    st: &Regression,
     shape: &Shape,
     at: &Point,
-    own: Option<&Slopes>,
+    own: Option<&PhysicalSlopes>,
 ) -> Option<Prediction> {
     let at = at.x(st);
     let f = fit(samples, st, at, shape.cov.variances(), own)?;
@@ -471,7 +476,7 @@ fn predict_with(
 
 /// Keeps at most `memory` tests: the oldest of the most populated soft bin (a bandwidth of
 /// speed by one of declared loading by one of sea) goes.
-pub fn forget(samples: &mut Vec<Sample>, st: &Settings, memory: usize) {
+pub fn forget(samples: &mut Vec<Sample>, st: &Regression, memory: usize) {
     while samples.len() > memory {
         let bin = |x: &Sample| {
             let w = x.x(st)[3];

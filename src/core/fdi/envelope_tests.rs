@@ -4,8 +4,8 @@
 use super::*;
 
 /// The settings of the unit tests here and in `changepoint`.
-pub(in crate::core::fdi) fn st() -> Settings {
-    Settings {
+pub(in crate::core::fdi) fn st() -> Regression {
+    Regression {
         bandwidth: [1.0, 0.1, 0.1, 0.5],
         slope_speed: [0.5, 0.03],
         slope_speed_gain: 0.03,
@@ -328,7 +328,7 @@ fn a_new_speed_is_predicted_along_the_trapezoid_of_the_learned_and_the_tests_slo
     let sh = shape(&samples, &st()).unwrap();
     let level = samples.iter().map(|x| x.e[2]).sum::<f64>() / 8.0;
     let truth = level + law(5.5) - law(4.0);
-    let own = Slopes {
+    let own = PhysicalSlopes {
         speed: [0.0, 0.0, 2.0 / 5.5],
         loading: [0.0; 3],
     };
@@ -373,7 +373,7 @@ fn the_tests_own_slope_adds_its_scatter_to_the_prior() {
     let mean = sl.iter().sum::<f64>() / 8.0;
     let var = sl.iter().map(|s| (s - mean).powi(2)).sum::<f64>() / 8.0;
     let sh = shape(&samples, &st()).unwrap();
-    let own = Slopes {
+    let own = PhysicalSlopes {
         speed: [0.0, 0.0, 0.3],
         loading: [0.0; 3],
     };

@@ -23,7 +23,7 @@
 use super::ablation::{self, Mechanism};
 use super::changepoint;
 use super::decision::{param_statistics, Sequential, Step};
-use super::limits::Limits;
+use super::limits::DecisionLimits;
 use super::measured::Basis;
 use super::raw::Raw;
 use super::reference::Commissioning;
@@ -162,7 +162,7 @@ pub struct Learner<'a> {
     /// The vessel's sequential test.
     pub sequential: &'a mut Sequential,
     /// The decision's limits.
-    pub limits: &'a Limits,
+    pub limits: &'a DecisionLimits,
     /// `fdi.enabled`: nothing is learned without decisions.
     pub enabled: bool,
 }
@@ -297,10 +297,10 @@ mod tests {
     /// the window; at a new point it learns it at once.
     #[test]
     fn a_quiet_but_atypical_test_is_held_for_the_window() {
-        use crate::core::fdi::limits::Limits;
+        use crate::core::fdi::limits::DecisionLimits;
         use crate::core::fdi::window::Entry;
         use crate::core::wire::Method;
-        let limits = Limits::new(0.1, 3720.0, 4);
+        let limits = DecisionLimits::new(0.1, 3720.0, 4);
         let entry = |zb: f64| Entry {
             method: Method::Clfrt,
             z: Some([0.0, 0.0, zb]),

@@ -23,7 +23,7 @@ pub const LOOK_FAMILIES: usize = 2 + PARAMETER_CAUSES.len();
 
 /// The limits of the sequential test, from the budget.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Limits {
+pub struct DecisionLimits {
     /// N: the longest window [tests].
     pub window: usize,
     /// `alpha_n`: each look's false-alarm probability.
@@ -45,7 +45,7 @@ pub struct Limits {
     pub alpha_test: f64,
 }
 
-impl Limits {
+impl DecisionLimits {
     /// The limits for `false_alarms_per_year` at one test every `test_period_s` seconds
     /// over windows of up to `window` tests.
     pub fn new(false_alarms_per_year: f64, test_period_s: f64, window: u32) -> Self {

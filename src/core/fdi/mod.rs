@@ -52,7 +52,7 @@ use crate::core::wire::{AlarmState, Cause, Decision, Estimate, Features, Method,
 use ablation::Mechanism;
 use decision::Sequential;
 use learning::Pending;
-use limits::Limits;
+use limits::DecisionLimits;
 use measured::Basis;
 use raw::sea_fraction;
 use raw::sea_index;
@@ -179,7 +179,7 @@ pub struct Fdi {
     baseline_cfg: BaselineConfig,
     ship: ShipConfig,
     servo_time_constant_s: f64,
-    limits: Limits,
+    limits: DecisionLimits,
     sequential: Sequential,
     published: AlarmState,
     last_notification: Option<Notification>,
@@ -212,7 +212,7 @@ impl Fdi {
             baseline_cfg: cfg.baseline.clone(),
             ship: cfg.ship.clone(),
             servo_time_constant_s: cfg.servo.time_constant_s,
-            limits: Limits::new(
+            limits: DecisionLimits::new(
                 cfg.fdi.false_alarms_per_year,
                 cfg.scheduler.interval_s + cfg.scheduler.steady_time_s,
                 cfg.fdi.window_tests,
@@ -229,7 +229,7 @@ impl Fdi {
     }
 
     /// The decision's limits.
-    pub fn limits(&self) -> &Limits {
+    pub fn limits(&self) -> &DecisionLimits {
         &self.limits
     }
 

@@ -4,7 +4,7 @@
 //! error covariance is `raw::measurement_cov`.
 
 use super::envelope;
-use super::point::{Sample, Settings};
+use super::point::{Regression, Sample};
 use super::stats::{median, Cov, P};
 
 /// Fewest learned tests in the test's own sea whose measurement error stands for the
@@ -17,7 +17,7 @@ pub const MIN_TYPICAL: usize = 3;
 /// every learned test's where fewer than `MIN_TYPICAL` are there), carried to the test by
 /// `s`. A median, because the tests it stands for are the typical ones, not the few whose
 /// tones a wave spoiled. `None` where no learned test carries its own.
-pub fn typical(samples: &[Sample], st: &Settings, w: f64, s: [f64; P]) -> Option<Typical> {
+pub fn typical(samples: &[Sample], st: &Regression, w: f64, s: [f64; P]) -> Option<Typical> {
     let units = |x: &Sample| -> Option<[f64; P]> {
         let v = x.meas?.variances();
         let u: [f64; P] = std::array::from_fn(|j| v[j] / (x.s[j] * x.s[j]));

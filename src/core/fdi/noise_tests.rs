@@ -1,7 +1,7 @@
 use super::*;
 use crate::core::estimator::Estimator;
 use crate::core::fdi::config::{Calibration, FdiConfig, ReferenceConfig};
-use crate::core::fdi::limits::Limits;
+use crate::core::fdi::limits::DecisionLimits;
 use crate::core::fdi::raw::measurement_cov;
 use crate::core::fdi::raw::Raw;
 use crate::core::fdi::reference::{Commissioning, Settings as RefSettings};
@@ -112,7 +112,7 @@ fn settings() -> RefSettings {
         floor_displacement: 0.0,
         ..FdiConfig::default()
     };
-    let limits = Limits::new(fdi.false_alarms_per_year, 3720.0, fdi.window_tests);
+    let limits = DecisionLimits::new(fdi.false_alarms_per_year, 3720.0, fdi.window_tests);
     RefSettings::new(
         &fdi,
         &ReferenceConfig::default(),

@@ -60,13 +60,13 @@ impl Sample {
     }
 
     /// Its coordinates.
-    pub(super) fn x(&self, st: &Settings) -> X {
+    pub(super) fn x(&self, st: &Regression) -> X {
         self.point().x(st)
     }
 
     /// Its own physical slopes.
-    pub fn slopes(&self) -> Slopes {
-        Slopes {
+    pub fn slopes(&self) -> PhysicalSlopes {
+        PhysicalSlopes {
             speed: self.speed_slope,
             loading: self.loading_slope,
         }
@@ -77,7 +77,7 @@ impl Sample {
 /// `Sample::loading_slope`): how its residual moves per m/s of the ship's own speed by the
 /// similarity law, and per unit of `ln D` of a declared loading, `b` scaling by `1 / D`.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Slopes {
+pub struct PhysicalSlopes {
     /// Per m/s.
     pub speed: [f64; P],
     /// Per unit `ln D`.
@@ -114,7 +114,7 @@ impl Point {
 
     /// `(u, ln D, ln s, w)`, `w = ln(max(i, i_calm) / i_calm)` of the sea index `i` (0 in a
     /// calm sea or calmer, about 1.3 in a moderate one at the default anchors).
-    pub fn x(&self, st: &Settings) -> X {
+    pub fn x(&self, st: &Regression) -> X {
         let calm = st.sea_calm_deg.max(1e-9);
         let [u, l, g] = self.x3();
         [
@@ -130,7 +130,7 @@ impl Point {
 
 /// The regression's settings (from the models' calibration, `Calibration`).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Settings {
+pub struct Regression {
     /// Kernel widths `(b_u [m/s], b_l [ln D], b_g [ln s], b_w [ln of the sea index])`.
     pub bandwidth: [f64; 4],
     /// Prior standard deviation of the slopes in speed `(e_u [m/s per m/s], e_D [per m/s])`.
@@ -147,7 +147,7 @@ pub struct Settings {
     pub sea_calm_deg: f64,
 }
 
-impl Settings {
+impl Regression {
     /// The prior standard deviation of component `j`'s slope in speed: `e_u`'s, `e_D`'s,
     /// `e_b`'s own.
     pub fn speed_sd(&self, j: usize) -> f64 {

@@ -172,7 +172,7 @@ pub fn nn_raw(
     est: &Estimator,
     scratch: &mut EstimatorScratch,
     frac: f64,
-    slopes: Option<sensitivity::Slopes>,
+    slopes: Option<sensitivity::ResponseSlopes>,
 ) -> Option<(Raw, f64, [f64; P])> {
     let u_log = features.speed_log_mps().filter(|u| u.is_finite())?;
     let (mu, su) = spread(

@@ -26,7 +26,7 @@
 
 use super::config::{Calibration, FdiConfig, ReferenceConfig};
 use super::envelope::{self, Shape};
-use super::limits::Limits;
+use super::limits::DecisionLimits;
 use super::measured::{kappa, Basis, Measured};
 use super::noise;
 use super::point::{self, Sample};
@@ -80,7 +80,7 @@ pub struct Settings {
     /// Physical floor of the displacement residual's standard deviation [fraction].
     pub floor_displacement: f64,
     /// The regression over the operating envelope.
-    pub envelope: point::Settings,
+    pub envelope: point::Regression,
     /// Learn healthy tests after commissioning.
     pub learn: bool,
     /// At most this many learned tests per method.
@@ -104,7 +104,12 @@ pub struct Settings {
 
 impl Settings {
     /// What the reference needs, from `[fdi]`, `[reference]` and the decision's `limits`.
-    pub fn new(fdi: &FdiConfig, r: &ReferenceConfig, cal: &Calibration, limits: &Limits) -> Self {
+    pub fn new(
+        fdi: &FdiConfig,
+        r: &ReferenceConfig,
+        cal: &Calibration,
+        limits: &DecisionLimits,
+    ) -> Self {
         // One ship-day of the alarm budget per commissioning, half at its end, half in the
         // confirmation after it (`changepoint`).
         let budget = fdi.false_alarms_per_year / 365.25 / 2.0;
@@ -116,7 +121,7 @@ impl Settings {
             wide_displacement: cal.commissioning_spread_displacement,
             floor_speed_mps: fdi.floor_speed_mps,
             floor_displacement: fdi.floor_displacement,
-            envelope: point::Settings::of(cal),
+            envelope: point::Regression::of(cal),
             learn: !super::ablation::off(super::ablation::Mechanism::Learning),
             memory: MEMORY_TESTS,
             own_noise: !super::ablation::off(super::ablation::Mechanism::OwnNoise),

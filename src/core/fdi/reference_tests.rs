@@ -1,7 +1,7 @@
 use super::*;
 use crate::core::fdi::changepoint;
 use crate::core::fdi::config::{Calibration, FdiConfig, ReferenceConfig};
-use crate::core::fdi::limits::Limits;
+use crate::core::fdi::limits::DecisionLimits;
 use crate::core::fdi::measured::calibration;
 use crate::core::fdi::stats::dot;
 
@@ -12,7 +12,7 @@ fn settings(k: u32) -> Settings {
         floor_displacement: 0.0,
         ..FdiConfig::default()
     };
-    let limits = Limits::new(fdi.false_alarms_per_year, 3720.0, fdi.window_tests);
+    let limits = DecisionLimits::new(fdi.false_alarms_per_year, 3720.0, fdi.window_tests);
     let cal = Calibration {
         commissioning_spread_speed_mps: 1.0,
         commissioning_spread_displacement: 0.1,

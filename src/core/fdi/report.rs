@@ -2,7 +2,7 @@
 //! comparison, the model-mismatch warning, and the fingerprint a reference was made under.
 
 use super::fit::ModelFit;
-use super::limits::Limits;
+use super::limits::DecisionLimits;
 use super::measured::Measured;
 use super::raw::lerp;
 use super::stats::{dot, P};
@@ -39,7 +39,7 @@ pub fn mismatch(fit: &ModelFit, threshold: f64) -> Option<ModelMismatch> {
 pub fn baseline(
     cfg: &BaselineConfig,
     ship: &ShipConfig,
-    limits: &Limits,
+    limits: &DecisionLimits,
     method: Method,
     features: &Features,
     d_nom_t: f64,

@@ -152,7 +152,7 @@ pub fn scale_b(features: &Features, k: f64) -> Option<Features> {
 /// The local slopes of the ship's measured frequency response (rudder to heading) at one
 /// frequency.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Slopes {
+pub struct ResponseSlopes {
     /// `d ln|G| / d ln w`.
     pub ln_gain: f64,
     /// `d arg G / d ln w` [rad].
@@ -163,7 +163,7 @@ pub struct Slopes {
 /// increasing `w`, phases continuous): the derivative of the parabola through the three
 /// points nearest (a line through two). `None` outside the points' span widened by half its
 /// mean spacing on either side, or with fewer than two points.
-pub fn tone_slopes(points: &[[f64; 3]], ln_omega: f64) -> Option<Slopes> {
+pub fn tone_slopes(points: &[[f64; 3]], ln_omega: f64) -> Option<ResponseSlopes> {
     let n = points.len();
     if n < 2 || !ln_omega.is_finite() {
         return None;
@@ -203,7 +203,7 @@ pub fn tone_slopes(points: &[[f64; 3]], ln_omega: f64) -> Option<Slopes> {
             *dc += points[i][c + 1] * num / den;
         }
     }
-    let s = Slopes {
+    let s = ResponseSlopes {
         ln_gain: d[0],
         phase: d[1],
     };
@@ -214,7 +214,7 @@ pub fn tone_slopes(points: &[[f64; 3]], ln_omega: f64) -> Option<Slopes> {
 /// (module doc) instead of the first-order model's; CLFRT's tones as in [`scale_b`]. `None`
 /// slopes, or slopes under which the cycle would not be stable (`m + p tan(lag)` not below
 /// -1/2: a cycle whose frequency moves over twice as fast as `b`), take the first-order model.
-pub fn scale_b_at(features: &Features, k: f64, slopes: Option<Slopes>) -> Option<Features> {
+pub fn scale_b_at(features: &Features, k: f64, slopes: Option<ResponseSlopes>) -> Option<Features> {
     let (Features::Hbt(h), Some(sl)) = (features, slopes) else {
         return scale_b(features, k);
     };

@@ -16,7 +16,7 @@
 //! then takes the first-order model. The tones are an octave or more apart: where a hull's
 //! phase bends between them the parabola misses its slope.
 
-use super::sensitivity::{tone_slopes, unwrap, Slopes};
+use super::sensitivity::{tone_slopes, unwrap, ResponseSlopes};
 use crate::core::wire::Features;
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
@@ -26,7 +26,7 @@ pub const TESTS: usize = 8;
 
 /// One CLFRT test's measured response.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Measured {
+pub struct MeasuredResponse {
     /// The speed log over the test [m/s].
     pub speed_mps: f64,
     /// Per tone, increasing frequency: `(ln w [ln rad/s], ln|G|, arg G [rad], continuous)`.
@@ -37,7 +37,7 @@ pub struct Measured {
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct LoopShape {
-    tests: VecDeque<Measured>,
+    tests: VecDeque<MeasuredResponse>,
 }
 
 impl LoopShape {
@@ -67,7 +67,7 @@ impl LoopShape {
             .zip(phases)
             .map(|(t, p)| [t.omega_rad_s.ln(), t.gain.ln(), p])
             .collect();
-        self.tests.push_back(Measured {
+        self.tests.push_back(MeasuredResponse {
             speed_mps: u,
             points,
         });
@@ -78,7 +78,7 @@ impl LoopShape {
 
     /// The loop's slopes at an HBT test's cycle (its frequency and speed log), the mean over
     /// the kept tests that cover it; `None` for another method, or when none covers it.
-    pub fn slopes_at(&self, features: &Features) -> Option<Slopes> {
+    pub fn slopes_at(&self, features: &Features) -> Option<ResponseSlopes> {
         let Features::Hbt(h) = features else {
             return None;
         };
@@ -95,7 +95,7 @@ impl LoopShape {
                 n += 1;
             }
         }
-        (n > 0).then(|| Slopes {
+        (n > 0).then(|| ResponseSlopes {
             ln_gain: sum[0] / n as f64,
             phase: sum[1] / n as f64,
         })

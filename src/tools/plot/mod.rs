@@ -223,7 +223,7 @@ pub fn plot(
                 None => format!("residuals of {} reports", reports.len()),
             };
             // The single-test limit of the sequential test (one method, a window of one).
-            let limit = crate::core::fdi::limits::Limits::new(
+            let limit = crate::core::fdi::limits::DecisionLimits::new(
                 cfg.fdi.false_alarms_per_year,
                 cfg.scheduler.interval_s + cfg.scheduler.steady_time_s,
                 cfg.fdi.window_tests,

@@ -290,7 +290,7 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) ->
         }
     );
     let f = &cfg.fdi;
-    let limits = crate::core::fdi::limits::Limits::new(
+    let limits = crate::core::fdi::limits::DecisionLimits::new(
         f.false_alarms_per_year,
         cfg.scheduler.interval_s + cfg.scheduler.steady_time_s,
         f.window_tests,
