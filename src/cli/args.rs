@@ -226,6 +226,12 @@ pub(crate) struct EvalArgs {
     /// isolation, delay, per method and sea state, beside the equation-error baseline.
     #[arg(long)]
     pub(crate) fdi: bool,
+    /// Run the decision on its own model instead (Monte Carlo vessels whose residuals are
+    /// exactly what it assumes): false alarms against `fdi.false-alarms-per-year` over the
+    /// commissioning sample size, the floors and learning; with --results DIR, written to
+    /// DIR/budget-seed<SEED>.md.
+    #[arg(long, conflicts_with = "fdi")]
+    pub(crate) budget: bool,
     /// With --fdi: runs per fault scenario.
     #[arg(long, default_value_t = 60)]
     pub(crate) runs: usize,
@@ -288,7 +294,7 @@ pub(crate) struct EvalArgs {
     pub(crate) compare: Option<PathBuf>,
     /// With --fdi: run the suite again with each mechanism of the decision off in turn and
     /// add what each buys (false alarms, the alert tail, detection, naming); with a list
-    /// (comma-separated names), only those.
+    /// (comma-separated names), only those; `a+b` switches a and b off together.
     #[arg(long, value_name = "MECHANISMS", num_args = 0..=1, default_missing_value = "all")]
     pub(crate) ablate: Option<String>,
 }

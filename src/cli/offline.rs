@@ -243,25 +243,45 @@ pub(crate) fn eval_fdi(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-/// The mechanisms `--ablate` names (`all`: every one); exit 64 naming the allowed ones.
-fn mechanisms(list: &str) -> Result<Vec<crate::core::fdi::ablation::Mechanism>, Failure> {
+/// `eval --budget`: the decision's Monte Carlo on its own model, printed and with
+/// `--results DIR` written to `DIR/budget-seed<SEED>.md`.
+pub(crate) fn eval_budget(a: &EvalArgs) -> Result<(), Failure> {
+    let threads = a
+        .threads
+        .unwrap_or_else(crate::tools::training::database::default_threads)
+        .max(1);
+    let body = crate::tools::eval::budget::budget_table(a.seed, threads);
+    print!("{body}");
+    if let Some(dir) = &a.results {
+        let name = format!("budget-seed{}", a.seed);
+        let path = crate::tools::results::write(dir, &name, a.seed, &body)
+            .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", dir.display())))?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+/// The mechanisms `--ablate` names, one set per comma (`a+b`: both off together; `all`:
+/// every one alone); exit 64 naming the allowed ones.
+fn mechanisms(list: &str) -> Result<Vec<Vec<crate::core::fdi::ablation::Mechanism>>, Failure> {
     use crate::core::fdi::ablation::Mechanism;
     if list == "all" {
-        return Ok(Mechanism::ALL.to_vec());
+        return Ok(Mechanism::ALL.iter().map(|&m| vec![m]).collect());
     }
+    let one = |w: &str| {
+        Mechanism::ALL
+            .into_iter()
+            .find(|m| m.name() == w.trim())
+            .ok_or_else(|| {
+                let names: Vec<&str> = Mechanism::ALL.iter().map(|m| m.name()).collect();
+                fail(EX_USAGE)(anyhow::anyhow!(
+                    "--ablate: unknown mechanism {w:?}; one of all, {} (a+b: both off)",
+                    names.join(", ")
+                ))
+            })
+    };
     list.split(',')
-        .map(|w| {
-            Mechanism::ALL
-                .into_iter()
-                .find(|m| m.name() == w.trim())
-                .ok_or_else(|| {
-                    let names: Vec<&str> = Mechanism::ALL.iter().map(|m| m.name()).collect();
-                    fail(EX_USAGE)(anyhow::anyhow!(
-                        "--ablate: unknown mechanism {w:?}; one of all, {}",
-                        names.join(", ")
-                    ))
-                })
-        })
+        .map(|set| set.split('+').map(one).collect())
         .collect()
 }
 

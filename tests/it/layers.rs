@@ -48,6 +48,7 @@ const FLOORS: &[&str] = &[
     "core::fdi::isolation",
     "core::fdi::decision",
     "core::fdi::learning",
+    "core::fdi::budget",
     "core::fdi::report",
     "core::fdi",
     "core::monitor",

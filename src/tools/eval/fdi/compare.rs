@@ -31,10 +31,12 @@ pub fn suite_name(o: &FdiEvalOptions) -> String {
 /// A suite's totals: healthy tests and their false alarms, fault runs detected and named.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Totals {
-    /// Healthy tests (the commissioning set's: its windows' tests).
+    /// Healthy tests (the commissioning set's: its healthy runs, each judged whole).
     pub healthy_tests: usize,
     /// False alarms among them (the commissioning set's: runs flagged).
     pub false_alarms: usize,
+    /// Commissioning set: fault runs the vessel's own sample found inconsistent.
+    pub inconsistent: usize,
     /// Fault runs.
     pub fault_runs: usize,
     /// Fault runs detected within the row's window.
@@ -52,13 +54,18 @@ pub fn totals(rows: &[RowFigures], set: Option<&str>) -> Totals {
     let mut t = Totals::default();
     for r in rows.iter().filter(|r| set.is_none_or(|s| r.set == s)) {
         if r.healthy {
-            t.healthy_tests += r.tests;
+            t.healthy_tests += if r.set == "commissioning" {
+                r.runs
+            } else {
+                r.tests
+            };
             t.false_alarms += r.false_alarm_tests;
             t.alerts[0] += r.alerts[0];
             t.alerts[1] += r.alerts[1];
         } else {
             t.fault_runs += r.runs;
             t.detected += r.detected;
+            t.inconsistent += r.inconsistent.unwrap_or(0);
             if let Some(n) = r.named {
                 t.nameable_runs += r.runs;
                 t.named += n;
@@ -140,9 +147,9 @@ pub fn totals_table(variants: &[(&str, &[RowFigures])]) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "| variant | set | false alarms / healthy tests | alert or alarm / healthy tests after commissioning | detected / fault runs | named / runs |"
+        "| variant | set | false alarms / healthy tests (commissioning: runs flagged / runs) | alert or alarm / healthy tests after commissioning | detected / fault runs | named / runs | commissioning inconsistent / fault runs |"
     );
-    let _ = writeln!(out, "|---|---|---|---|---|---|");
+    let _ = writeln!(out, "|---|---|---|---|---|---|---|");
     let Some((_, first)) = variants.first() else {
         return out;
     };
@@ -158,9 +165,14 @@ pub fn totals_table(variants: &[(&str, &[RowFigures])]) -> String {
             } else {
                 "-".into()
             };
+            let inconsistent = if set == "commissioning" {
+                cell(t.inconsistent, t.fault_runs, t0.inconsistent, t0.fault_runs)
+            } else {
+                "-".into()
+            };
             let _ = writeln!(
                 out,
-                "| {name} | {set} | {} | {} | {} | {named} |",
+                "| {name} | {set} | {} | {} | {} | {named} | {inconsistent} |",
                 cell(
                     t.false_alarms,
                     t.healthy_tests,
@@ -191,6 +203,7 @@ mod tests {
             detected: det,
             named: (!healthy).then_some(det),
             alerts: [0, tests],
+            inconsistent: None,
         }
     }
 

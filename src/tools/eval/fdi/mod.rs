@@ -210,6 +210,10 @@ pub struct RowFigures {
     /// are not), and those tests.
     #[serde(default)]
     pub alerts: [usize; 2],
+    /// Commissioning set, fault rows: runs in which a report said "commissioning
+    /// inconsistent" (the fault found in the vessel's own sample).
+    #[serde(default)]
+    pub inconsistent: Option<usize>,
 }
 
 /// Completed tests after commissioning of healthy runs, alert or alarm, and all of them.

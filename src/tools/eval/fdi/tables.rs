@@ -170,6 +170,7 @@ pub(super) fn classic_table(
                     } else {
                         [0, 0]
                     },
+                    inconsistent: None,
                 });
             }
             let fa = if nominal {
@@ -305,6 +306,7 @@ pub(super) fn envelope_table(
             } else {
                 [0, 0]
             },
+            inconsistent: None,
         });
         let p = operating_point(&runs);
         let declared = if p.declared_tests > 0 {
@@ -378,6 +380,7 @@ pub(super) fn commissioning_table(
             } else {
                 [0, 0]
             },
+            inconsistent: (!healthy).then_some(c.inconsistent),
         });
         let onset = if healthy || c.runs == 0 {
             "-".to_string()
