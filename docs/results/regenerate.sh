@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Writes every file in docs/results/ (the figures the docs quote). Run from the checkout's
-# root after `cargo build --profile ci`; about an hour and a half on two cores.
+# root after `cargo build --profile ci`; about an hour and three quarters on two cores.
 #   docs/results/regenerate.sh [OUT_DIR] [COMPARE_DIR]
 # COMPARE_DIR: an earlier OUT_DIR, whose figures each suite is put beside.
 set -euo pipefail
@@ -14,9 +14,15 @@ eval_fdi --seed 7 --runs 40 --nominal-runs 40 --tests 4
 eval_fdi --seed 1 --scenarios envelope --runs 20 --nominal-runs 20 --tests 4
 eval_fdi --seed 1 --scenarios commissioning --runs 20 --nominal-runs 20 --tests 4
 eval_fdi --seed 1 --scenarios envelope --onset-after 16 --runs 10 --nominal-runs 10 --tests 4
-# Each mechanism of the decision off in turn (docs/fdi.md, "Mechanisms"), every set, small.
-"$hw" eval --fdi --in-turn --scenarios all --seed 1 --runs 3 --nominal-runs 3 --tests 4 \
-  --ablate --results "$out/ablation" >/dev/null
 for sea in calm moderate; do
   "$hw" bench --time-to-alarm --seed 1 --runs 12 --sea "$sea" --results "$out" "${cmp[@]}" >/dev/null
 done
+# The decision on its own model against the budget (and without the Hotelling calibration).
+"$hw" eval --budget --seed 7 --results "$out" >/dev/null
+# Each mechanism of the decision off in turn (docs/fdi.md, "Mechanisms"), every set, small;
+# then those a hull outside the design's family tests, on its two surge-sway-yaw hulls.
+"$hw" eval --fdi --in-turn --scenarios all --seed 1 --runs 3 --nominal-runs 3 --tests 4 \
+  --ablate --results "$out/ablation" >/dev/null
+"$hw" eval --fdi --in-turn --family --member "120 m" --seed 3 --runs 3 --nominal-runs 3 \
+  --tests 4 --ablate network-slopes,loop-shape,learning,log-step \
+  --results "$out/ablation" >/dev/null

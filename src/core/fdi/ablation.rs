@@ -26,17 +26,11 @@ pub enum Mechanism {
     /// Off: no slopes over the operating point: the offset at a point is the kernel-weighted
     /// mean of the learned tests.
     EnvelopeSlopes,
-    /// Off: one pass of the scatter's shape (no fixed point).
-    ShapeFixedPoint,
     /// Off: the whitened residual is not mapped from Hotelling's tail onto the chi-square's.
     HotellingCalibration,
-    /// Off: no change-point test of the commissioning sample.
-    ChangePoint,
-    /// Off: no confirmation of the learned tests.
-    Confirmation,
-    /// Off: no limit, noise or typicality gate on learning (an alert still holds a test for
-    /// the window).
-    LearningGate,
+    /// Off: no test of the commissioning sample for a change inside it, neither when it
+    /// completes nor as the tests after it are learned.
+    CommissioningCheck,
     /// Off: no test is learned after commissioning (the commissioning sample alone,
     /// predicted over the envelope).
     Learning,
@@ -44,8 +38,6 @@ pub enum Mechanism {
     WindowGlr,
     /// Off: no servo channel (the rudder's rate never decides).
     ServoChannel,
-    /// Off: the cause named is the one with the lower cost, without its chi-square tail.
-    IsolationTails,
     /// Off: no step of the speed log between tests.
     LogStep,
     /// Off: the alert limit is the alarm's.
@@ -56,7 +48,7 @@ pub enum Mechanism {
 
 impl Mechanism {
     /// Every mechanism, in the order of a test's evidence.
-    pub const ALL: [Mechanism; 18] = [
+    pub const ALL: [Mechanism; 14] = [
         Mechanism::SeaInterpolation,
         Mechanism::NetworkSlopes,
         Mechanism::GainChannel,
@@ -64,16 +56,12 @@ impl Mechanism {
         Mechanism::OwnNoise,
         Mechanism::VesselReference,
         Mechanism::EnvelopeSlopes,
-        Mechanism::ShapeFixedPoint,
         Mechanism::HotellingCalibration,
-        Mechanism::ChangePoint,
-        Mechanism::Confirmation,
+        Mechanism::CommissioningCheck,
         Mechanism::Learning,
-        Mechanism::LearningGate,
         Mechanism::WindowGlr,
         Mechanism::AlertLevel,
         Mechanism::ServoChannel,
-        Mechanism::IsolationTails,
         Mechanism::LogStep,
     ];
 
@@ -86,15 +74,11 @@ impl Mechanism {
             Mechanism::OwnNoise => "own-noise",
             Mechanism::VesselReference => "vessel-reference",
             Mechanism::EnvelopeSlopes => "envelope-slopes",
-            Mechanism::ShapeFixedPoint => "shape-fixed-point",
             Mechanism::HotellingCalibration => "hotelling-calibration",
-            Mechanism::ChangePoint => "change-point",
-            Mechanism::Confirmation => "confirmation",
-            Mechanism::LearningGate => "learning-gate",
+            Mechanism::CommissioningCheck => "commissioning-check",
             Mechanism::Learning => "learning",
             Mechanism::WindowGlr => "window-glr",
             Mechanism::ServoChannel => "servo-channel",
-            Mechanism::IsolationTails => "isolation-tails",
             Mechanism::LogStep => "log-step",
             Mechanism::AlertLevel => "alert-level",
             Mechanism::GainChannel => "gain-channel",
@@ -113,7 +97,8 @@ pub fn off(m: Mechanism) -> bool {
     OFF.load(Ordering::Relaxed) & m.bit() != 0
 }
 
-/// Switches `m` off (`Some`) or every mechanism back on (`None`). For the ablation only.
-pub fn switch_off(m: Option<Mechanism>) {
-    OFF.store(m.map_or(0, Mechanism::bit), Ordering::Relaxed);
+/// Switches the mechanisms in `set` off and every other one on (an empty set: all on). For
+/// the ablation only.
+pub fn switch_off(set: &[Mechanism]) {
+    OFF.store(set.iter().fold(0, |b, m| b | m.bit()), Ordering::Relaxed);
 }

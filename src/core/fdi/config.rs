@@ -150,9 +150,6 @@ pub struct Calibration {
     pub slope_excitation: [f64; 2],
     /// Prior sd of the slope in the sea [per unit of ln of the sea index].
     pub slope_sea: [f64; 2],
-    /// A test whose own measurement error widens its covariance by more than this factor in
-    /// some direction is judged but not learned.
-    pub learn_noise_ratio_max: f64,
 }
 
 /// The calibration of the models shipped in `models/` (the embedded default).
@@ -264,13 +261,7 @@ impl Calibration {
             self.slope_excitation,
             [100.0, 10.0],
         )?;
-        pair("calibration.slope-sea", self.slope_sea, [10.0, 1.0])?;
-        check_range(
-            "calibration.learn-noise-ratio-max",
-            self.learn_noise_ratio_max,
-            1.0,
-            1e6,
-        )
+        pair("calibration.slope-sea", self.slope_sea, [10.0, 1.0])
     }
 }
 

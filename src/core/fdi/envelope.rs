@@ -20,8 +20,8 @@
 //! the normal equations are singular or not finite.
 //!
 //! [`shape`]: the scatter about the fits at the tests' own points in design-spread units, over
-//! `nu = n - sum h_ii` (at least 1), in passes to a fixed point, the first with the slopes all
-//! but free so that an offset moved between points is not read as scatter; `None` under two
+//! `nu = n - sum h_ii` (at least 1), the fits weighted by the raw scatter and with the slopes
+//! all but free, so that an offset moved between points is not read as scatter; `None` under two
 //! tests. [`local_shape`]: the tests in the point's sea, pooled with the global shape as a
 //! prior worth [`CARRIED_DOF`] where other seas were learned too.
 
@@ -34,15 +34,11 @@ use serde::{Deserialize, Serialize};
 /// Smallest noise variance in design-spread units (a sample with no scatter at all).
 const MIN_SHAPE_VAR: f64 = 1e-8;
 
-/// The most passes of the shape's estimate (the fits weighted by the noise, the noise from
-/// the residuals about the fits), stopping early at its fixed point.
-const SHAPE_PASSES: usize = 12;
-
 /// The degrees of freedom the shape carried to another sea by the design spreads is worth
 /// there: an inverse-Wishart prior about it, `P + 2`, the weakest whose mean exists.
 pub const CARRIED_DOF: f64 = P as f64 + 2.0;
 
-/// How much wider the slope prior is in the shape's first pass.
+/// How much wider the slope prior is in the shape's fits.
 const LOOSE: f64 = 1000.0;
 
 /// The shape of the healthy scatter, in units of the design spreads.
@@ -257,8 +253,8 @@ pub fn shape(samples: &[Sample], st: &Regression) -> Option<Shape> {
     if n < 2 {
         return None;
     }
-    // Pass 0: the raw normalised scatter about its mean (an over-estimate when the offset
-    // moves over the samples) as the noise weights.
+    // The raw normalised scatter about its mean (an over-estimate when the offset moves over
+    // the samples) as the noise weights.
     let norm: Vec<[f64; P]> = samples
         .iter()
         .map(|s| std::array::from_fn(|j| s.e[j] / s.s[j]))
@@ -281,7 +277,7 @@ pub fn shape(samples: &[Sample], st: &Regression) -> Option<Shape> {
             })
         })
         .collect();
-    // Pass 0 fits with the slopes all but free (the module doc says why).
+    // The fits with the slopes all but free (the module doc says why).
     let loose = Regression {
         slope_speed: st.slope_speed.map(|v| v * LOOSE),
         slope_loading: st.slope_loading.map(|v| v * LOOSE),
@@ -290,46 +286,20 @@ pub fn shape(samples: &[Sample], st: &Regression) -> Option<Shape> {
         slope_speed_gain: st.slope_speed_gain * LOOSE,
         ..*st
     };
-    let mut out: Option<Shape> = None;
-    let passes = if super::ablation::off(super::ablation::Mechanism::ShapeFixedPoint) {
-        1
-    } else {
-        SHAPE_PASSES
-    };
-    for pass in 0..passes {
-        let prior = if pass == 0 { &loose } else { st };
-        let fits: Vec<Fit> = points
-            .iter()
-            .map(|&x| fit(samples, prior, x, noise, None))
-            .collect::<Option<_>>()?;
-        let (mut acc, mut lev) = ([[0.0; P]; P], 0.0);
-        for (s, &i) in samples.iter().zip(&index) {
-            // The leverage of the test on its own fit, the components' mean.
-            let (r, h) = normalised(s, &fits[i], noise);
-            add_outer(&mut acc, r, 1.0);
-            lev += h;
-        }
-        let dof = (n as f64 - lev).max(1.0);
-        let cov = Cov(acc).times(1.0 / dof);
-        if !cov.is_finite() {
-            return None;
-        }
-        let settled = out.is_some_and(|o: Shape| {
-            let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
-            o.cov
-                .0
-                .iter()
-                .flatten()
-                .zip(cov.0.iter().flatten())
-                .all(|(a, b)| close(*a, *b))
-        });
-        noise = cov.variances();
-        out = Some(Shape { cov, dof });
-        if settled {
-            break;
-        }
+    let fits: Vec<Fit> = points
+        .iter()
+        .map(|&x| fit(samples, &loose, x, noise, None))
+        .collect::<Option<_>>()?;
+    let (mut acc, mut lev) = ([[0.0; P]; P], 0.0);
+    for (s, &i) in samples.iter().zip(&index) {
+        // The leverage of the test on its own fit, the components' mean.
+        let (r, h) = normalised(s, &fits[i], noise);
+        add_outer(&mut acc, r, 1.0);
+        lev += h;
     }
-    out
+    let dof = (n as f64 - lev).max(1.0);
+    let cov = Cov(acc).times(1.0 / dof);
+    cov.is_finite().then_some(Shape { cov, dof })
 }
 
 /// The shape of the scatter near `at`: the residuals about the fit at their own points (with

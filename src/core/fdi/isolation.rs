@@ -17,9 +17,11 @@
 //!   log's `step_cost(s - beta)`, its size `beta` fitted to residuals and step together; one
 //!   dof more each. [`step_cost`] is 0 for no step and bounded by the prior of a speed change
 //!   ([`SPEED_CHANGE_PRIOR`]).
-//! - **The name** ([`name`]): the cause with the larger tail `P(chi2_dof > J_c)`; on a tie the
-//!   one nearer its chi-square's bulk, then the one with fewer sizes. Nothing is named when a
-//!   cost or dof is not finite, or a dof is not positive.
+//! - **The name** ([`name`]): the cause with the larger tail `P(chi2_dof > J_c)`, each cost at
+//!   its own dof (the displacement's model fits a size per method, the log's one: comparing
+//!   the costs alone would favour the model with more sizes); on a tie the one nearer its
+//!   chi-square's bulk, then the one with fewer sizes. Nothing is named when a cost or dof is
+//!   not finite, or a dof is not positive.
 //! - **Not ruled out** ([`not_ruled_out`]): a cause whose cost exceeds the named one's by at
 //!   most `chi2_q^-1(RULE_OUT_CONFIDENCE)`, `q` the named model's sizes: under the true cause
 //!   the difference exceeds that with probability at most 5 %.
@@ -217,8 +219,7 @@ pub fn name(costs: Costs) -> Vec<Cause> {
     if !(j.iter().chain(&dof).all(|x| x.is_finite()) && dof.iter().all(|d| *d > 0.0)) {
         return Vec::new();
     }
-    let plain = super::ablation::off(super::ablation::Mechanism::IsolationTails);
-    let tail = |c: usize| if plain { -j[c] } else { chi2_sf(j[c], dof[c]) };
+    let tail = |c: usize| chi2_sf(j[c], dof[c]);
     let score = |c: usize| {
         let v = 2.0 / (9.0 * dof[c]);
         ((j[c] / dof[c]).cbrt() - (1.0 - v)) / v.sqrt()

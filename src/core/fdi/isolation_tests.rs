@@ -297,3 +297,25 @@ fn no_step_is_taken_at_a_point_not_learned() {
     assert_eq!(learned.log_step_mps, Some(1.5));
     assert!(learned.j[1] > bare.j[1] + 10.0, "{learned:?} {bare:?}");
 }
+
+/// The cause with the larger tail at its own dof is named: the same cost names the model
+/// with more dof; a cost smaller by less than the dof it saves does not outweigh them;
+/// nothing when a cost is not finite.
+#[test]
+fn the_cause_with_the_larger_tail_is_named() {
+    let c = |j: [f64; 2], dof: [f64; 2]| {
+        name(Costs {
+            j,
+            dof,
+            log_step_mps: None,
+        })
+    };
+    assert_eq!(c([1.0, 5.0], [3.0, 2.0]), vec![Cause::SpeedLog]);
+    assert_eq!(c([5.0, 1.0], [3.0, 2.0]), vec![PARAMETER_CAUSES[1]]);
+    assert_eq!(c([2.0, 2.0], [3.0, 2.0]), vec![Cause::SpeedLog]);
+    assert_eq!(c([2.0, 2.0], [2.0, 3.0]), vec![PARAMETER_CAUSES[1]]);
+    // P(chi2_3 > 3.0) = 0.392 > P(chi2_2 > 2.5) = 0.287: the log, its cost the larger.
+    assert_eq!(c([3.0, 2.5], [3.0, 2.0]), vec![Cause::SpeedLog]);
+    assert!(c([f64::NAN, 2.0], [2.0, 3.0]).is_empty());
+    assert!(c([1.0, 2.0], [0.0, 3.0]).is_empty());
+}

@@ -3,14 +3,11 @@
 //!
 //! - While commissioning every completed test joins the sample at once
 //!   (`reference::Commissioning::add`); a completed sample goes to the change-point test.
-//! - After commissioning a test is eligible when its own `|z|^2` was under the single-test
-//!   alarm limit at its dof and its own error widened it by at most
-//!   `calibration.learn-noise-ratio-max` (against its own sea's typical). A method found
-//!   inconsistent learns nothing.
+//! - After commissioning every completed test measured against the vessel's reference is
+//!   eligible (a method found inconsistent learns nothing). A test over the single-test alarm
+//!   limit raises the alarm, which drops it.
 //! - An eligible test is learned at once when the decision after it is quiet (every look under
-//!   its alert limit, no alarm holding) and, at a learned point, it is typical: each of its
-//!   own looks has a tail of at least [`LEARN_TAIL`]. At a predicted point a quiet test is
-//!   learned at once.
+//!   its alert limit, no alarm holding).
 //! - Otherwise it is held ([`Pending`]) and learned as it leaves the window, `N` tests later.
 //!   An alarm drops every held test; one held under an older reference of its method is
 //!   dropped as it leaves.
@@ -22,13 +19,12 @@
 
 use super::ablation::{self, Mechanism};
 use super::changepoint;
-use super::decision::{param_statistics, Sequential, Step};
+use super::decision::{Sequential, Step};
 use super::limits::DecisionLimits;
 use super::measured::Basis;
 use super::raw::Raw;
 use super::reference::Commissioning;
 use super::reference::{self, Added, Settings};
-use super::stats::{chi2_sf, dot, P};
 use super::window::measure_entry;
 use super::window::method_index;
 use super::window::Entry;
@@ -105,46 +101,18 @@ impl Pending {
     }
 }
 
-/// The tail probability under which a test's own look makes it atypical of the healthy
-/// scatter: learned only as it leaves the window, never at once (module doc).
-pub const LEARN_TAIL: f64 = 0.01;
-
-/// Whether the newest test's own looks (its free shift's and each cause's, the window's
-/// newest entry alone) all lie inside the healthy scatter's `1 - LEARN_TAIL` region.
-fn typical(seq: &Sequential) -> bool {
-    if ablation::off(Mechanism::LearningGate) {
-        return true;
-    }
-    let Some(t) = param_statistics(&seq.window, 1) else {
-        return true;
-    };
-    chi2_sf(t.free, t.dof.max(1) as f64) >= LEARN_TAIL
-        && t.along
-            .iter()
-            .zip(t.along_dof)
-            .all(|(&a, d)| chi2_sf(a, d.max(1) as f64) >= LEARN_TAIL)
-}
-
 /// After the decision on a test (`seq` updated with it): the tests to learn now, `held` the
-/// test itself if eligible, `learned_point` whether it was measured at a point the reference
-/// has learned (`Basis::Vessel` with a learned test within one bandwidth; at a new point the
-/// prediction's own error is what the test tells). A test learned at once stays in the
-/// window as it was measured.
+/// test itself if eligible. A test learned at once stays in the window as it was measured.
 pub fn after_decision(
     pending: &mut Pending,
     seq: &mut Sequential,
     held: Option<Held>,
     window: usize,
-    learned_point: bool,
 ) -> [Option<Held>; 2] {
-    let mut after = After::from(seq.state);
+    let after = After::from(seq.state);
     if after == After::Quiet && held.is_some() {
-        if !learned_point || typical(seq) {
-            if let Some(e) = seq.window.back_mut() {
-                e.source = None;
-            }
-        } else {
-            after = After::Alert;
+        if let Some(e) = seq.window.back_mut() {
+            e.source = None;
         }
     }
     pending.push(held, after, window)
@@ -175,15 +143,12 @@ impl Learner<'_> {
         i: usize,
         raw: Option<Raw>,
         basis: Option<&Basis>,
-        z: Option<([f64; P], usize, f64)>,
         step: Option<&Step>,
         settings: &Settings,
     ) -> Added {
         let mut added = Added::Nothing;
         let mut held = None;
-        if let (true, Some(r), Some(b), Some((z, dim, noise_ratio))) = (self.enabled, raw, basis, z)
-        {
-            let q = dot(z, z);
+        if let (true, Some(r), Some(b)) = (self.enabled, raw, basis) {
             match b {
                 // Every completed test joins the sample, one beyond the wide limits too
                 // (`decision`: there a misfit model reads the ship so, from its first test).
@@ -192,20 +157,14 @@ impl Learner<'_> {
                     added = self.commissioning[i].add(settings, &r, order);
                     if added == Added::Completed {
                         self.generation[i] += 1;
-                        if !ablation::off(Mechanism::ChangePoint)
+                        if !ablation::off(Mechanism::CommissioningCheck)
                             && changepoint::check(self.commissioning, i, settings).is_some()
                         {
                             added = Added::Inconsistent;
                         }
                     }
                 }
-                // A test read with its own wider interval is judged, not learned
-                // (`calibration.learn-noise-ratio-max`).
-                Basis::Vessel(_)
-                    if ablation::off(Mechanism::LearningGate)
-                        || (q <= self.limits.param[dim]
-                            && noise_ratio <= settings.learn_noise_ratio_max) =>
-                {
+                Basis::Vessel(_) => {
                     held = Some(Held {
                         method: i,
                         generation: self.generation[i],
@@ -216,21 +175,14 @@ impl Learner<'_> {
             }
         }
         if step.is_some() {
-            let learned_point = basis.is_some_and(Basis::at_learned_point);
-            for h in after_decision(
-                self.pending,
-                self.sequential,
-                held,
-                self.limits.window,
-                learned_point,
-            )
-            .into_iter()
-            .flatten()
+            for h in after_decision(self.pending, self.sequential, held, self.limits.window)
+                .into_iter()
+                .flatten()
             {
                 if h.generation == self.generation[h.method] {
                     let order = reference::next_order(self.commissioning);
                     self.commissioning[h.method].add(settings, &h.raw, order);
-                    if !ablation::off(Mechanism::Confirmation)
+                    if !ablation::off(Mechanism::CommissioningCheck)
                         && changepoint::confirm(self.commissioning, h.method, settings).is_some()
                     {
                         added = Added::Inconsistent;
@@ -291,12 +243,10 @@ mod tests {
         }
     }
 
-    /// At a learned point a quiet decision learns a typical test at once and holds an
-    /// atypical one (its own look's tail under `LEARN_TAIL`: 3.5 standard deviations in the
-    /// gain, chi-square 12.25 at 3 dof, 0.66 %, under the alert limit's 15.4) until it leaves
-    /// the window; at a new point it learns it at once.
+    /// A quiet decision learns the test at once; one under an alert is held until it leaves
+    /// the window.
     #[test]
-    fn a_quiet_but_atypical_test_is_held_for_the_window() {
+    fn a_quiet_test_is_learned_at_once_an_alerted_one_at_the_window_end() {
         use crate::core::fdi::limits::DecisionLimits;
         use crate::core::fdi::window::Entry;
         use crate::core::wire::Method;
@@ -304,7 +254,7 @@ mod tests {
         let entry = |zb: f64| Entry {
             method: Method::Clfrt,
             z: Some([0.0, 0.0, zb]),
-            dim: P,
+            dim: 3,
             offset_var: Some(0.1),
             epoch: 0,
             directions: [[-1.0, 0.0, 0.0], [0.0, 1.0, -1.0]],
@@ -317,33 +267,17 @@ mod tests {
         seq.update(&limits, entry(1.0));
         assert_eq!(seq.state, TrackState::Normal);
         assert_eq!(
-            after_decision(&mut pending, &mut seq, Some(held(1)), 4, true),
+            after_decision(&mut pending, &mut seq, Some(held(1)), 4),
             [None, Some(held(1))]
         );
-        seq.update(&limits, entry(3.5));
-        assert_eq!(seq.state, TrackState::Normal, "quiet");
+        // Over the single test's alert limit, under its alarm limit: held.
+        let z_alert = (limits.param_alert[3] * 1.01).sqrt();
+        assert!(z_alert * z_alert < limits.param[3]);
+        seq.update(&limits, entry(z_alert));
+        assert_eq!(seq.state, TrackState::Alert);
         assert_eq!(
-            after_decision(&mut pending, &mut seq, Some(held(2)), 4, true),
+            after_decision(&mut pending, &mut seq, Some(held(2)), 4),
             [None, None]
-        );
-        for i in 3..6 {
-            seq.update(&limits, entry(0.5));
-            assert_eq!(
-                after_decision(&mut pending, &mut seq, Some(held(i)), 4, true),
-                [None, Some(held(i))]
-            );
-        }
-        seq.update(&limits, entry(0.5));
-        assert_eq!(
-            after_decision(&mut pending, &mut seq, Some(held(6)), 4, true),
-            [Some(held(2)), Some(held(6))]
-        );
-        // At a new point the same test is learned at once.
-        seq.update(&limits, entry(3.5));
-        assert_eq!(seq.state, TrackState::Normal);
-        assert_eq!(
-            after_decision(&mut pending, &mut seq, Some(held(7)), 4, false),
-            [None, Some(held(7))]
         );
     }
 

@@ -54,24 +54,9 @@ pub struct Measured {
     /// measurement error beyond the vessel's typical adds (`crate::core::fdi::noise`): 1 for
     /// a test as clean as the vessel's typical, or without intervals of its own.
     pub noise_ratio: f64,
-    /// The typical it was widened against was learned in the test's own sea (not carried
-    /// from other seas): only then does a wide `noise_ratio` keep the test from being learned
-    /// (a sea new to the vessel learns its own typical first).
-    pub noise_local: bool,
 }
 
 impl Measured {
-    /// The widening that keeps a test from being learned (`calibration.learn-noise-ratio-max`):
-    /// `noise_ratio` against its own sea's typical, 1 against a typical carried from other
-    /// seas (a sea new to the vessel learns its own typical first).
-    pub fn learn_noise_ratio(&self) -> f64 {
-        if self.noise_local {
-            self.noise_ratio
-        } else {
-            1.0
-        }
-    }
-
     /// The whitened residual, calibrated: `z = L^-1 r` (`L L' = cov`) scaled so that
     /// `|z|^2` has the chi-square's tail (`dim` dof) where `r' cov^-1 r` has Hotelling's (see
     /// the module doc); `None` unless `cov` is positive definite.

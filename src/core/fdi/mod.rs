@@ -21,6 +21,7 @@
 //! discarded (docs/fdi.md, "Saved state and restarts").
 
 pub mod ablation;
+pub mod budget;
 pub mod changepoint;
 pub mod config;
 pub mod decision;
@@ -516,9 +517,6 @@ impl Fdi {
             method_index(evidence.residual.method),
             evidence.residual.raw.map(|(r, _, _)| r),
             evidence.basis.as_ref(),
-            evidence
-                .measured
-                .map(|(m, z)| (z, m.dim, m.learn_noise_ratio())),
             step.as_ref(),
             settings,
         );

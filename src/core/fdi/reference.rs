@@ -98,8 +98,6 @@ pub struct Settings {
     pub confirm_alpha: f64,
     /// Read a CLFRT test with its own measurement error beyond the vessel's typical.
     pub own_noise: bool,
-    /// `calibration.learn-noise-ratio-max`.
-    pub learn_noise_ratio_max: f64,
 }
 
 impl Settings {
@@ -125,7 +123,6 @@ impl Settings {
             learn: !super::ablation::off(super::ablation::Mechanism::Learning),
             memory: MEMORY_TESTS,
             own_noise: !super::ablation::off(super::ablation::Mechanism::OwnNoise),
-            learn_noise_ratio_max: cal.learn_noise_ratio_max,
             resolve_speed_mps: r.resolve_speed_mps,
             resolve_displacement: r.resolve_displacement,
             single_limit: limits.param[P],
@@ -234,7 +231,6 @@ impl Commissioning {
             dim: 2,
             bounded: false,
             noise_ratio: 1.0,
-            noise_local: false,
         };
         if s.tests == 0 {
             let m = Measured {
@@ -246,7 +242,6 @@ impl Commissioning {
                 dim: 2,
                 bounded: false,
                 noise_ratio: 1.0,
-                noise_local: false,
             };
             return (Basis::Design, m);
         }
@@ -319,7 +314,6 @@ impl Commissioning {
                     dim,
                     bounded: known_conditions,
                     noise_ratio: 1.0 + excess.max_ratio(known),
-                    noise_local: typical.is_some_and(|t| t.local),
                 };
                 (Basis::Vessel(p), m)
             }

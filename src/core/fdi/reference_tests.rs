@@ -385,7 +385,6 @@ fn the_calibration_maps_hotellings_tail_onto_the_chi_squares() {
         dim: 2,
         bounded: false,
         noise_ratio: 1.0,
-        noise_local: false,
     };
     let z = m.whitened().unwrap();
     assert!((z[0] * z[0] - 5.0 * (1.0 + 9.0 / 6.0f64).ln()).abs() < 1e-12);

@@ -131,8 +131,7 @@ pub struct ParameterResiduals {
     /// How much the test's own measurement error beyond the vessel's typical widened its
     /// covariance, in the direction it widened most (`1 +` that share); absent when it did
     /// not (a test as clean as the vessel's typical, an HBT test, or against the design or
-    /// commissioning's wide limits). Above `calibration.learn-noise-ratio-max` the test is
-    /// judged but not learned.
+    /// commissioning's wide limits).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noise_ratio: Option<f64>,
 }
