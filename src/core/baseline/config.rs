@@ -18,7 +18,7 @@ pub struct BaselineConfig {
     /// transient, which decays as `(lambda t) e^{-lambda t}` [s]; at least 5 / lambda.
     pub transient_s: f64,
     /// Spread of its speed from a, CLFRT record, `[calm, moderate]` [m/s]: the rms error of
-    /// its calibration table (docs/baseline.md).
+    /// its calibration table (`tests/it/baseline.rs`, `calibration_table`).
     pub clfrt_speed_sigma_mps: [f64; 2],
     /// Spread of its displacement from b and the speed log, CLFRT record [t].
     pub clfrt_displacement_sigma_t: [f64; 2],

@@ -44,7 +44,8 @@
 //! CLFRT tones, the relay's limit cycle) and well below the wave band (0.8 rad/s). Higher, the
 //! wave yaw on the heading leaks into `s F psi` (an error in the regressor: `a` biased towards
 //! zero) and the gyro noise reaches `s^2 F psi` with gain `lambda^2`; lower, the upper tones
-//! are cut while the slow bias passes whole. `docs/baseline.md` has the measured trade-off.
+//! are cut while the slow bias passes whole. `tests/it/baseline.rs` (`calibration_table`)
+//! prints the trade-off for another lambda.
 //!
 //! ## What it does with drift and the sea's bias
 //!

@@ -79,10 +79,9 @@
 //!
 //! (phase capped at pi). The true gain lies in `gain (1 +- gain_ci90_rel)` and the true
 //! phase in `phase_rad +- phase_ci90_rad` with probability ~90 %: the calibration test below
-//! measures it in a closed-loop simulation (figures in docs/dsp.md). Without the transient
-//! removal the 17th harmonic's fixed-phase leakage left its gain under-covered (0.88) and
-//! its phase over-covered (0.95), and its median gain error was 1.7 (moderate sea) to 2.6
-//! (rough) times larger.
+//! measures it in a closed-loop simulation. The transient removal matters most at the 17th
+//! harmonic, whose fixed-phase leakage would otherwise bias the coverage of its gain and
+//! phase in opposite directions.
 //!
 //! Signal-to-noise of the heading at the tone: `snr = |Psi_c|^2 / s^2 - 1` (the tone bin
 //! holds signal plus noise), `snr_db = 10 log10 snr` clamped to [-120, 300] dB, and
