@@ -463,7 +463,7 @@ fn a_state_file_plots_the_learned_reference_with_one_point_per_learned_test() {
         meas: None,
     };
     let wobble = [0.0, 0.03, -0.03, 0.02, -0.02, 0.01, -0.01, 0.015];
-    // The vessel's test numbers order the samples (`Commissioning::add`'s third argument).
+    // The vessel's test numbers order the samples (`MethodReference::add`'s third argument).
     let mut order = 0..;
     for w in wobble {
         st.commissioning[0].add(&s, &raw(7.0, w), order.next().unwrap());

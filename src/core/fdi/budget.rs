@@ -3,7 +3,7 @@
 //! `fdi.false-alarms-per-year`.
 //!
 //! A vessel is commissioned on K Gaussian tests per method (the reference's mean and shape
-//! estimated from them, as `reference::Commissioning` does), then decides `tests` tests in
+//! estimated from them, as `reference::MethodReference` does), then decides `tests` tests in
 //! turn: each measured against its method's reference, whitened, fed to the window GLR and
 //! learned as the daemon learns (`learning::after_decision`). The true scatter is correlated
 //! (speed and displacement -0.9, as on a second-order hull; the gain half with the
@@ -17,7 +17,7 @@ use super::decision::Sequential;
 use super::learning::{after_decision, Held, Pending};
 use super::limits::DecisionLimits;
 use super::raw::Raw;
-use super::reference::{self, Commissioning};
+use super::reference::{self, MethodReference};
 use super::stats::dot;
 use super::window::{Entry, Source};
 use crate::core::wire::residuals::TrackState;
@@ -136,7 +136,7 @@ fn vessel(
     let k = cell.commissioning_tests as usize;
     let sample = |rng: &mut ChaCha8Rng| {
         let raws: Vec<Raw> = (0..k).map(|_| draw(rng)).collect();
-        Commissioning::commissioned_on(settings, &raws)
+        MethodReference::commissioned_on(settings, &raws)
     };
     let mut c = [sample(&mut rng)?, sample(&mut rng)?];
     let (mut s, mut pending) = (Sequential::default(), Pending::default());

@@ -26,7 +26,7 @@
 use super::envelope::{same_sea, sea_step};
 use super::measured::{bound_factor, effective_dof};
 use super::point::{Regression as Envelope, Sample};
-use super::reference::{Commissioning, Phase, Settings, MIN_TESTS};
+use super::reference::{MethodReference, Phase, Settings, MIN_TESTS};
 use super::stats::{chi2_sf, dot, hotelling_sf, Cov, P};
 use nalgebra::{Matrix3, Vector3};
 
@@ -47,7 +47,7 @@ pub const MIN_CHANGED: usize = 2;
 /// tests only); each method whose sample the change splits is declared inconsistent (its
 /// reference, just completed or completed during `i`'s commissioning, is not used; one
 /// already inconsistent keeps its verdict).
-pub fn check(c: &mut [Commissioning; 2], i: usize, s: &Settings) -> Option<Change> {
+pub fn check(c: &mut [MethodReference; 2], i: usize, s: &Settings) -> Option<Change> {
     let first = c[i].samples.first().map_or(0, |x| x.order);
     let samples: [&[Sample]; 2] = std::array::from_fn(|m| {
         let x = &c[m];
@@ -69,7 +69,7 @@ pub fn check(c: &mut [Commissioning; 2], i: usize, s: &Settings) -> Option<Chang
 /// method's first twice its commissioning tests, a gathering one's all, an inconsistent
 /// one's commissioning tests): a change the commissioning's few tests could not prove,
 /// proven as the tests after it add their dof.
-pub fn confirm(c: &mut [Commissioning; 2], i: usize, s: &Settings) -> Option<Change> {
+pub fn confirm(c: &mut [MethodReference; 2], i: usize, s: &Settings) -> Option<Change> {
     let x = &c[i];
     let n = x.samples.len();
     let k = x.tests as usize;
@@ -100,7 +100,7 @@ pub fn confirm(c: &mut [Commissioning; 2], i: usize, s: &Settings) -> Option<Cha
 /// (`envelope::same_sea` of its tests' mean `w`). The test is over one sea (`Point::x3`):
 /// a test in another sea is another operating point, its offset and scatter the
 /// reference's to learn (`envelope::local_shape`), not a change of health.
-fn confirmation_sample(x: &Commissioning, env: &Envelope) -> Vec<Sample> {
+fn confirmation_sample(x: &MethodReference, env: &Envelope) -> Vec<Sample> {
     let upto = x.samples.len().min(2 * x.tests as usize);
     let (head, tail) = x.samples[..upto].split_at((x.tests as usize).min(upto));
     let ws: Vec<f64> = head
@@ -117,12 +117,12 @@ fn confirmation_sample(x: &Commissioning, env: &Envelope) -> Vec<Sample> {
 }
 
 /// Nothing forgotten (`reference::MEMORY_TESTS`): the commissioning tests come first.
-fn intact(x: &Commissioning) -> bool {
+fn intact(x: &MethodReference) -> bool {
     x.samples.len() == (x.tests + x.learned) as usize
 }
 
 /// A method's commissioning tests while it has forgotten none; else none.
-fn commissioning_tests(x: &Commissioning) -> &[Sample] {
+fn commissioning_tests(x: &MethodReference) -> &[Sample] {
     if intact(x) {
         x.samples.get(..x.tests as usize).unwrap_or(&[])
     } else {
@@ -132,7 +132,7 @@ fn commissioning_tests(x: &Commissioning) -> &[Sample] {
 
 /// Each method whose sample `change` splits is declared inconsistent (one already
 /// inconsistent keeps its verdict).
-fn mark(c: &mut [Commissioning; 2], change: Change) -> Change {
+fn mark(c: &mut [MethodReference; 2], change: Change) -> Change {
     for (x, k) in c.iter_mut().zip(change.splits) {
         if let (Some(k), false) = (k, matches!(x.phase, Phase::Inconsistent { .. })) {
             x.phase = Phase::Inconsistent {

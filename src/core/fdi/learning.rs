@@ -2,7 +2,7 @@
 //! decision has seen all it can of it, so that a reference never holds the evidence it judges.
 //!
 //! - While commissioning every completed test joins the sample at once
-//!   (`reference::Commissioning::add`); a completed sample goes to the change-point test.
+//!   (`reference::MethodReference::add`); a completed sample goes to the change-point test.
 //! - After commissioning every completed test measured against the vessel's reference is
 //!   eligible (a method found inconsistent learns nothing). A test over the single-test alarm
 //!   limit raises the alarm, which drops it.
@@ -23,7 +23,7 @@ use super::decision::{Sequential, Step};
 use super::limits::DecisionLimits;
 use super::measured::Basis;
 use super::raw::Raw;
-use super::reference::Commissioning;
+use super::reference::MethodReference;
 use super::reference::{self, Added, Settings};
 use super::window::measure_entry;
 use super::window::method_index;
@@ -122,7 +122,7 @@ pub fn after_decision(
 /// the tests held for learning and the decision's window.
 pub struct Learner<'a> {
     /// Per method, the commissioning and the vessel's own reference.
-    pub commissioning: &'a mut [Commissioning; 2],
+    pub commissioning: &'a mut [MethodReference; 2],
     /// Per method, how many references it has had.
     pub generation: &'a mut [u32; 2],
     /// The tests in the window waiting to be learned.

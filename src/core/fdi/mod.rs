@@ -57,7 +57,7 @@ use limits::DecisionLimits;
 use measured::Basis;
 use raw::sea_fraction;
 use raw::sea_index;
-use reference::{Added, Commissioning, Phase};
+use reference::{Added, MethodReference, Phase};
 use report::Fingerprint;
 use serde::{Deserialize, Serialize};
 use shape::LoopShape;
@@ -143,7 +143,7 @@ pub struct FdiState {
     pub last_notification: Option<Notification>,
     /// Per method (CLFRT, HBT), the commissioning and the vessel's own reference.
     #[serde(default, deserialize_with = "or_default")]
-    pub commissioning: [Commissioning; 2],
+    pub commissioning: [MethodReference; 2],
     /// Per method, how many references it has had (a new one drops its older tests from
     /// the window).
     #[serde(default)]
@@ -184,7 +184,7 @@ pub struct Fdi {
     sequential: Sequential,
     published: AlarmState,
     last_notification: Option<Notification>,
-    commissioning: [Commissioning; 2],
+    commissioning: [MethodReference; 2],
     generation: [u32; 2],
     fingerprint: Fingerprint,
     pending: Pending,
@@ -240,7 +240,7 @@ impl Fdi {
     }
 
     /// Per method (CLFRT, HBT), what the vessel has learned.
-    pub fn learned(&self) -> &[Commissioning; 2] {
+    pub fn learned(&self) -> &[MethodReference; 2] {
         &self.commissioning
     }
 

@@ -4,7 +4,7 @@ use crate::core::fdi::config::{Calibration, FdiConfig, ReferenceConfig};
 use crate::core::fdi::limits::DecisionLimits;
 use crate::core::fdi::raw::measurement_cov;
 use crate::core::fdi::raw::Raw;
-use crate::core::fdi::reference::{Commissioning, Settings as RefSettings};
+use crate::core::fdi::reference::{MethodReference, Settings as RefSettings};
 use crate::core::monitor::config::CoreConfig;
 use crate::core::wire::features::{sample, ClfrtFeatures};
 use crate::core::wire::{Features, Method};
@@ -143,8 +143,8 @@ fn raw(e: [f64; P], sea: f64, m: [f64; P]) -> Raw {
 
 /// Six commissioning tests in a calm sea (index 0.2) whose own measurement error is `m`
 /// times (1, 0.01, 0.01), scattering by half that.
-fn commissioned(s: &RefSettings, m: &[f64]) -> Commissioning {
-    let mut c = Commissioning::default();
+fn commissioned(s: &RefSettings, m: &[f64]) -> MethodReference {
+    let mut c = MethodReference::default();
     for (i, k) in m.iter().enumerate() {
         let w = (i as f64 * 1.7).sin();
         let e = [0.05 * w, 0.005 * (i as f64 * 2.3).cos(), -5.0 + 0.005 * w];

@@ -1,6 +1,6 @@
 //! The parity reference of one method (docs/fdi.md, "The vessel's normal"): the design's,
 //! the design's with wide limits while commissioning, or the vessel's own over its operating
-//! envelope (`envelope`). [`Commissioning::measure`] returns the basis and the residual
+//! envelope (`envelope`). [`MethodReference::measure`] returns the basis and the residual
 //! `(e_u [m/s], e_D [fraction of D_nom], e_b [ln])` with a healthy ship's covariance:
 //!
 //! - commissioning off: the design spreads, `(e_u, e_D)` only, offset share 0;
@@ -12,7 +12,7 @@
 //!   excitation or sea over a bandwidth from every learned test the dof are at most the
 //!   kernel weight there less one.
 //!
-//! [`Commissioning::add`] takes only finite tests with positive spreads and displacement, none
+//! [`MethodReference::add`] takes only finite tests with positive spreads and displacement, none
 //! with commissioning off, and keeps at most [`MEMORY_TESTS`] (`envelope::forget`). The sample
 //! ends at `K = fdi.commissioning-tests`, or from `min(K, MIN_TESTS)` tests once it resolves
 //! `reference.resolve-*` (`h_1` the single-test alarm limit, `s_j` the mean design spread):
@@ -142,10 +142,11 @@ impl Settings {
     }
 }
 
-/// What one method has learned of the vessel.
+/// One method's reference for the vessel's whole life: its commissioning sample, then the
+/// healthy tests learned after it (the phase says which holds).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
-pub struct Commissioning {
+pub struct MethodReference {
     /// Tests in the commissioning sample.
     pub tests: u32,
     /// Where it stands.
@@ -207,7 +208,7 @@ pub enum Added {
     Learned,
 }
 
-impl Commissioning {
+impl MethodReference {
     /// Whether the sample is still being gathered (and commissioning is configured).
     pub fn in_progress(&self, s: &Settings) -> bool {
         s.tests > 0 && self.phase == Phase::Commissioning
@@ -552,7 +553,7 @@ pub fn confirmation_looks(k_max: u32) -> usize {
 
 /// The vessel's number for its next test: one past the newest sample's of either method
 /// (samples restored from a state without numbers count as 0).
-pub fn next_order(c: &[Commissioning; 2]) -> u64 {
+pub fn next_order(c: &[MethodReference; 2]) -> u64 {
     c.iter()
         .flat_map(|x| x.samples.iter().map(|s| s.order))
         .max()

@@ -60,8 +60,8 @@ const SAMPLE: [(f64, f64); 5] = [
     (0.9, -0.21),
 ];
 
-fn commissioned(s: &Settings) -> Commissioning {
-    let mut c = Commissioning::default();
+fn commissioned(s: &Settings) -> MethodReference {
+    let mut c = MethodReference::default();
     for (u, d) in SAMPLE {
         c.add(s, &raw(u, d), 0);
     }
@@ -72,7 +72,7 @@ fn commissioned(s: &Settings) -> Commissioning {
 #[test]
 fn the_reference_is_the_sample_mean_and_covariance() {
     let s = settings(5);
-    let mut c = Commissioning::default();
+    let mut c = MethodReference::default();
     for (i, (u, d)) in SAMPLE.iter().enumerate() {
         let (b, _) = c.measure(&s, &raw(*u, *d));
         assert!(matches!(b, Basis::Commissioning { done, of: 5 } if done == i as u32));
@@ -185,7 +185,7 @@ fn commissioning_is_wide_and_ends_as_soon_as_the_sample_resolves_its_faults() {
         floor_displacement: 0.004,
         ..settings(8)
     };
-    let mut c = Commissioning::default();
+    let mut c = MethodReference::default();
     let (_, m) = c.measure(&s, &raw(1.0, -0.2));
     assert_eq!(
         (m.cov, m.offset_var, m.dim),
@@ -204,7 +204,7 @@ fn commissioning_is_wide_and_ends_as_soon_as_the_sample_resolves_its_faults() {
     }
     assert_eq!(c.tests, 6);
     // A scatter of 0.3 m/s: the speed-log bias of 0.5 m/s is not resolved: all 8 tests.
-    let mut wide = Commissioning::default();
+    let mut wide = MethodReference::default();
     for (i, w) in tight.iter().enumerate() {
         let a = wide.add(&s, &raw(1.0 + 15.0 * w, -0.2 + w / 20.0), 0);
         assert_eq!(a == Added::Completed, i == 7, "{i}: {a:?}");
@@ -214,7 +214,7 @@ fn commissioning_is_wide_and_ends_as_soon_as_the_sample_resolves_its_faults() {
 #[test]
 fn a_change_inside_the_commissioning_sample_sets_no_reference() {
     let s = settings(8);
-    let mut c = Commissioning::default();
+    let mut c = MethodReference::default();
     let scatter = [0.0, 0.02, -0.02, 0.01, -0.01, 0.0];
     for (i, w) in scatter.iter().enumerate() {
         // +12 % displacement from the fourth test on.
@@ -223,7 +223,7 @@ fn a_change_inside_the_commissioning_sample_sets_no_reference() {
         assert_eq!(a, Added::Sample);
     }
     // The vessel's test (the other method has no sample) splits this one at its fourth.
-    let mut both = [c, Commissioning::default()];
+    let mut both = [c, MethodReference::default()];
     let change = changepoint::check(&mut both, 0, &s).unwrap();
     assert_eq!(change.splits, [Some(3), None]);
     let [mut c, _] = both;
@@ -249,7 +249,7 @@ fn a_change_inside_the_commissioning_sample_sets_no_reference() {
 fn the_change_is_the_vessels_in_both_samples_that_overlap_in_time() {
     let s = settings(8);
     let scatter = [0.0, 0.02, -0.02, 0.01, -0.01, 0.0, 0.015, -0.015];
-    let run = |c: &mut Commissioning, m: u64, from: u64, shift_at: u64| -> Added {
+    let run = |c: &mut MethodReference, m: u64, from: u64, shift_at: u64| -> Added {
         let mut last = Added::Nothing;
         for (i, w) in scatter.iter().enumerate() {
             let order = from + 2 * i as u64 + m;
@@ -260,14 +260,14 @@ fn the_change_is_the_vessels_in_both_samples_that_overlap_in_time() {
     };
     // In turn from the vessel's test 0, +12 % from its test 6: method 0's fourth test,
     // method 1's fourth.
-    let mut both: [Commissioning; 2] = Default::default();
+    let mut both: [MethodReference; 2] = Default::default();
     assert_eq!(run(&mut both[1], 1, 0, 6), Added::Completed);
     assert_eq!(run(&mut both[0], 0, 0, 6), Added::Completed);
     let change = changepoint::check(&mut both, 0, &s).unwrap();
     assert_eq!(change.splits, [Some(3), Some(3)]);
     assert!(both.iter().all(|c| c.state(&s) == "inconsistent"));
     // Method 0 commissioned healthy before method 1 began: only method 1 is judged.
-    let mut both: [Commissioning; 2] = Default::default();
+    let mut both: [MethodReference; 2] = Default::default();
     assert_eq!(run(&mut both[0], 0, 0, u64::MAX), Added::Completed);
     assert_eq!(run(&mut both[1], 1, 100, 106), Added::Completed);
     let change = changepoint::check(&mut both, 1, &s).unwrap();
@@ -353,7 +353,7 @@ fn memory_keeps_the_newest_of_the_fullest_bin() {
 #[test]
 fn without_commissioning_the_design_reference_serves() {
     let s = settings(0);
-    let mut c = Commissioning::default();
+    let mut c = MethodReference::default();
     assert_eq!(c.add(&s, &raw(1.0, 0.0), 0), Added::Nothing);
     let (b, m) = c.measure(&s, &raw(1.0, -0.2));
     assert_eq!(b, Basis::Design);
@@ -412,7 +412,7 @@ fn a_sample_on_a_plane_is_not_taken_for_a_law() {
         ln_damping: None,
         ..raw(u, d)
     };
-    let mut c = Commissioning::default();
+    let mut c = MethodReference::default();
     for (u, d) in pts {
         c.add(&s, &on_plane(u, d), 0);
     }
@@ -458,7 +458,7 @@ fn a_change_commissioning_could_not_prove_is_proven_by_the_tests_after_it() {
             -0.2 + 0.01 * (1.7 * x).cos() + shift,
         )
     };
-    let mut both: [Commissioning; 2] = Default::default();
+    let mut both: [MethodReference; 2] = Default::default();
     let mut completed = Vec::new();
     let mut found = None;
     for order in 0..40u64 {
@@ -491,7 +491,7 @@ fn a_change_commissioning_could_not_prove_is_proven_by_the_tests_after_it() {
             .starts_with("commissioning inconsistent: a change at test 2"));
     }
     // A healthy vessel's same tests: nothing, to the confirmation's end.
-    let mut both: [Commissioning; 2] = Default::default();
+    let mut both: [MethodReference; 2] = Default::default();
     for order in 0..40u64 {
         let m = (order % 2) as usize;
         let mut t = test(order);
@@ -513,7 +513,7 @@ fn a_change_commissioning_could_not_prove_is_proven_by_the_tests_after_it() {
 fn outliers_after_commissioning_are_no_change_inside_it() {
     let s = settings(8);
     let run = |from: u64, to: u64| {
-        let mut both: [Commissioning; 2] = Default::default();
+        let mut both: [MethodReference; 2] = Default::default();
         let mut found = None;
         for order in 0..40u64 {
             let m = (order % 2) as usize;
@@ -556,7 +556,7 @@ fn outliers_after_commissioning_are_no_change_inside_it() {
 fn a_new_sea_after_commissioning_is_no_change_inside_it() {
     let s = settings(16);
     let calm = Calibration::default().sea_wave_yaw_deg[0];
-    let mut both: [Commissioning; 2] = Default::default();
+    let mut both: [MethodReference; 2] = Default::default();
     for order in 0..80u64 {
         let m = (order % 2) as usize;
         let x = order as f64;

@@ -1,6 +1,6 @@
 use super::decision::tests::entry;
 use super::raw::spread;
-use super::reference::Commissioning;
+use super::reference::MethodReference;
 use super::*;
 use crate::core::estimator::model::Uncertainty;
 use crate::core::fdi::config::Calibration;
@@ -184,7 +184,10 @@ fn a_reference_is_kept_only_for_its_configuration_and_models() {
     other_models.set_models(Some("bbbb".into()));
     let why = other_models.restore(saved.clone()).unwrap();
     assert!(why.contains("models changed (aaaa -> bbbb)"), "{why}");
-    assert_eq!(other_models.commissioning, <[Commissioning; 2]>::default());
+    assert_eq!(
+        other_models.commissioning,
+        <[MethodReference; 2]>::default()
+    );
     assert_eq!(other_models.loop_shape, LoopShape::default());
 
     let mut longer = cfg.clone();
@@ -273,7 +276,7 @@ fn the_state_survives_a_round_trip_through_json() {
     .unwrap();
     let old: FdiState = serde_json::from_value(v).unwrap();
     assert_eq!(old.sequential, Sequential::default());
-    assert_eq!(old.commissioning, <[Commissioning; 2]>::default());
+    assert_eq!(old.commissioning, <[MethodReference; 2]>::default());
     let mut upgraded = Fdi::new(&cfg);
     upgraded.restore(old);
     assert_eq!(upgraded.alarm_state(), AlarmState::Alarm);

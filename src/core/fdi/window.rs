@@ -3,7 +3,7 @@
 
 use super::measured::{Basis, Measured};
 use super::raw::Raw;
-use super::reference::{Commissioning, Settings};
+use super::reference::{MethodReference, Settings};
 use super::stats::{dot, unit, P};
 use crate::core::wire::Method;
 use serde::{Deserialize, Serialize};
@@ -172,7 +172,7 @@ pub fn method_index(m: Method) -> usize {
 
 /// A test's entry in the vessel's window, measured against `c`, its method's reference.
 pub fn measure_entry(
-    c: &Commissioning,
+    c: &MethodReference,
     settings: &Settings,
     method: Method,
     source: Source,

@@ -4,11 +4,11 @@
 //! predicted offset over speed at the learned tests' mean declared displacement (a line) and
 //! its band of two standard deviations of a test about it (dashed: the prediction's own
 //! error, the scatter at the learned tests' mean sea and the floors;
-//! `crate::core::fdi::reference::Commissioning::curve`).
+//! `crate::core::fdi::reference::MethodReference::curve`).
 
 use super::charts::tick;
 use super::{data, PlotError};
-use crate::core::fdi::reference::{Commissioning, Settings};
+use crate::core::fdi::reference::{MethodReference, Settings};
 use crate::core::wire::Method;
 use plotters::prelude::*;
 
@@ -24,7 +24,7 @@ pub(super) fn reference(
     svg: &mut String,
     size: (u32, u32),
     title: &str,
-    learned: &[Commissioning; 2],
+    learned: &[MethodReference; 2],
     s: &Settings,
 ) -> Result<(), PlotError> {
     if learned.iter().all(|c| c.samples.is_empty()) {

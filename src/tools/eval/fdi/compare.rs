@@ -35,8 +35,9 @@ pub struct Totals {
     pub healthy_tests: usize,
     /// False alarms among them (the commissioning set's: runs flagged).
     pub false_alarms: usize,
-    /// Commissioning set: fault runs the vessel's own sample found inconsistent.
-    pub inconsistent: usize,
+    /// Commissioning set: fault runs the vessel's own sample found inconsistent (`None`:
+    /// not counted, in figures written before the count existed).
+    pub inconsistent: Option<usize>,
     /// Fault runs.
     pub fault_runs: usize,
     /// Fault runs detected within the row's window.
@@ -65,7 +66,9 @@ pub fn totals(rows: &[RowFigures], set: Option<&str>) -> Totals {
         } else {
             t.fault_runs += r.runs;
             t.detected += r.detected;
-            t.inconsistent += r.inconsistent.unwrap_or(0);
+            if let Some(k) = r.inconsistent {
+                t.inconsistent = Some(t.inconsistent.unwrap_or(0) + k);
+            }
             if let Some(n) = r.named {
                 t.nameable_runs += r.runs;
                 t.named += n;
@@ -165,10 +168,10 @@ pub fn totals_table(variants: &[(&str, &[RowFigures])]) -> String {
             } else {
                 "-".into()
             };
-            let inconsistent = if set == "commissioning" {
-                cell(t.inconsistent, t.fault_runs, t0.inconsistent, t0.fault_runs)
-            } else {
-                "-".into()
+            let inconsistent = match (set, t.inconsistent, t0.inconsistent) {
+                ("commissioning", Some(k), Some(k0)) => cell(k, t.fault_runs, k0, t0.fault_runs),
+                ("commissioning", Some(k), None) => format!("{k} / {}", t.fault_runs),
+                _ => "-".into(),
             };
             let _ = writeln!(
                 out,
@@ -214,6 +217,20 @@ mod tests {
         assert!((z - 0.1 / 0.00255f64.sqrt()).abs() < 1e-12, "{z}");
         assert_eq!(two_proportion_z(0, 100, 0, 100), 0.0);
         assert_eq!(two_proportion_z(1, 0, 0, 100), 0.0);
+    }
+
+    #[test]
+    fn a_count_the_earlier_figures_lack_is_shown_not_compared() {
+        let mut before = row(false, 60, 240, 0, 58);
+        before.set = "commissioning".into();
+        let mut after = before.clone();
+        after.inconsistent = Some(45);
+        let t = compare_table(&[before.clone()], &[after.clone()]);
+        assert!(t.contains("| 45 / 60 |"), "{t}");
+        assert!(!t.contains("differs"), "{t}");
+        before.inconsistent = Some(10);
+        let t = compare_table(&[before], &[after]);
+        assert!(t.contains("45 / 60 **(differs)**"), "{t}");
     }
 
     #[test]
