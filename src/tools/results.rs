@@ -6,18 +6,36 @@
 
 use std::path::{Path, PathBuf};
 
-/// The commit the binary runs at: `git describe --always --dirty` in the working directory,
-/// or `unknown` outside a checkout.
+/// The commit the binary runs at: `git rev-parse --short=12 HEAD` in the working directory,
+/// `-dirty` when a tracked file outside `docs/results/` differs from it (the results a run
+/// writes before its later suites do not make them dirty), or `unknown` outside a checkout.
 pub fn commit() -> String {
-    std::process::Command::new("git")
-        .args(["describe", "--always", "--dirty", "--abbrev=12"])
-        .output()
-        .ok()
-        .filter(|o| o.status.success())
-        .and_then(|o| String::from_utf8(o.stdout).ok())
-        .map(|s| s.trim().to_string())
-        .filter(|s| !s.is_empty())
-        .unwrap_or_else(|| "unknown".into())
+    let git = |args: &[&str]| {
+        std::process::Command::new("git")
+            .args(args)
+            .output()
+            .ok()
+            .filter(|o| o.status.success())
+            .and_then(|o| String::from_utf8(o.stdout).ok())
+            .map(|s| s.trim().to_string())
+    };
+    let Some(head) = git(&["rev-parse", "--short=12", "HEAD"]).filter(|s| !s.is_empty()) else {
+        return "unknown".into();
+    };
+    let dirty = git(&[
+        "status",
+        "--porcelain",
+        "--untracked-files=no",
+        "--",
+        ".",
+        ":(exclude)docs/results",
+    ])
+    .is_some_and(|s| !s.is_empty());
+    if dirty {
+        format!("{head}-dirty")
+    } else {
+        head
+    }
 }
 
 /// The command line as a user types it: `helmwatch` and the arguments.
