@@ -47,6 +47,37 @@ pub struct Cell {
     pub tests: usize,
 }
 
+/// The scan `eval --budget` runs and the slow tier checks: K, the floors and learning, each
+/// at 30 and 8 false alarms a year, the vessels sized for about a hundred alarms at the
+/// budget (a tenth's relative spread); last, the default K at 2 a year, full size.
+pub const SCAN: [Cell; 13] = [
+    cell(8, [0.0, 0.0], false, 30.0, 300),
+    cell(8, [0.0, 0.0], false, 8.0, 1000),
+    cell(8, [0.0, 0.0], true, 30.0, 300),
+    cell(8, [0.0, 0.0], true, 8.0, 1000),
+    cell(16, [0.0, 0.0], true, 30.0, 300),
+    cell(16, [0.0, 0.0], true, 8.0, 1000),
+    cell(8, [0.2, 0.01], false, 30.0, 300),
+    cell(8, [0.2, 0.01], false, 8.0, 1000),
+    cell(30, [0.0, 0.0], false, 30.0, 300),
+    cell(30, [0.0, 0.0], false, 8.0, 1000),
+    cell(200, [0.0, 0.0], false, 30.0, 300),
+    cell(200, [0.0, 0.0], false, 8.0, 1000),
+    cell(16, [0.0, 0.0], true, 2.0, 20_000),
+];
+
+/// A cell of 100 tests a vessel.
+const fn cell(k: u32, floors: [f64; 2], learn: bool, budget: f64, vessels: usize) -> Cell {
+    Cell {
+        commissioning_tests: k,
+        floors,
+        learn,
+        budget_per_year: budget,
+        vessels,
+        tests: 100,
+    }
+}
+
 /// What a cell measured.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Outcome {

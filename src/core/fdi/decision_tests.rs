@@ -2,7 +2,7 @@
 //! Carlo on its own model.
 
 use super::*;
-use crate::core::fdi::budget::{self, Cell};
+use crate::core::fdi::budget;
 use crate::core::fdi::config::FdiConfig;
 use crate::core::fdi::limits::{effective_lengths, DecisionLimits, YEAR_S};
 use crate::core::fdi::window::Entry;
@@ -430,27 +430,10 @@ fn the_log_step_names_an_alarm_while_it_holds() {
 #[ignore = "slow tier: cargo test --profile ci -- --ignored"]
 fn monte_carlo_scan() {
     let mut table = Vec::new();
-    for (k, floors, learn) in [
-        (8, [0.0, 0.0], false),
-        (8, [0.0, 0.0], true),
-        (16, [0.0, 0.0], true),
-        (8, [0.2, 0.01], false),
-        (30, [0.0, 0.0], false),
-        (200, [0.0, 0.0], false),
-    ] {
-        for (budget, vessels) in [(30.0, 300), (8.0, 1000)] {
-            let cell = Cell {
-                commissioning_tests: k,
-                floors,
-                learn,
-                budget_per_year: budget,
-                vessels,
-                tests: 100,
-            };
-            let ratio = budget::run(&cell, 7, 2).unwrap().ratio();
-            println!("{cell:?}: ratio {ratio:.3}");
-            table.push((cell, ratio));
-        }
+    for cell in &budget::SCAN[..12] {
+        let ratio = budget::run(cell, 7, 2).unwrap().ratio();
+        println!("{cell:?}: ratio {ratio:.3}");
+        table.push((cell, ratio));
     }
     let outside: Vec<_> = table
         .iter()
@@ -473,14 +456,11 @@ fn monte_carlo_scan() {
 #[test]
 #[ignore = "slow tier: cargo test --profile ci -- --ignored"]
 fn monte_carlo_false_alarm_rate_is_within_a_factor_two_of_the_budget() {
-    let cell = Cell {
-        commissioning_tests: FdiConfig::default().commissioning_tests,
-        floors: [0.0, 0.0],
-        learn: true,
-        budget_per_year: 2.0,
-        vessels: 20_000,
-        tests: 100,
-    };
+    let cell = budget::SCAN[12];
+    assert_eq!(
+        cell.commissioning_tests,
+        FdiConfig::default().commissioning_tests
+    );
     let o = budget::run(&cell, 7, 2).unwrap();
     let ratio = o.ratio();
     eprintln!("{o:?}: ratio {ratio:.3}");

@@ -1,29 +1,11 @@
 //! `eval --budget`: the decision on its own model against `fdi.false-alarms-per-year`
 //! (`core::fdi::budget`), over the commissioning sample size, the floors and learning, and
-//! with the mechanisms that keep the budget at a small sample switched off in turn. Each
-//! cell is sized for about a hundred alarms at its budget (a tenth's relative spread).
+//! with the mechanisms that keep the budget at a small sample switched off in turn
+//! (`core::fdi::budget::SCAN`).
 
 use crate::core::fdi::ablation::{switch_off, Mechanism};
-use crate::core::fdi::budget::{run, Cell};
+use crate::core::fdi::budget::{run, SCAN};
 use std::fmt::Write;
-
-/// The cells: (K, floors, learning, budget a year, vessels), 100 tests each after
-/// commissioning.
-const CELLS: [(u32, [f64; 2], bool, f64, usize); 13] = [
-    (8, [0.0, 0.0], false, 30.0, 300),
-    (8, [0.0, 0.0], false, 8.0, 1000),
-    (8, [0.0, 0.0], true, 30.0, 300),
-    (8, [0.0, 0.0], true, 8.0, 1000),
-    (16, [0.0, 0.0], true, 30.0, 300),
-    (16, [0.0, 0.0], true, 8.0, 1000),
-    (8, [0.2, 0.01], false, 30.0, 300),
-    (8, [0.2, 0.01], false, 8.0, 1000),
-    (30, [0.0, 0.0], false, 30.0, 300),
-    (30, [0.0, 0.0], false, 8.0, 1000),
-    (200, [0.0, 0.0], false, 30.0, 300),
-    (200, [0.0, 0.0], false, 8.0, 1000),
-    (16, [0.0, 0.0], true, 2.0, 20_000),
-];
 
 /// The mechanisms switched off for the small-sample cells (K = 8, no floors): the one that
 /// exists for a small sample.
@@ -47,18 +29,16 @@ pub fn budget_table(seed: u64, threads: usize) -> String {
     let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|");
     let rows = |name: &str, off: &[Mechanism], small_only: bool, out: &mut String| {
         switch_off(off);
-        for (k, floors, learn, budget, vessels) in CELLS {
+        for cell in SCAN {
+            let (k, floors, learn, budget) = (
+                cell.commissioning_tests,
+                cell.floors,
+                cell.learn,
+                cell.budget_per_year,
+            );
             if small_only && !(k == 8 && floors == [0.0, 0.0]) {
                 continue;
             }
-            let cell = Cell {
-                commissioning_tests: k,
-                floors,
-                learn,
-                budget_per_year: budget,
-                vessels,
-                tests: 100,
-            };
             let line = match run(&cell, seed, threads) {
                 Some(o) => {
                     let [lo, hi] = o.ratio_interval();
