@@ -55,11 +55,7 @@ pub fn totals(rows: &[RowFigures], set: Option<&str>) -> Totals {
     let mut t = Totals::default();
     for r in rows.iter().filter(|r| set.is_none_or(|s| r.set == s)) {
         if r.healthy {
-            t.healthy_tests += if r.set == "commissioning" {
-                r.runs
-            } else {
-                r.tests
-            };
+            t.healthy_tests += r.healthy_units();
             t.false_alarms += r.false_alarm_tests;
             t.alerts[0] += r.alerts[0];
             t.alerts[1] += r.alerts[1];
@@ -117,11 +113,9 @@ pub fn compare_table(before: &[RowFigures], after: &[RowFigures]) -> String {
         else {
             continue;
         };
-        let (k0, n0, k, n) = if a.healthy && a.set == "commissioning" {
-            // A commissioning run is judged whole: runs flagged over runs.
-            (b.false_alarm_tests, b.runs, a.false_alarm_tests, a.runs)
-        } else if a.healthy {
-            (b.false_alarm_tests, b.tests, a.false_alarm_tests, a.tests)
+        let (k0, n0, k, n) = if a.healthy {
+            let (n0, n) = (b.healthy_units(), a.healthy_units());
+            (b.false_alarm_tests, n0, a.false_alarm_tests, n)
         } else {
             (b.detected, b.runs, a.detected, a.runs)
         };

@@ -216,6 +216,18 @@ pub struct RowFigures {
     pub inconsistent: Option<usize>,
 }
 
+impl RowFigures {
+    /// What a healthy row's false alarms are counted over: its tests, but a commissioning
+    /// row's runs (each run is judged whole: flagged or not).
+    pub fn healthy_units(&self) -> usize {
+        if self.set == "commissioning" {
+            self.runs
+        } else {
+            self.tests
+        }
+    }
+}
+
 /// Completed tests after commissioning of healthy runs, alert or alarm, and all of them.
 pub(super) fn alerts(runs: &[RunOutcome]) -> [usize; 2] {
     use crate::core::wire::residuals::TrackState;
