@@ -9,11 +9,11 @@
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use helmwatch::config::Config;
-use helmwatch::core::dsp::relay::analyse_limit_cycle;
-use helmwatch::core::dsp::tones::{analyse_tones, ToneAnalyser};
-use helmwatch::core::monitor::Monitor;
-use helmwatch::core::wire::Method;
-use helmwatch::core::wire::{Input, Scalar, StateValue};
+use helmwatch_core::dsp::relay::analyse_limit_cycle;
+use helmwatch_core::dsp::tones::{analyse_tones, ToneAnalyser};
+use helmwatch_core::monitor::Monitor;
+use helmwatch_core::wire::Method;
+use helmwatch_core::wire::{Input, Scalar, StateValue};
 use std::hint::black_box;
 
 fn tick(m: &mut Monitor, t: f64) {
@@ -62,7 +62,7 @@ fn per_sample(c: &mut Criterion) {
         b.iter(|| {
             t += 0.1;
             tick(&mut m, t);
-            if m.state() == helmwatch::core::wire::MonitorState::Idle {
+            if m.state() == helmwatch_core::wire::MonitorState::Idle {
                 let _ = m.trigger(Method::Clfrt);
             }
         })

@@ -9,12 +9,12 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use helmwatch::config::Config;
-use helmwatch::core::estimator::model::Target;
-use helmwatch::core::estimator::nn::Scratch;
-use helmwatch::core::estimator::Estimator;
-use helmwatch::core::wire::{Features, Method};
-use helmwatch::drivers::probe::{run_probe, ProbeOptions};
-use helmwatch::sim::Scenario;
+use helmwatch_core::drivers::probe::{run_probe, ProbeOptions};
+use helmwatch_core::estimator::model::Target;
+use helmwatch_core::estimator::nn::Scratch;
+use helmwatch_core::estimator::Estimator;
+use helmwatch_core::sim::Scenario;
+use helmwatch_core::wire::{Features, Method};
 use std::hint::black_box;
 
 fn features(cfg: &Config, method: Method) -> Option<Features> {

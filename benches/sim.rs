@@ -9,7 +9,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use helmwatch::config::Config;
-use helmwatch::sim::{Scenario, Ship};
+use helmwatch_core::sim::{Scenario, Ship};
 use std::hint::black_box;
 
 fn one_hour(cfg: &Config, publish: bool) -> f64 {

@@ -28,18 +28,18 @@
 //! top-level file with the vessel's table merged in, checked like the file itself (an error
 //! names `vessel.<name>.<section>.<key>`).
 
-use crate::core::baseline::config::BaselineConfig;
-pub use crate::core::config::ConfigError;
-use crate::core::design::{ClfrtConfig, HbtConfig};
-use crate::core::estimator::config::EstimatorConfig;
-use crate::core::fdi::config::{FdiConfig, ReferenceConfig};
-use crate::core::model::{SensorConfig, ServoConfig, ShipConfig};
-use crate::core::monitor::config::{CoreConfig, InputConfig, SafetyConfig, SchedulerConfig};
 use crate::shells::bridge::BridgeConfig;
 use crate::shells::daemon::config::DaemonConfig;
 use crate::shells::net::ZenohConfig;
 use crate::shells::shipnode::ShipPeerConfig;
-use crate::sim::config::{
+use helmwatch_core::baseline::config::BaselineConfig;
+pub use helmwatch_core::config::ConfigError;
+use helmwatch_core::design::{ClfrtConfig, HbtConfig};
+use helmwatch_core::estimator::config::EstimatorConfig;
+use helmwatch_core::fdi::config::{FdiConfig, ReferenceConfig};
+use helmwatch_core::model::{SensorConfig, ServoConfig, ShipConfig};
+use helmwatch_core::monitor::config::{CoreConfig, InputConfig, SafetyConfig, SchedulerConfig};
+use helmwatch_core::sim::config::{
     AutopilotConfig, SeaConfig, SimConfig, SimulationConfig, StructureConfig,
 };
 use serde::{Deserialize, Serialize};
@@ -143,7 +143,7 @@ impl Config {
         self.check_sections()?;
         self.daemon.check()?;
         if self.daemon.takeover_s <= self.safety.hold_s {
-            return Err(crate::core::config::fail(
+            return Err(helmwatch_core::config::fail(
                 "daemon.takeover-s",
                 self.daemon.takeover_s,
                 &format!(
@@ -157,9 +157,9 @@ impl Config {
         self.bridge.check()?;
         for name in self.vessel.keys() {
             let key = format!("vessel.{name}");
-            crate::core::config::check_vessel_name(&key, name)?;
+            helmwatch_core::config::check_vessel_name(&key, name)?;
             if !self.daemon.vessels.iter().any(|v| v == name) {
-                return Err(crate::core::config::fail(
+                return Err(helmwatch_core::config::fail(
                     &key,
                     format!("{name:?}"),
                     "a vessel listed in daemon.vessels",
@@ -188,7 +188,7 @@ impl Config {
         let prefix = format!("vessel.{vessel}");
         for (section, value) in over {
             if !VESSEL_SECTIONS.contains(&section.as_str()) {
-                return Err(crate::core::config::fail(
+                return Err(helmwatch_core::config::fail(
                     &format!("{prefix}.{section}"),
                     "a table",
                     &format!("one of the sections {}", VESSEL_SECTIONS.join(", ")),
@@ -432,9 +432,9 @@ mod tests {
         // [fdi] and [reference]: eight keys together.
         let n = |t: toml::Table| t.len();
         let keys =
-            n(toml::Table::try_from(crate::core::fdi::config::FdiConfig::default()).unwrap())
+            n(toml::Table::try_from(helmwatch_core::fdi::config::FdiConfig::default()).unwrap())
                 + n(
-                    toml::Table::try_from(crate::core::fdi::config::ReferenceConfig::default())
+                    toml::Table::try_from(helmwatch_core::fdi::config::ReferenceConfig::default())
                         .unwrap(),
                 );
         assert_eq!(keys, 8);

@@ -13,9 +13,9 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use helmwatch::config::Config;
-use helmwatch::core::monitor::{Monitor, Output};
-use helmwatch::core::wire::{self, Stream};
 use helmwatch::tools::bench::rss_mib;
+use helmwatch_core::monitor::{Monitor, Output};
+use helmwatch_core::wire::{self, Stream};
 use proptest::prelude::*;
 use proptest::test_runner::{Config as RunnerConfig, TestRunner};
 use std::cell::RefCell;

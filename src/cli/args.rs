@@ -2,9 +2,9 @@
 //! are in [`super::offline`], [`super::service`] and [`super::estimator`].
 
 use crate::cli::estimator::{DEFAULT_EVAL_POINTS, DEFAULT_RESTARTS, DEFAULT_TRAIN_POINTS};
-use crate::core::model::SeaState;
-use crate::core::wire::Method;
 use clap::{Args, Parser, Subcommand};
+use helmwatch_core::model::SeaState;
+use helmwatch_core::wire::Method;
 use std::path::PathBuf;
 
 #[derive(Debug, Parser)]

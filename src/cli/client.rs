@@ -8,8 +8,8 @@ use super::args::{ClientArgs, CommissionArgs, FleetArgs, HistoryArgs, TriggerArg
 use super::service::runtime;
 use super::{fail, Failure, EX_UNAVAILABLE, EX_USAGE};
 use crate::config::Config;
-use crate::core::wire::{Keys, TriggerReply};
 use crate::shells::history::{HistoryReply, Kind};
+use helmwatch_core::wire::{Keys, TriggerReply};
 use std::time::Duration;
 
 fn vessel(cfg: &Config, a: &ClientArgs) -> Result<String, Failure> {
@@ -18,7 +18,8 @@ fn vessel(cfg: &Config, a: &ClientArgs) -> Result<String, Failure> {
         .clone()
         .or_else(|| cfg.daemon.vessels.first().cloned())
         .unwrap_or_else(|| "self".to_string());
-    crate::core::config::check_vessel_name("--vessel", &v).map_err(|e| fail(EX_USAGE)(e.into()))?;
+    helmwatch_core::config::check_vessel_name("--vessel", &v)
+        .map_err(|e| fail(EX_USAGE)(e.into()))?;
     Ok(v)
 }
 

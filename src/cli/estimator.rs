@@ -11,17 +11,17 @@
 
 use crate::cli::{fail, Failure, EX_CONFIG, EX_IOERR, EX_SOFTWARE};
 use crate::config::Config;
-use crate::core::estimator::model::{Model, Target};
-use crate::core::estimator::{Estimator, SLOTS};
-use crate::core::model::SeaState;
-use crate::core::wire::Method;
-use crate::sim::Fault;
 use crate::tools::eval::estimator::{accuracy, durations, find, fmt_unit, table, target_mse, Cell};
 use crate::tools::training::build::{build_models, BuildSettings};
 use crate::tools::training::database::{
     default_threads, design, simulate, Database, DatabaseSpec, Purpose,
 };
 use crate::tools::training::train::{CgfOptions, LmOptions, Trainer};
+use helmwatch_core::estimator::model::{Model, Target};
+use helmwatch_core::estimator::{Estimator, SLOTS};
+use helmwatch_core::model::SeaState;
+use helmwatch_core::sim::Fault;
+use helmwatch_core::wire::Method;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -179,7 +179,7 @@ pub(crate) fn train(cfg: &Config, o: &TrainOptions) -> Result<(), Failure> {
         serde_json::to_string_pretty(&calibration).map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
     json.push('\n');
     for dir in &dirs {
-        let path = dir.join(crate::core::estimator::CALIBRATION_FILE);
+        let path = dir.join(helmwatch_core::estimator::CALIBRATION_FILE);
         crate::tools::results::write_atomic(&path, json.as_bytes())
             .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", path.display())))?;
     }
@@ -438,7 +438,7 @@ pub fn length_variants(cfg: &Config) -> Vec<(String, (Method, Config))> {
 /// method, sea and parameter, and the share of tests that completed.
 fn print_family(
     cfg: &Config,
-    models: &[crate::core::estimator::model::Model],
+    models: &[helmwatch_core::estimator::model::Model],
     spec: &crate::tools::training::database::DatabaseSpec,
     threads: usize,
 ) {

@@ -27,9 +27,9 @@ mod service;
 
 use crate::cli::estimator::{EvalOptions, TrainOptions};
 use crate::config::Config;
-use crate::core::config::ConfigError;
 use args::{Cli, Command, EvalArgs, TrainArgs};
 use clap::Parser;
+use helmwatch_core::config::ConfigError;
 
 /// Exit code: success.
 pub const EX_OK: i32 = 0;
@@ -111,7 +111,7 @@ fn vessel_config(cfg: &Config, vessel: Option<&str>) -> Result<Config, Failure> 
     let Some(v) = vessel else {
         return Ok(cfg.clone());
     };
-    crate::core::config::check_vessel_name("--vessel", v).map_err(|e| Failure {
+    helmwatch_core::config::check_vessel_name("--vessel", v).map_err(|e| Failure {
         error: e.into(),
         code: EX_USAGE,
     })?;
@@ -144,8 +144,8 @@ fn init_logging(command: &Command) {
         | Command::Trigger(_)
         | Command::History(_)
         | Command::Fleet(_) => "error",
-        Command::Train(_) | Command::Eval(_) => "warn,helmwatch::core::monitor=error",
-        Command::Bench(b) if b.time_to_alarm => "warn,helmwatch::core::monitor=error",
+        Command::Train(_) | Command::Eval(_) => "warn,helmwatch_core::monitor=error",
+        Command::Bench(b) if b.time_to_alarm => "warn,helmwatch_core::monitor=error",
         _ => "info,zenoh=warn",
     };
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()

@@ -6,9 +6,9 @@ use super::args::{EvalArgs, PlotArgs, ProbeArgs, ReplayArgs, ShipArgs, SimulateA
 use super::print::{print_baseline, print_estimate, print_features};
 use super::{fail, Failure, EX_CONFIG, EX_DATAERR, EX_IOERR, EX_SOFTWARE, EX_USAGE};
 use crate::config::Config;
-use crate::core::estimator::Estimator;
-use crate::drivers::probe::{run_probe, ProbeOptions};
-use crate::sim::{Fault, Scenario};
+use helmwatch_core::drivers::probe::{run_probe, ProbeOptions};
+use helmwatch_core::estimator::Estimator;
+use helmwatch_core::sim::{Fault, Scenario};
 use std::sync::Arc;
 
 pub(crate) fn scenario(cfg: &Config, a: &ShipArgs) -> Result<Scenario, Failure> {
@@ -37,15 +37,15 @@ pub(crate) fn simulate(cfg: &Config, a: SimulateArgs) -> Result<(), Failure> {
             "--duration-s must be a positive number of seconds"
         )));
     }
-    crate::core::config::check_vessel_name("--vessel", &a.vessel)
+    helmwatch_core::config::check_vessel_name("--vessel", &a.vessel)
         .map_err(|e| fail(EX_USAGE)(e.into()))?;
     let lines = if a.out.as_os_str() == "-" {
         let stdout = std::io::stdout();
-        crate::sim::record(&cfg.sim(), &sc, a.duration_s, &a.vessel, stdout.lock())
+        helmwatch_core::sim::record(&cfg.sim(), &sc, a.duration_s, &a.vessel, stdout.lock())
     } else {
         let file = std::fs::File::create(&a.out)
             .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", a.out.display())))?;
-        crate::sim::record(
+        helmwatch_core::sim::record(
             &cfg.sim(),
             &sc,
             a.duration_s,
@@ -100,7 +100,7 @@ pub(crate) fn probe(cfg: &Config, a: ProbeArgs) -> Result<(), Failure> {
 }
 
 pub(crate) fn replay(cfg: &Config, a: ReplayArgs) -> Result<(), Failure> {
-    use crate::core::monitor::Output;
+    use helmwatch_core::monitor::Output;
     use std::io::BufRead;
     let mut reader: Box<dyn std::io::BufRead> = if a.file.as_os_str() == "-" {
         Box::new(std::io::BufReader::new(std::io::stdin()))
@@ -150,7 +150,7 @@ pub(crate) fn replay(cfg: &Config, a: ReplayArgs) -> Result<(), Failure> {
     let sum = if mcap {
         crate::shells::recording::replay_mcap(&cfg.core(), &own, reader, on_output)
     } else {
-        crate::drivers::replay::replay_fleet(&cfg.core(), &own, reader, on_output)
+        helmwatch_core::drivers::replay::replay_fleet(&cfg.core(), &own, reader, on_output)
     }
     .map_err(|e| fail(EX_IOERR)(e.into()))?;
     tracing::info!(
@@ -181,7 +181,7 @@ pub(crate) fn eval_fdi(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
     use crate::tools::eval::fdi::compare::{compare_table, suite_name};
     use crate::tools::eval::fdi::{run_suite, FdiEvalOptions};
     let t0 = std::time::Instant::now();
-    let est = crate::core::estimator::Estimator::load_dir(&a.models, &cfg.core())
+    let est = helmwatch_core::estimator::Estimator::load_dir(&a.models, &cfg.core())
         .map_err(|e| fail(EX_CONFIG)(e.into()))?;
     let mut o = FdiEvalOptions {
         seed: a.seed,
@@ -263,8 +263,8 @@ pub(crate) fn eval_budget(a: &EvalArgs) -> Result<(), Failure> {
 
 /// The mechanisms `--ablate` names, one set per comma (`a+b`: both off together; `all`:
 /// every one alone); exit 64 naming the allowed ones.
-fn mechanisms(list: &str) -> Result<Vec<Vec<crate::core::fdi::ablation::Mechanism>>, Failure> {
-    use crate::core::fdi::ablation::Mechanism;
+fn mechanisms(list: &str) -> Result<Vec<Vec<helmwatch_core::fdi::ablation::Mechanism>>, Failure> {
+    use helmwatch_core::fdi::ablation::Mechanism;
     if list == "all" {
         return Ok(Mechanism::ALL.iter().map(|&m| vec![m]).collect());
     }
@@ -309,7 +309,7 @@ pub(crate) fn plot(cfg: &Config, a: PlotArgs) -> Result<(), Failure> {
         }
     }
     if let Some(v) = &a.vessel {
-        crate::core::config::check_vessel_name("--vessel", v)
+        helmwatch_core::config::check_vessel_name("--vessel", v)
             .map_err(|e| fail(EX_USAGE)(e.into()))?;
     }
     let bytes = read_input(&a.input)

@@ -1,6 +1,6 @@
 //! How a report reads on a terminal: features, the estimate, the baseline.
 
-use crate::core::wire::{Features, Report};
+use helmwatch_core::wire::{Features, Report};
 
 /// The tones (CLFRT) or the limit cycle (HBT).
 pub(crate) fn print_features(f: &Features) {

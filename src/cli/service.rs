@@ -8,7 +8,7 @@ use super::{
     EX_USAGE,
 };
 use crate::config::Config;
-use crate::sim::Fault;
+use helmwatch_core::sim::Fault;
 use std::path::Path;
 
 pub(crate) fn runtime() -> Result<tokio::runtime::Runtime, Failure> {
@@ -73,7 +73,7 @@ pub(crate) fn ship(cfg: &Config, a: ShipPeerArgs) -> Result<(), Failure> {
     use crate::shells::shipnode::{ShipNode, ShipNodeOptions};
     let vessel = match &a.vessel {
         Some(v) => {
-            crate::core::config::check_vessel_name("--vessel", v)
+            helmwatch_core::config::check_vessel_name("--vessel", v)
                 .map_err(|e| fail(EX_USAGE)(e.into()))?;
             v.clone()
         }
@@ -98,12 +98,12 @@ pub(crate) fn ship(cfg: &Config, a: ShipPeerArgs) -> Result<(), Failure> {
         opts.lockstep = false;
     }
     if let Some(s) = a.speed_up {
-        crate::core::config::check_range_open_low("--speed-up", s, 0.0, 10000.0)
+        helmwatch_core::config::check_range_open_low("--speed-up", s, 0.0, 10000.0)
             .map_err(|e| fail(EX_USAGE)(e.into()))?;
         opts.speed_up = s;
     }
     if let Some(d) = a.duration_s {
-        crate::core::config::check_range_open_low("--duration-s", d, 0.0, 366.0 * 86400.0)
+        helmwatch_core::config::check_range_open_low("--duration-s", d, 0.0, 366.0 * 86400.0)
             .map_err(|e| fail(EX_USAGE)(e.into()))?;
         opts.duration_s = Some(d);
     }
@@ -193,11 +193,12 @@ pub(crate) fn bench(cfg: &Config, config: Option<&Path>, a: BenchArgs) -> Result
 /// a run fails.
 fn time_to_alarm(cfg: &Config, a: &BenchArgs) -> Result<(), Failure> {
     use crate::tools::time_to_alarm::{bench_faults, print, run, TimeToAlarmOptions};
-    let usage = |e: crate::core::config::ConfigError| fail(EX_USAGE)(e.into());
+    let usage = |e: helmwatch_core::config::ConfigError| fail(EX_USAGE)(e.into());
     for &i in &a.intervals {
-        crate::core::config::check_range("--intervals", i, 0.0, 30.0 * 86400.0).map_err(usage)?;
+        helmwatch_core::config::check_range("--intervals", i, 0.0, 30.0 * 86400.0)
+            .map_err(usage)?;
     }
-    crate::core::config::check_range_open_low("--cap-h", a.cap_h, 0.0, 24.0 * 366.0)
+    helmwatch_core::config::check_range_open_low("--cap-h", a.cap_h, 0.0, 24.0 * 366.0)
         .map_err(usage)?;
     if a.runs == 0 || a.intervals.is_empty() {
         return Err(fail(EX_USAGE)(anyhow::anyhow!(

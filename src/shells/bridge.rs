@@ -10,24 +10,24 @@
 //! - `serial`: a serial device read as a byte stream (`bridge.serial-path`, its line speed
 //!   set by the system: `stty`, a udev rule), reopened the same way.
 //!
-//! Every datagram or chunk goes through [`crate::core::nmea::Decoder`] (pure: checksum,
+//! Every datagram or chunk goes through [`helmwatch_core::nmea::Decoder`] (pure: checksum,
 //! talker, status, ranges, time), and each sample is published on its key at once, in the
 //! order of the lines (a lockstep ship sends its heading last). Nothing rejected is
 //! published; rejections are counted by reason, published every `bridge.stats-period-s` on
 //! `vessels/<v>/bridge/stats` and served as metrics on `bridge.metrics-listen`. Over-long
-//! lines never grow a buffer ([`crate::core::nmea::LineBuffer`]).
+//! lines never grow a buffer ([`helmwatch_core::nmea::LineBuffer`]).
 //!
 //! The bridge keeps no state a restart would lose: a restarted bridge publishes the next
 //! sentence it receives. While it is down the daemon hears nothing, and its silence check
 //! (`safety.stream-timeout-s`) aborts a running test.
 
-use crate::core::config::{check_range_open_low, fail, ConfigError};
-use crate::core::nmea::{
+use crate::shells::net::{ZenohConfig, ZenohMode};
+use helmwatch_core::config::{check_range_open_low, fail, ConfigError};
+use helmwatch_core::nmea::{
     DecodeOptions, DecodeStats, Decoder, HeadingSentence, LineBuffer, Reject, SpeedSentence,
     TimeSource,
 };
-use crate::core::wire::{Input, Keys, Stream};
-use crate::shells::net::{ZenohConfig, ZenohMode};
+use helmwatch_core::wire::{Input, Keys, Stream};
 use prometheus_client::collector::Collector;
 use prometheus_client::encoding::{DescriptorEncoder, EncodeLabelSet, EncodeMetric};
 use prometheus_client::metrics::counter::ConstCounter;
@@ -159,7 +159,7 @@ impl Default for BridgeConfig {
 impl BridgeConfig {
     /// Checks the section's limits; the error names the key and its allowed range.
     pub fn check(&self) -> Result<(), ConfigError> {
-        crate::core::config::check_vessel_name("bridge.vessel", &self.vessel)?;
+        helmwatch_core::config::check_vessel_name("bridge.vessel", &self.vessel)?;
         if self.udp_listen.parse::<SocketAddr>().is_err() {
             return Err(fail(
                 "bridge.udp-listen",

@@ -12,7 +12,7 @@
 //! A database that cannot be opened or fails SQLite's quick check is moved aside to
 //! `history.sqlite.corrupt` with a message naming it, and a fresh one is started.
 
-use crate::core::wire::Keys;
+use helmwatch_core::wire::Keys;
 use rusqlite::{params, Connection, OptionalExtension};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};

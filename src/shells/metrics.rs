@@ -24,8 +24,8 @@
 //! | `helmwatch_replicated_states_refused_total` | counter | vessel | the holder's `fdi/state` refused by this standby (another format, vessel, configuration or models) |
 //! | `helmwatch_excitation_latency_seconds` | histogram | vessel | wall time from a heading sample's arrival (the Zenoh callback) to its excitation's publication |
 
-use crate::core::monitor::input::RejectReason;
-use crate::core::wire::{AlarmState, Decision, Method, Outcome, Stream};
+use helmwatch_core::monitor::input::RejectReason;
+use helmwatch_core::wire::{AlarmState, Decision, Method, Outcome, Stream};
 use http_body_util::Full;
 use hyper::body::Bytes;
 use prometheus_client::collector::Collector;

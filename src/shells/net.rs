@@ -6,7 +6,7 @@
 //! default session only ever talks on the endpoints written in the configuration
 //! (`tcp/127.0.0.1:7447` by default).
 
-use crate::core::config::{fail, ConfigError};
+use helmwatch_core::config::{fail, ConfigError};
 use serde::{Deserialize, Serialize};
 use std::time::Duration;
 
@@ -35,7 +35,7 @@ pub enum NetError {
 
 impl NetError {
     /// The sysexits code: these are configuration errors (`EX_CONFIG`).
-    pub const EXIT_CODE: i32 = crate::core::config::ConfigError::EXIT_CODE;
+    pub const EXIT_CODE: i32 = helmwatch_core::config::ConfigError::EXIT_CODE;
 }
 
 fn insert(cfg: &mut zenoh::Config, key: &str, value: String) -> Result<(), NetError> {

@@ -46,8 +46,8 @@
 //!
 //! Chunks are uncompressed (the `mcap` crate without its zstd and lz4 features).
 
-use crate::core::wire::{Keys, Stream};
-use crate::drivers::replay::{Payload, ReplayError, ReplaySummary, Replayer};
+use helmwatch_core::drivers::replay::{Payload, ReplayError, ReplaySummary, Replayer};
+use helmwatch_core::wire::{Keys, Stream};
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
 use std::io::BufWriter;
@@ -623,12 +623,12 @@ pub fn is_mcap(head: &[u8]) -> bool {
 }
 
 /// Replays an MCAP recording through the monitor core, message by message in the file's
-/// order (the order the daemon handled them); see [`crate::drivers::replay`].
+/// order (the order the daemon handled them); see [`helmwatch_core::drivers::replay`].
 pub fn replay_mcap(
-    cfg: &crate::core::monitor::config::CoreConfig,
-    own: &[(String, crate::core::monitor::config::CoreConfig)],
+    cfg: &helmwatch_core::monitor::config::CoreConfig,
+    own: &[(String, helmwatch_core::monitor::config::CoreConfig)],
     reader: impl std::io::Read,
-    mut on_output: impl FnMut(&str, &crate::core::monitor::Output),
+    mut on_output: impl FnMut(&str, &helmwatch_core::monitor::Output),
 ) -> Result<ReplaySummary, ReplayError> {
     let mut r = Replayer::new(cfg, own)?;
     for message in mcap::io::MessageReader::new(reader) {

@@ -1,4 +1,4 @@
-//! The simulated ship as a Zenoh peer: [`crate::drivers::probe::Lockstep`] over a real session.
+//! The simulated ship as a Zenoh peer: [`helmwatch_core::drivers::probe::Lockstep`] over a real session.
 //!
 //! Each tick the ship publishes its samples on the contract's keys in lockstep order
 //! (rudder, speed, autopilot state and target when due, heading last) and then:
@@ -14,23 +14,23 @@
 //!   seconds per wall second, applying excitations as they arrive.
 //!
 //! The autopilot side of the contract (validity `t .. t + hold_s`, `add`, `replace`, `none`)
-//! is the simulator's own ([`crate::sim::Autopilot`]); this module only moves messages.
+//! is the simulator's own ([`helmwatch_core::sim::Autopilot`]); this module only moves messages.
 //! Optionally, every publication is recorded as JSON lines (the `simulate` format), so
 //! `helmwatch replay` can run the core over a live session afterwards.
 //!
 //! **NMEA only** ([`ShipNode::nmea_to`], `helmwatch ship --nmea-udp`): the ship's instruments
 //! speak NMEA 0183 instead of Zenoh. Each tick is one IEC 61162-450 datagram to a UDP address
 //! (RSA, VHW, HTD when due, HDT last, each behind a tag block `s:SI0001,c:<ms>` carrying the
-//! sensors' clock in milliseconds, [`crate::core::nmea::tick_sentences`]); a bridge with
+//! sensors' clock in milliseconds, [`helmwatch_core::nmea::tick_sentences`]); a bridge with
 //! `time-source = "tag-block-ms"` turns them into the contract's keys. The ship still hears
 //! the daemon's excitation over Zenoh and, in lockstep, waits for the excitation whose `t` is
 //! the heading's time as the tag block carries it (rounded to the millisecond).
 
-use crate::core::config::{check_range_open_low, fail, ConfigError};
-use crate::core::wire::{Excitation, Input, Keys, RecordLine, Stream};
 use crate::shells::net::{ZenohConfig, ZenohMode};
-use crate::sim::config::SimConfig;
-use crate::sim::{CommandSource, Scenario, Ship, SimError, Truth};
+use helmwatch_core::config::{check_range_open_low, fail, ConfigError};
+use helmwatch_core::sim::config::SimConfig;
+use helmwatch_core::sim::{CommandSource, Scenario, Ship, SimError, Truth};
+use helmwatch_core::wire::{Excitation, Input, Keys, RecordLine, Stream};
 use serde::{Deserialize, Serialize};
 use std::future::Future;
 use std::io::Write;
@@ -129,7 +129,8 @@ impl ShipNode {
         scenario: &Scenario,
         opts: ShipNodeOptions,
     ) -> Result<Self, ShipNodeError> {
-        crate::core::config::check_vessel_name("vessel", &opts.vessel).map_err(SimError::from)?;
+        helmwatch_core::config::check_vessel_name("vessel", &opts.vessel)
+            .map_err(SimError::from)?;
         Ok(Self {
             ship: Ship::new(cfg, scenario)?,
             opts,
@@ -305,9 +306,9 @@ impl ShipNode {
             // heading's time as the tag block says it.
             let t = match &nmea {
                 Some((sock, addr)) => {
-                    let (ms, t_wire) = crate::core::nmea::tag_time_ms(t);
-                    let sentences = crate::core::nmea::tick_sentences(&inputs);
-                    let d = crate::core::nmea::datagram("SI0001", ms, &sentences);
+                    let (ms, t_wire) = helmwatch_core::nmea::tag_time_ms(t);
+                    let sentences = helmwatch_core::nmea::tick_sentences(&inputs);
+                    let d = helmwatch_core::nmea::datagram("SI0001", ms, &sentences);
                     if let Err(e) = sock.send_to(&d, addr).await {
                         tracing::warn!("sending NMEA to {addr}: {e}");
                     }
@@ -471,7 +472,7 @@ impl ShipPeerConfig {
             60.0,
         )?;
         for (i, f) in self.faults.iter().enumerate() {
-            if let Err(e) = f.parse::<crate::sim::Fault>() {
+            if let Err(e) = f.parse::<helmwatch_core::sim::Fault>() {
                 return Err(fail(
                     &format!("ship-peer.faults[{i}]"),
                     format!("{f:?}"),

@@ -10,7 +10,7 @@
 //! is moved aside to `<file>.corrupt` with a message naming it, and the vessel starts afresh:
 //! the daemon keeps monitoring.
 
-use crate::core::monitor::VesselState;
+use helmwatch_core::monitor::VesselState;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -130,8 +130,8 @@ impl StateDir {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
-    use crate::core::monitor::config::CoreConfig;
-    use crate::core::monitor::Monitor;
+    use helmwatch_core::monitor::config::CoreConfig;
+    use helmwatch_core::monitor::Monitor;
 
     fn temp(name: &str) -> PathBuf {
         let d = std::env::temp_dir().join(format!("helmwatch-state-{name}-{}", std::process::id()));

@@ -12,11 +12,11 @@
 //!   Memory is the process's resident set (daemon and feeder together, so an upper bound).
 
 use crate::config::Config;
-use crate::core::wire::{Excitation, Keys, Scalar, StateValue, Stream};
 use crate::shells::daemon::{Daemon, DaemonError};
 use crate::shells::net::{free_loopback_port, loopback_peer, NetError};
 use crate::shells::shipnode::{ShipNode, ShipNodeError, ShipNodeOptions};
-use crate::sim::Scenario;
+use helmwatch_core::sim::Scenario;
+use helmwatch_core::wire::{Excitation, Keys, Scalar, StateValue, Stream};
 use std::io::Write;
 use std::path::Path;
 use std::sync::{Arc, Mutex};

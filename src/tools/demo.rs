@@ -10,11 +10,11 @@
 //! `127.0.0.1` (a free port), multicast off.
 
 use crate::config::Config;
-use crate::core::wire::{Keys, Notification, Report, Status};
 use crate::shells::daemon::{Daemon, DaemonError};
 use crate::shells::net::{free_loopback_port, loopback_peer, NetError};
 use crate::shells::shipnode::{ShipNode, ShipNodeError, ShipNodeOptions};
-use crate::sim::{Fault, Scenario};
+use helmwatch_core::sim::{Fault, Scenario};
+use helmwatch_core::wire::{Keys, Notification, Report, Status};
 use std::io::Write;
 use std::time::Instant;
 use tokio::sync::mpsc;
@@ -58,7 +58,7 @@ impl Default for DemoOptions {
         Self {
             seed: 1,
             fault: Fault {
-                kind: crate::sim::FaultKind::DisplacementPct,
+                kind: helmwatch_core::sim::FaultKind::DisplacementPct,
                 value: 25.0,
                 onset_s: DEFAULT_ONSET_S,
             },
@@ -221,7 +221,7 @@ pub async fn run(
                 if r.t_start >= onset {
                     after_fault += 1;
                 }
-                fault_report |= r.decision == crate::core::wire::Decision::Fault;
+                fault_report |= r.decision == helmwatch_core::wire::Decision::Fault;
                 summary.reports.push(*r);
                 if (summary.alarm && fault_report) || after_fault >= opts.fault_reports {
                     break;
@@ -231,7 +231,7 @@ pub async fn run(
                 summary.notifications += 1;
                 writeln!(out, "NOTIFICATION {:?}: {}", n.state, n.message).map_err(io)?;
                 // Stop once both the alarm and its report (in either order) are in.
-                summary.alarm |= n.state == crate::core::wire::AlarmState::Alarm;
+                summary.alarm |= n.state == helmwatch_core::wire::AlarmState::Alarm;
                 if summary.alarm && fault_report {
                     break;
                 }

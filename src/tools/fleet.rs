@@ -11,7 +11,7 @@
 //! vessel's state and alarm are known from the first message after the view started (the
 //! daemon publishes them on change); until then they show as `-`.
 
-use crate::core::wire::{AlarmState, Decision, Method, MonitorState, Notification, Status};
+use helmwatch_core::wire::{AlarmState, Decision, Method, MonitorState, Notification, Status};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::future::Future;

@@ -12,7 +12,7 @@
 //!    (`fdi.commissioning-tests` completed tests each, [`Monitor::commissioned`]); the
 //!    report that completes it ends at the *onset* `t_0`.
 //! 2. *Faults*: the run is cloned at `t_0` once per fault, the fault injected from `t_0`
-//!    ([`crate::sim::Ship::inject`]), and each clone runs until the first notification in
+//!    ([`helmwatch_core::sim::Ship::inject`]), and each clone runs until the first notification in
 //!    state `alarm`, or `cap_s` of ship time after `t_0`. Every clone sees the same ship, sea
 //!    and noise up to `t_0` (what a separate run per fault with the same seed would see).
 //!
@@ -22,7 +22,7 @@
 //! alarm: its alarms are counted.
 //!
 //! Rudder travel: `sum |delta_k - delta_(k-1)|` of the simulated *true* rudder angle (the
-//! blade, [`crate::sim::Truth::delta_rad`]; the measured one carries white noise that would
+//! blade, [`helmwatch_core::sim::Truth::delta_rad`]; the measured one carries white noise that would
 //! dominate the sum) over the window `[t_a, t_0]`, `t_a` the end of the first test, so the
 //! window holds whole test cycles (interval, steady wait, test). The same seed with the
 //! scheduler off (the autopilot alone) over the same window gives the autopilot's own travel;
@@ -33,15 +33,15 @@
 //! the order).
 
 use crate::config::Config;
-use crate::core::dsp::multisine::Multisine;
-use crate::core::estimator::Estimator;
-use crate::core::model::SeaState;
-use crate::core::monitor::{Monitor, Output};
-use crate::core::wire::{AlarmState, Cause, Outcome};
-use crate::drivers::probe::Lockstep;
-use crate::sim::{Fault, FaultKind, Scenario, SimError};
 use crate::tools::eval::fdi::{quantiles, scenarios};
 use crate::tools::training::database::par_map;
+use helmwatch_core::drivers::probe::Lockstep;
+use helmwatch_core::dsp::multisine::Multisine;
+use helmwatch_core::estimator::Estimator;
+use helmwatch_core::model::SeaState;
+use helmwatch_core::monitor::{Monitor, Output};
+use helmwatch_core::sim::{Fault, FaultKind, Scenario, SimError};
+use helmwatch_core::wire::{AlarmState, Cause, Outcome};
 use std::io::Write;
 use std::sync::Arc;
 

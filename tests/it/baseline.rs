@@ -10,13 +10,13 @@
 
 use crate::common::par_map;
 use helmwatch::config::Config;
-use helmwatch::core::estimator::Estimator;
-use helmwatch::core::model::SeaState;
-use helmwatch::core::model::{displacement_from_b, speed_from_a};
-use helmwatch::core::wire::Method;
-use helmwatch::core::wire::{Outcome, Report};
-use helmwatch::drivers::probe::{run_probe, ProbeOptions};
-use helmwatch::sim::{Fault, Scenario};
+use helmwatch_core::drivers::probe::{run_probe, ProbeOptions};
+use helmwatch_core::estimator::Estimator;
+use helmwatch_core::model::SeaState;
+use helmwatch_core::model::{displacement_from_b, speed_from_a};
+use helmwatch_core::sim::{Fault, Scenario};
+use helmwatch_core::wire::Method;
+use helmwatch_core::wire::{Outcome, Report};
 use rand::{Rng, SeedableRng};
 use std::sync::Arc;
 
@@ -170,7 +170,7 @@ fn calibration_table() {
                     let faults = match onset_before {
                         None => vec![],
                         Some(b) => vec![Fault::new(
-                            helmwatch::sim::FaultKind::HeadingDriftDegPerMin,
+                            helmwatch_core::sim::FaultKind::HeadingDriftDegPerMin,
                             1.0,
                             WARMUP_S - b,
                         )

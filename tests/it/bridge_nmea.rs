@@ -8,11 +8,11 @@
 
 use crate::common::{daemon_config, endpoint, ran_to_analysis, start_daemon, Observer};
 use helmwatch::config::Config;
-use helmwatch::core::nmea::{DecodeStats, TimeSource};
 use helmwatch::shells::bridge::{Bridge, BridgeConfig, BridgeError};
 use helmwatch::shells::net::loopback_peer;
 use helmwatch::shells::shipnode::{ShipNode, ShipNodeError, ShipNodeOptions, ShipSummary};
-use helmwatch::sim::Scenario;
+use helmwatch_core::nmea::{DecodeStats, TimeSource};
+use helmwatch_core::sim::Scenario;
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -456,12 +456,12 @@ async fn tcp_and_serial_streams_are_cut_into_lines_and_reopened() {
     stop.cancel();
     let stats = task.await.unwrap().unwrap();
     assert!(
-        stats.rejected(helmwatch::core::nmea::Reject::TooLong) >= 2,
+        stats.rejected(helmwatch_core::nmea::Reject::TooLong) >= 2,
         "{stats:?}"
     );
     assert_eq!(
         stats.rejected_total(),
-        stats.rejected(helmwatch::core::nmea::Reject::TooLong),
+        stats.rejected(helmwatch_core::nmea::Reject::TooLong),
         "{stats:?}"
     );
     sub.undeclare().await.unwrap();
@@ -514,7 +514,7 @@ async fn tcp_and_serial_streams_are_cut_into_lines_and_reopened() {
     let stats = task.await.unwrap().unwrap();
     assert_eq!(
         stats.rejected_total(),
-        stats.rejected(helmwatch::core::nmea::Reject::TooLong),
+        stats.rejected(helmwatch_core::nmea::Reject::TooLong),
         "{stats:?}"
     );
     sub.undeclare().await.unwrap();

@@ -6,11 +6,11 @@
 //! `clock_outlier_s` faults; the core runs as in the daemon (lockstep).
 
 use helmwatch::config::Config;
-use helmwatch::core::monitor::input::RejectReason;
-use helmwatch::core::monitor::Output;
-use helmwatch::core::wire::{Method, Outcome, Report, Stream};
-use helmwatch::drivers::probe::Lockstep;
-use helmwatch::sim::Scenario;
+use helmwatch_core::drivers::probe::Lockstep;
+use helmwatch_core::monitor::input::RejectReason;
+use helmwatch_core::monitor::Output;
+use helmwatch_core::sim::Scenario;
+use helmwatch_core::wire::{Method, Outcome, Report, Stream};
 
 const ONSET_S: f64 = 400.0;
 

@@ -8,7 +8,7 @@ use crate::common::{daemon_config, endpoint, start_daemon, temp_dir, Observer};
 use helmwatch::config::Config;
 use helmwatch::shells::net::loopback_peer;
 use helmwatch::shells::shipnode::{ShipNode, ShipNodeOptions};
-use helmwatch::sim::Scenario;
+use helmwatch_core::sim::Scenario;
 use serde_json::Value;
 use std::time::Duration;
 use tokio_util::sync::CancellationToken;

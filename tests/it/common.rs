@@ -2,8 +2,8 @@
 //! collects what the daemon publishes, triggers, bounded waits, a worker pool.
 
 use helmwatch::config::Config;
-use helmwatch::core::wire::{Keys, TriggerReply};
 use helmwatch::shells::net::{free_loopback_port, loopback_peer};
+use helmwatch_core::wire::{Keys, TriggerReply};
 use serde_json::Value;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;

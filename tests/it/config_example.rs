@@ -2,7 +2,7 @@
 //! refused with the key, the range and exit code 78.
 
 use helmwatch::config::Config;
-use helmwatch::core::config::ConfigError;
+use helmwatch_core::config::ConfigError;
 use std::path::Path;
 
 #[test]

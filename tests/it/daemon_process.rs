@@ -6,7 +6,7 @@ use crate::common::{endpoint, Observer};
 use helmwatch::config::Config;
 use helmwatch::shells::net::loopback_peer;
 use helmwatch::shells::shipnode::{ShipNode, ShipNodeOptions};
-use helmwatch::sim::{CommandSource, Scenario};
+use helmwatch_core::sim::{CommandSource, Scenario};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};

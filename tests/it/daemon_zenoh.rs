@@ -7,7 +7,7 @@ use crate::common::{daemon_config, endpoint, ran_to_analysis, start_daemon, Obse
 use helmwatch::config::Config;
 use helmwatch::shells::net::loopback_peer;
 use helmwatch::shells::shipnode::{ShipNode, ShipNodeOptions, ShipSummary};
-use helmwatch::sim::Scenario;
+use helmwatch_core::sim::Scenario;
 use std::time::Duration;
 use tokio::task::JoinHandle;
 use tokio_util::sync::CancellationToken;
@@ -241,7 +241,7 @@ async fn a_fleet_daemon_answers_each_vessel_on_its_own_keys() {
         .unwrap()
         .into_result()
         .unwrap();
-    let alpha: helmwatch::core::wire::TriggerReply =
+    let alpha: helmwatch_core::wire::TriggerReply =
         serde_json::from_slice(&r.payload().to_bytes()).unwrap();
     assert!(!alpha.accepted, "{alpha:?}");
     assert_eq!(r.key_expr().as_str(), "vessels/alpha/fdi/trigger");

@@ -6,16 +6,16 @@
 
 use helmwatch::cli::estimator::{cgf_trainer, lm_trainer};
 use helmwatch::config::Config;
-use helmwatch::core::estimator::model::{Model, Target};
-use helmwatch::core::estimator::{Estimator, SLOTS};
-use helmwatch::core::model::SeaState;
-use helmwatch::core::wire::Method;
-use helmwatch::core::wire::Outcome;
-use helmwatch::drivers::probe::{run_probe, ProbeOptions};
-use helmwatch::sim::{Fault, Scenario};
 use helmwatch::tools::eval::estimator::accuracy;
 use helmwatch::tools::training::build::{build_models, BuildSettings};
 use helmwatch::tools::training::database::{simulate, DatabaseSpec, Purpose};
+use helmwatch_core::drivers::probe::{run_probe, ProbeOptions};
+use helmwatch_core::estimator::model::{Model, Target};
+use helmwatch_core::estimator::{Estimator, SLOTS};
+use helmwatch_core::model::SeaState;
+use helmwatch_core::sim::{Fault, Scenario};
+use helmwatch_core::wire::Method;
+use helmwatch_core::wire::Outcome;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -172,7 +172,7 @@ fn a_speed_log_bias_reaches_only_the_displacement_network() {
     };
     let a = run(vec![]);
     let b = run(vec!["speed_log_bias_mps:0.5@0".parse().unwrap()]);
-    let log = |r: &helmwatch::core::wire::Report| r.features.speed_log_mps().unwrap();
+    let log = |r: &helmwatch_core::wire::Report| r.features.speed_log_mps().unwrap();
     assert!(
         (log(&b) - log(&a) - 0.5).abs() < 1e-3,
         "{} {}",

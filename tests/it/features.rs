@@ -7,13 +7,13 @@
 
 use crate::common::par_map;
 use helmwatch::config::Config;
-use helmwatch::core::dsp::relay::limit_cycle_describing_function;
-use helmwatch::core::model::SeaState;
-use helmwatch::core::wire::features::HbtFeatures;
-use helmwatch::core::wire::Method;
-use helmwatch::core::wire::{Outcome, Report};
-use helmwatch::drivers::probe::{run_probe, ProbeOptions};
-use helmwatch::sim::{Fault, Scenario};
+use helmwatch_core::drivers::probe::{run_probe, ProbeOptions};
+use helmwatch_core::dsp::relay::limit_cycle_describing_function;
+use helmwatch_core::model::SeaState;
+use helmwatch_core::sim::{Fault, Scenario};
+use helmwatch_core::wire::features::HbtFeatures;
+use helmwatch_core::wire::Method;
+use helmwatch_core::wire::{Outcome, Report};
 use std::f64::consts::PI;
 use std::sync::OnceLock;
 
@@ -466,9 +466,9 @@ fn same_seed_same_report_other_seed_other_report() {
 /// counted, and the test still completes with finite features.
 #[test]
 fn bad_samples_mixed_into_a_test_are_rejected_and_the_test_completes() {
-    use helmwatch::core::monitor::Output;
-    use helmwatch::core::wire::{Input, Scalar};
-    use helmwatch::drivers::probe::Lockstep;
+    use helmwatch_core::drivers::probe::Lockstep;
+    use helmwatch_core::monitor::Output;
+    use helmwatch_core::wire::{Input, Scalar};
     let mut cfg = Config::default();
     cfg.scheduler.enabled = false;
     let mut ls = Lockstep::new(&cfg.core(), &cfg.sim(), &Scenario::nominal(&cfg.sim(), 3)).unwrap();
@@ -517,8 +517,8 @@ fn bad_samples_mixed_into_a_test_are_rejected_and_the_test_completes() {
 
 /// Largest |rudder| in the 300 s after an HBT test hands the rudder back to the autopilot.
 fn rudder_after_handback(lead_s: f64, u: f64, sea: SeaState) -> f64 {
-    use helmwatch::core::monitor::Output;
-    use helmwatch::drivers::probe::Lockstep;
+    use helmwatch_core::drivers::probe::Lockstep;
+    use helmwatch_core::monitor::Output;
     let mut cfg = Config::default();
     cfg.scheduler.enabled = false;
     cfg.hbt.handback_lead_s = lead_s;

@@ -12,7 +12,7 @@ use helmwatch::config::Config;
 use helmwatch::shells::daemon::Daemon;
 use helmwatch::shells::net::loopback_peer;
 use helmwatch::shells::shipnode::{ShipNode, ShipNodeOptions};
-use helmwatch::sim::Scenario;
+use helmwatch_core::sim::Scenario;
 use std::time::Duration;
 use tokio_util::sync::CancellationToken;
 

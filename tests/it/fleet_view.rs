@@ -10,7 +10,7 @@ use helmwatch::config::Config;
 use helmwatch::shells::daemon::Daemon;
 use helmwatch::shells::net::{loopback, ZenohMode};
 use helmwatch::shells::shipnode::{ShipNode, ShipNodeOptions};
-use helmwatch::sim::Scenario;
+use helmwatch_core::sim::Scenario;
 use serde_json::Value;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;

@@ -5,11 +5,11 @@
 //! src/shells/recording.rs documents for the flood's wall time (its token bucket refills on
 //! the wall clock). Waits are bounded; figures are printed. Slow tier (about a minute).
 use crate::common::{daemon_config, endpoint, start_daemon, temp_dir};
-use helmwatch::core::wire::{Keys, Stream};
 use helmwatch::shells::net::loopback_peer;
 use helmwatch::shells::recording::{REJECTED_BURST, REJECTED_PERIOD_S, REJECTED_RECORD_MAX_BYTES};
 use helmwatch::shells::shipnode::{ShipNode, ShipNodeOptions};
-use helmwatch::sim::Scenario;
+use helmwatch_core::sim::Scenario;
+use helmwatch_core::wire::{Keys, Stream};
 use std::collections::BTreeSet;
 use std::path::Path;
 use std::time::{Duration, Instant};

@@ -1,5 +1,5 @@
 //! The CLFRT tones' heading guard is armed per vessel by what its tests find
-//! (`helmwatch::core::monitor::sizing`): a vessel's first CLFRT test on a ship more responsive
+//! (`helmwatch_core::monitor::sizing`): a vessel's first CLFRT test on a ship more responsive
 //! than the tones were sized for ends on the heading limit; the next, armed, completes with
 //! the tones that carry the heading lowered (the slower ones alike, the fastest kept), and
 //! the guard stays armed across a restart (the vessel's saved state).
@@ -8,10 +8,10 @@
 //! vessel.
 
 use helmwatch::config::Config;
-use helmwatch::core::model::SeaState;
-use helmwatch::core::wire::{Method, Outcome, Report};
-use helmwatch::drivers::probe::{Lockstep, ProbeOptions};
-use helmwatch::sim::Scenario;
+use helmwatch_core::drivers::probe::{Lockstep, ProbeOptions};
+use helmwatch_core::model::SeaState;
+use helmwatch_core::sim::Scenario;
+use helmwatch_core::wire::{Method, Outcome, Report};
 
 /// The family's ship made as responsive as the Mariner cargo ship scaled to 120 m
 /// (`yaw-damping-a0` 0.1945, `rudder-area-m2` 85.4: 4.3 times the family's rudder gain), or

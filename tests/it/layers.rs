@@ -1,6 +1,8 @@
-//! The floors of the house: every module of `src/` imports only from the floors below it.
+//! The floors of the house: every module imports only from the floors below it.
 //!
-//! [`FLOORS`] lists the layout's units from the bottom up; a unit is a module path, and a
+//! The compiler keeps the core crate (crates/core) below the service crate (src/): the core
+//! cannot name the service. Inside each crate the order is this test's to keep:
+//! [`CORE_FLOORS`] and [`SERVICE_FLOORS`] list the units from the bottom up; a unit is a module path, and a
 //! file belongs to the longest unit that prefixes its module path. A reference to
 //! `crate::...` (or `super::...`) that lands in a unit listed *after* the referring file's
 //! unit is an upward import. Because the list is a total order, a cycle between folders always
@@ -13,47 +15,47 @@
 use std::collections::BTreeSet;
 use std::path::Path;
 
-/// Units from the bottom floor up. See docs/architecture.md.
-const FLOORS: &[&str] = &[
+/// The core crate's units (crates/core/src) from the bottom floor up. See
+/// docs/architecture.md.
+const CORE_FLOORS: &[&str] = &[
     // The pure core: config data first, then the code that uses it.
-    "core::angle",
-    "core::config",
-    "core::wire",
-    "core::nmea",
-    "core::model",
-    "core::design",
-    "core::baseline::config",
-    "core::estimator::config",
-    "core::fdi::config",
-    "core::monitor::config",
-    "core::dsp",
-    "core::baseline",
-    "core::estimator",
+    "angle",
+    "config",
+    "wire",
+    "nmea",
+    "model",
+    "design",
+    "baseline::config",
+    "estimator::config",
+    "fdi::config",
+    "monitor::config",
+    "dsp",
+    "baseline",
+    "estimator",
     // The fault decision, by the flow of a test's evidence: tools, the residual against the
     // design, the vessel's normal, the decision, the report.
-    "core::fdi::ablation",
-    "core::fdi::stats",
-    "core::fdi::sensitivity",
-    "core::fdi::limits",
-    "core::fdi::fit",
-    "core::fdi::shape",
-    "core::fdi::raw",
-    "core::fdi::point",
-    "core::fdi::envelope",
-    "core::fdi::measured",
-    "core::fdi::noise",
-    "core::fdi::reference",
-    "core::fdi::changepoint",
-    "core::fdi::window",
-    "core::fdi::isolation",
-    "core::fdi::decision",
-    "core::fdi::learning",
-    "core::fdi::budget",
-    "core::fdi::report",
-    "core::fdi",
-    "core::monitor",
-    "core::ownership",
-    "core",
+    "fdi::ablation",
+    "fdi::stats",
+    "fdi::sensitivity",
+    "fdi::limits",
+    "fdi::fit",
+    "fdi::shape",
+    "fdi::raw",
+    "fdi::point",
+    "fdi::envelope",
+    "fdi::measured",
+    "fdi::noise",
+    "fdi::reference",
+    "fdi::changepoint",
+    "fdi::window",
+    "fdi::isolation",
+    "fdi::decision",
+    "fdi::learning",
+    "fdi::budget",
+    "fdi::report",
+    "fdi",
+    "monitor",
+    "ownership",
     // The simulated ship.
     "sim::config",
     "sim",
@@ -61,6 +63,18 @@ const FLOORS: &[&str] = &[
     "drivers::probe",
     "drivers::replay",
     "drivers",
+    // Samples for tests (this crate's and, with `test-support`, the service's): compiled for
+    // tests only, so any floor's tests may use it (see TEST_ONLY).
+    "testing",
+];
+
+/// Units compiled for tests only (`#[cfg(any(test, feature = "test-support"))]`): a
+/// reference to one is no upward import, since no build of the daemon contains it.
+const TEST_ONLY: &[&str] = &["testing"];
+
+/// The service crate's units (src/) from the bottom floor up; the core is below all of them
+/// (a dependency the compiler enforces).
+const SERVICE_FLOORS: &[&str] = &[
     // Shells: the world.
     "shells::net",
     "shells::systemd",
@@ -105,8 +119,8 @@ fn module_path(rel: &str) -> String {
 }
 
 /// Rank of the unit a module path belongs to (the longest listed prefix), or `None`.
-fn unit_of(path: &str) -> Option<(usize, &'static str)> {
-    FLOORS
+fn unit_of(floors: &'static [&'static str], path: &str) -> Option<(usize, &'static str)> {
+    floors
         .iter()
         .enumerate()
         .filter(|(_, u)| path == **u || path.starts_with(&format!("{u}::")))
@@ -330,7 +344,10 @@ fn parse_tree(chars: &[char], j: &mut usize, mut path: Vec<String>, found: &mut 
 
 /// Checks `files` (`(path below src/, text)`): the upward imports, and the files that belong
 /// to no listed unit.
-fn check(files: &[(String, String)]) -> (Vec<Violation>, Vec<String>) {
+fn check(
+    floors: &'static [&'static str],
+    files: &[(String, String)],
+) -> (Vec<Violation>, Vec<String>) {
     let mut violations = Vec::new();
     let mut unlisted = Vec::new();
     for (rel, text) in files {
@@ -338,13 +355,13 @@ fn check(files: &[(String, String)]) -> (Vec<Violation>, Vec<String>) {
         if module.is_empty() {
             continue; // lib.rs and main.rs declare the floors, they are not one.
         }
-        let Some((rank, unit)) = unit_of(&module) else {
+        let Some((rank, unit)) = unit_of(floors, &module) else {
             unlisted.push(rel.clone());
             continue;
         };
         for target in references(&strip(text), &module) {
-            if let Some((t_rank, t_unit)) = unit_of(&target) {
-                if t_rank > rank {
+            if let Some((t_rank, t_unit)) = unit_of(floors, &target) {
+                if t_rank > rank && !TEST_ONLY.contains(&t_unit) {
                     violations.push((
                         rel.clone(),
                         unit.to_string(),
@@ -378,14 +395,23 @@ fn source_files(dir: &Path, root: &Path, out: &mut Vec<(String, String)>) {
 
 #[test]
 fn no_module_imports_from_a_floor_above_it() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut files = Vec::new();
-    source_files(&root, &root, &mut files);
-    assert!(files.len() > 40, "read {} files", files.len());
-    let (violations, unlisted) = check(&files);
+    for (src, floors, least) in [
+        ("crates/core/src", CORE_FLOORS, 60),
+        ("src", SERVICE_FLOORS, 40),
+    ] {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join(src);
+        let mut files = Vec::new();
+        source_files(&root, &root, &mut files);
+        assert!(files.len() > least, "read {} files in {src}", files.len());
+        floors_hold(floors, &files);
+    }
+}
+
+fn floors_hold(floors: &'static [&'static str], files: &[(String, String)]) {
+    let (violations, unlisted) = check(floors, files);
     assert!(
         unlisted.is_empty(),
-        "modules on no floor (place them in FLOORS, tests/it/layers.rs, and docs/architecture.md): {unlisted:?}"
+        "modules on no floor (place them in CORE_FLOORS or SERVICE_FLOORS, tests/it/layers.rs, and docs/architecture.md): {unlisted:?}"
     );
     let lines: Vec<String> = violations
         .iter()
@@ -400,37 +426,43 @@ fn file(rel: &str, text: &str) -> (String, String) {
 
 #[test]
 fn a_planted_upward_import_is_caught() {
-    let (v, _) = check(&[file(
-        "core/dsp/spectrum.rs",
-        "use crate::core::angle::wrap_pi;\nuse crate::sim::Ship;\n",
-    )]);
+    let (v, _) = check(
+        CORE_FLOORS,
+        &[file(
+            "dsp/spectrum.rs",
+            "use crate::angle::wrap_pi;\nuse crate::sim::Ship;\n",
+        )],
+    );
     assert_eq!(v.len(), 1, "{v:?}");
     assert_eq!(v[0].2, "sim::Ship");
     assert_eq!(v[0].3, "sim");
     // Inside a group, in an expression, and through super::.
-    let (v, _) = check(&[
-        file(
-            "core/monitor/hbt.rs",
-            "use crate::{core::dsp, drivers::probe::Lockstep};",
-        ),
-        file(
-            "sim/ship.rs",
-            "fn f() { let x = crate::tools::training::database::design(); }",
-        ),
-        file("core/estimator/nn.rs", "use super::super::fdi::Fdi;"),
-        file(
-            "core/angle.rs",
-            "mod tests { use super::*; use super::super::monitor::Monitor; }",
-        ),
-    ]);
+    let (v, _) = check(
+        CORE_FLOORS,
+        &[
+            file(
+                "monitor/hbt.rs",
+                "use crate::{dsp, drivers::probe::Lockstep};",
+            ),
+            file(
+                "sim/ship.rs",
+                "fn f() { let x = crate::drivers::replay::replay_lines(); }",
+            ),
+            file("estimator/nn.rs", "use super::super::fdi::Fdi;"),
+            file(
+                "angle.rs",
+                "mod tests { use super::*; use super::super::monitor::Monitor; }",
+            ),
+        ],
+    );
     let targets: Vec<&str> = v.iter().map(|x| x.2.as_str()).collect();
     assert_eq!(
         targets,
         vec![
             "drivers::probe::Lockstep",
-            "tools::training::database::design",
-            "core::fdi::Fdi",
-            "core::monitor::Monitor"
+            "drivers::replay::replay_lines",
+            "fdi::Fdi",
+            "monitor::Monitor"
         ],
         "{v:?}"
     );
@@ -439,25 +471,28 @@ fn a_planted_upward_import_is_caught() {
 #[test]
 fn a_cycle_between_two_folders_is_caught() {
     // dsp -> fdi and fdi -> dsp: whichever is higher, one edge points up.
-    let (v, _) = check(&[
-        file("core/dsp/mod.rs", "use crate::core::fdi::Fdi;"),
-        file("core/fdi/mod.rs", "use crate::core::dsp::spectrum;"),
-    ]);
+    let (v, _) = check(
+        CORE_FLOORS,
+        &[
+            file("dsp/mod.rs", "use crate::fdi::Fdi;"),
+            file("fdi/mod.rs", "use crate::dsp::spectrum;"),
+        ],
+    );
     assert_eq!(v.len(), 1, "{v:?}");
-    assert_eq!(v[0].0, "core/dsp/mod.rs");
+    assert_eq!(v[0].0, "dsp/mod.rs");
 }
 
 #[test]
 fn comments_strings_and_downward_imports_are_not_violations() {
-    let (v, unlisted) = check(&[
+    let (v, unlisted) = check(CORE_FLOORS, &[
         file(
-            "core/model.rs",
-            "//! See [`crate::sim::Ship`].\n/* crate::cli */ const S: &str = \"crate::tools::x\";\nconst R: &str = r#\"crate::shells\"#;\nuse crate::core::config::ConfigError;\nfn f<'a>(x: &'a str) -> char { '\"' }\n",
+            "model.rs",
+            "//! See [`crate::sim::Ship`].\n/* crate::drivers */ const S: &str = \"crate::sim::x\";\nconst R: &str = r#\"crate::monitor\"#;\nuse crate::config::ConfigError;\nfn f<'a>(x: &'a str) -> char { '\"' }\n",
         ),
-        file("cli/mod.rs", "use crate::{core::monitor::Monitor, tools::demo};"),
+        file("drivers/mod.rs", "use crate::{monitor::Monitor, sim::Ship};"),
     ]);
     assert!(v.is_empty(), "{v:?}");
     assert!(unlisted.is_empty());
-    let (_, unlisted) = check(&[file("gadgets/mod.rs", "")]);
+    let (_, unlisted) = check(CORE_FLOORS, &[file("gadgets/mod.rs", "")]);
     assert_eq!(unlisted, vec!["gadgets/mod.rs".to_string()]);
 }

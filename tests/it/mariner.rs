@@ -5,8 +5,8 @@
 //! IMO's turning criteria. The family's Mariner member keeping its course in the ship:
 //! `tests/it/mmg.rs` (`surge_sway_yaw_members_keep_their_course_in_a_moderate_sea`).
 
-use helmwatch::sim::mariner::{MarinerHull, LENGTH_M, PUBLISHED_SPEED_MPS};
-use helmwatch::sim::mmg::{LinearNomoto, MmgInput};
+use helmwatch_core::sim::mariner::{MarinerHull, LENGTH_M, PUBLISHED_SPEED_MPS};
+use helmwatch_core::sim::mmg::{LinearNomoto, MmgInput};
 use std::f64::consts::PI;
 
 const DEG: f64 = PI / 180.0;

@@ -6,10 +6,10 @@
 //! and a replay of the file through the monitor core gives the live reports again.
 
 use crate::common::{daemon_config, endpoint, start_daemon, temp_dir, Observer};
-use helmwatch::core::monitor::Output;
 use helmwatch::shells::net::loopback_peer;
 use helmwatch::shells::shipnode::{ShipNode, ShipNodeOptions};
-use helmwatch::sim::Scenario;
+use helmwatch_core::monitor::Output;
+use helmwatch_core::sim::Scenario;
 use serde_json::Value;
 use std::collections::BTreeMap;
 use std::time::Duration;

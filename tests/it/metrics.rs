@@ -6,7 +6,7 @@
 use crate::common::{daemon_config, endpoint, start_daemon, Observer};
 use helmwatch::shells::net::loopback_peer;
 use helmwatch::shells::shipnode::{ShipNode, ShipNodeOptions};
-use helmwatch::sim::Scenario;
+use helmwatch_core::sim::Scenario;
 use std::collections::HashMap;
 use std::io::{Read, Write};
 use std::net::SocketAddr;

@@ -7,10 +7,10 @@
 //! `tests/it/mariner.rs`).
 
 use helmwatch::config::Config;
-use helmwatch::core::model::SeaState;
-use helmwatch::sim::config::{family, HullModel};
-use helmwatch::sim::mmg::{MmgHull, MmgInput, Side};
-use helmwatch::sim::{Scenario, Ship, SimOptions};
+use helmwatch_core::model::SeaState;
+use helmwatch_core::sim::config::{family, HullModel};
+use helmwatch_core::sim::mmg::{MmgHull, MmgInput, Side};
+use helmwatch_core::sim::{Scenario, Ship, SimOptions};
 use std::f64::consts::PI;
 
 const DEG: f64 = PI / 180.0;
@@ -128,7 +128,7 @@ fn turning_circle_at_model_scale() {
 }
 
 /// r(t) of K (1 + T3 s) / ((1 + T1 s)(1 + T2 s)) after a rudder step `delta` at t = 0.
-fn linear_step(lin: &helmwatch::sim::mmg::LinearNomoto, delta: f64, t: f64) -> f64 {
+fn linear_step(lin: &helmwatch_core::sim::mmg::LinearNomoto, delta: f64, t: f64) -> f64 {
     let (k, t1, t2, t3) = (lin.k_per_s, lin.t1_s, lin.t2_s, lin.t3_s);
     k * delta
         * (1.0 - (t1 - t3) / (t1 - t2) * (-t / t1).exp() - (t2 - t3) / (t2 - t1) * (-t / t2).exp())
@@ -311,7 +311,7 @@ fn surge_sway_yaw_members_keep_their_course_in_a_moderate_sea() {
 #[test]
 fn displacement_fault_reaches_the_mmg_mass() {
     let cfg = mmg_config();
-    let run = |faults: Vec<helmwatch::sim::Fault>| {
+    let run = |faults: Vec<helmwatch_core::sim::Fault>| {
         let sc = Scenario {
             speed_mps: 7.0,
             displacement_t: 7000.0,

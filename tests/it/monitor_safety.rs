@@ -3,14 +3,14 @@
 //! any input, counted rejections.
 
 use helmwatch::config::Config;
-use helmwatch::core::monitor::input::RejectReason;
-use helmwatch::core::monitor::{Monitor, Output};
-use helmwatch::core::wire::Method;
-use helmwatch::core::wire::{
+use helmwatch_core::drivers::probe::Lockstep;
+use helmwatch_core::monitor::input::RejectReason;
+use helmwatch_core::monitor::{Monitor, Output};
+use helmwatch_core::sim::Scenario;
+use helmwatch_core::wire::Method;
+use helmwatch_core::wire::{
     Excitation, ExcitationMode, Input, MonitorState, Outcome, Report, Scalar, StateValue, Stream,
 };
-use helmwatch::drivers::probe::Lockstep;
-use helmwatch::sim::Scenario;
 use proptest::prelude::*;
 
 const DT: f64 = 0.1;

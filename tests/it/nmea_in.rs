@@ -10,11 +10,11 @@
 //! variation, knots times 1852/3600) or cross-checked against another field of the same
 //! instrument (the km/h field, VHW's own true heading), never read back from the decoder.
 
-use helmwatch::core::nmea::{
+use helmwatch_core::nmea::{
     datagram, tag_time_ms, tick_sentences, DecodeOptions, Decoder, HeadingSentence, LineBuffer,
     Reject, SpeedSentence, TimeSource, MAX_LINE_BYTES,
 };
-use helmwatch::core::wire::{Input, Scalar, StateValue, Stream};
+use helmwatch_core::wire::{Input, Scalar, StateValue, Stream};
 use rand::{Rng, SeedableRng};
 use std::f64::consts::PI;
 

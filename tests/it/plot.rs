@@ -4,11 +4,11 @@
 //! ship's particulars, not through the crate's model code.
 
 use helmwatch::config::Config;
-use helmwatch::core::estimator::Estimator;
-use helmwatch::core::wire::{Method, Report};
-use helmwatch::drivers::probe::{run_probe, ProbeOptions};
-use helmwatch::sim::Scenario;
 use helmwatch::tools::plot::{detect, plot, InputKind, PlotOptions};
+use helmwatch_core::drivers::probe::{run_probe, ProbeOptions};
+use helmwatch_core::estimator::Estimator;
+use helmwatch_core::sim::Scenario;
+use helmwatch_core::wire::{Method, Report};
 
 fn report(cfg: &Config, method: Method, seed: u64) -> Report {
     let mut opts = ProbeOptions::new(&cfg.core(), method);
@@ -303,7 +303,7 @@ fn history_has_one_point_per_report() {
 fn recording_is_detected_and_bad_input_is_refused() {
     let cfg = Config::default();
     let mut rec = Vec::new();
-    helmwatch::sim::record(
+    helmwatch_core::sim::record(
         &cfg.sim(),
         &Scenario::nominal(&cfg.sim(), 1),
         120.0,
@@ -370,11 +370,11 @@ fn recording_is_detected_and_bad_input_is_refused() {
 /// same samples: the same SVG, byte for byte (the MCAP reader feeds the same trace).
 #[test]
 fn an_mcap_recording_plots_as_its_json_lines() {
-    use helmwatch::core::wire::{Keys, RecordLine, Stream};
     use helmwatch::shells::recording::{Kind, Limits, Recorder};
+    use helmwatch_core::wire::{Keys, RecordLine, Stream};
     let cfg = Config::default();
     let mut rec = Vec::new();
-    helmwatch::sim::record(
+    helmwatch_core::sim::record(
         &cfg.sim(),
         &Scenario::nominal(&cfg.sim(), 2),
         60.0,
@@ -439,9 +439,9 @@ fn an_mcap_recording_plots_as_its_json_lines() {
 
 #[test]
 fn a_state_file_plots_the_learned_reference_with_one_point_per_learned_test() {
-    use helmwatch::core::fdi::raw::Raw;
-    use helmwatch::core::fdi::Fdi;
-    use helmwatch::core::monitor::VesselState;
+    use helmwatch_core::fdi::raw::Raw;
+    use helmwatch_core::fdi::Fdi;
+    use helmwatch_core::monitor::VesselState;
     let cfg = Config::default();
     let fdi = Fdi::new(&cfg.core());
     let s = fdi.settings();

@@ -6,10 +6,10 @@
 //! designed. The sea is kept in the vessel's state across a restart.
 
 use helmwatch::config::Config;
-use helmwatch::core::model::SeaState;
-use helmwatch::core::wire::{Features, Method, Outcome, Report};
-use helmwatch::drivers::probe::Lockstep;
-use helmwatch::sim::Scenario;
+use helmwatch_core::drivers::probe::Lockstep;
+use helmwatch_core::model::SeaState;
+use helmwatch_core::sim::Scenario;
+use helmwatch_core::wire::{Features, Method, Outcome, Report};
 
 /// One test of `method` on the lockstep, after 600 s of steady steering.
 fn test(ls: &mut Lockstep, cfg: &Config, method: Method) -> Report {

@@ -1,12 +1,12 @@
 //! docs/fdi.md "Report fields" names every field of the typed `residuals`
 //! (`core::wire::residuals`), and names no field the type does not have.
 
-use helmwatch::core::wire::residuals::{
+use helmwatch_core::wire::residuals::{
     BaselineReport, CauseCosts, DecisionReport, Look, ModelFitReport, ModelMismatch,
     ParameterResiduals, RawResiduals, ReferenceKind, ReferenceReport, Residuals, ServoCheck,
     TrackState,
 };
-use helmwatch::core::wire::{Cause, Decision};
+use helmwatch_core::wire::{Cause, Decision};
 use serde_json::Value;
 use std::collections::BTreeSet;
 

@@ -6,11 +6,11 @@
 
 use crate::common::par_map;
 use helmwatch::config::Config;
-use helmwatch::core::model::SeaState;
-use helmwatch::core::wire::Method;
-use helmwatch::core::wire::{Outcome, Report};
-use helmwatch::drivers::probe::Lockstep;
-use helmwatch::sim::{Fault, FaultKind, Scenario, Ship, SimOptions};
+use helmwatch_core::drivers::probe::Lockstep;
+use helmwatch_core::model::SeaState;
+use helmwatch_core::sim::{Fault, FaultKind, Scenario, Ship, SimOptions};
+use helmwatch_core::wire::Method;
+use helmwatch_core::wire::{Outcome, Report};
 use rustfft::num_complex::Complex64;
 use std::f64::consts::PI;
 

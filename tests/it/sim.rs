@@ -3,9 +3,9 @@
 //! in a moderate sea, fault effects from their onsets, determinism of recordings.
 
 use helmwatch::config::Config;
-use helmwatch::core::model::SeaState;
-use helmwatch::core::wire::{Excitation, ExcitationMode, Input};
-use helmwatch::sim::{CommandSource, Fault, Scenario, Ship, SimOptions};
+use helmwatch_core::model::SeaState;
+use helmwatch_core::sim::{CommandSource, Fault, Scenario, Ship, SimOptions};
+use helmwatch_core::wire::{Excitation, ExcitationMode, Input};
 use proptest::prelude::*;
 use std::f64::consts::PI;
 
@@ -427,7 +427,7 @@ const ONSET_S: f64 = 300.0;
 
 /// Steps a clean ship (constant 3 deg rudder) and returns the truth and noise-free measurements
 /// (rudder, speed, heading) at every tick.
-fn fault_trace(faults: &[&str], seconds: f64) -> Vec<(helmwatch::sim::Truth, [f64; 3])> {
+fn fault_trace(faults: &[&str], seconds: f64) -> Vec<(helmwatch_core::sim::Truth, [f64; 3])> {
     let cfg = Config::default();
     let mut ship = clean_ship(&cfg, 7.0, 7000.0, faults);
     ship.set_command_override(Some(3.0 * DEG));
@@ -591,7 +591,7 @@ fn same_seed_same_bytes_other_seed_other_bytes() {
             seed,
         );
         let mut out = Vec::new();
-        let lines = helmwatch::sim::record(&cfg.sim(), &sc, 120.0, "self", &mut out).unwrap();
+        let lines = helmwatch_core::sim::record(&cfg.sim(), &sc, 120.0, "self", &mut out).unwrap();
         (lines, out)
     };
     let (l1, a) = rec(5);
@@ -603,7 +603,7 @@ fn same_seed_same_bytes_other_seed_other_bytes() {
     assert_eq!(a, b);
     assert_ne!(a, c);
     let text = String::from_utf8(a).unwrap();
-    let first: helmwatch::core::wire::RecordLine =
+    let first: helmwatch_core::wire::RecordLine =
         serde_json::from_str(text.lines().next().unwrap()).unwrap();
     assert_eq!(first.key, "vessels/self/steering/rudderAngle");
     assert_eq!(text.lines().count() as u64, l1);
@@ -632,7 +632,7 @@ fn publish_order_and_single_draw() {
         assert_eq!(again[1], first[1]);
         assert_eq!(again[2], first[first.len() - 1]);
         let kinds: Vec<_> = first.iter().map(Input::stream).collect();
-        use helmwatch::core::wire::Stream::*;
+        use helmwatch_core::wire::Stream::*;
         if kinds.len() == 5 {
             assert_eq!(
                 kinds,
@@ -715,13 +715,13 @@ fn bad_scenarios_are_refused() {
     }
     let mut sc = Scenario::nominal(&cfg.sim(), 1);
     sc.faults.push(Fault {
-        kind: helmwatch::sim::FaultKind::RudderEffectiveness,
+        kind: helmwatch_core::sim::FaultKind::RudderEffectiveness,
         value: 0.0,
         onset_s: 0.0,
     });
     assert!(Ship::new(&cfg.sim(), &sc).is_err());
     let mut out = Vec::new();
-    assert!(helmwatch::sim::record(
+    assert!(helmwatch_core::sim::record(
         &cfg.sim(),
         &Scenario::nominal(&cfg.sim(), 1),
         1.0,
@@ -729,7 +729,7 @@ fn bad_scenarios_are_refused() {
         &mut out
     )
     .is_err());
-    assert!(helmwatch::sim::record(
+    assert!(helmwatch_core::sim::record(
         &cfg.sim(),
         &Scenario::nominal(&cfg.sim(), 1),
         -1.0,

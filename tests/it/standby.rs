@@ -21,7 +21,7 @@ use crate::common::{endpoint, temp_dir, Observer};
 use helmwatch::config::Config;
 use helmwatch::shells::net::{loopback, ZenohMode};
 use helmwatch::shells::shipnode::{ShipNode, ShipNodeOptions, ShipSummary};
-use helmwatch::sim::Scenario;
+use helmwatch_core::sim::Scenario;
 use serde_json::Value;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;

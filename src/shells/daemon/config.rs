@@ -1,6 +1,6 @@
 //! The `[daemon]` section: vessels, queues, timers.
 
-use crate::core::config::{
+use helmwatch_core::config::{
     check_count, check_range, check_range_open_low, check_vessel_name, fail, ConfigError,
 };
 use serde::{Deserialize, Serialize};

@@ -4,7 +4,7 @@
 //! vessel task that owns the core and replies with its answer.
 
 use super::{owner, Msg, Shared, MAX_SAMPLE_BYTES};
-use crate::core::wire::{Method, Stream, TriggerReply};
+use helmwatch_core::wire::{Method, Stream, TriggerReply};
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -58,7 +58,7 @@ impl Fleet {
         self.vessel_of(key).is_some_and(|i| {
             matches!(
                 self.roles[i].borrow().role,
-                crate::core::ownership::Role::Standby { holder: Some(_) }
+                helmwatch_core::ownership::Role::Standby { holder: Some(_) }
             )
         })
     }

@@ -32,17 +32,17 @@ mod fleet;
 mod owner;
 mod vessel;
 
-use crate::core::config::ConfigError;
-use crate::core::monitor::config::CoreConfig;
-use crate::core::monitor::Monitor;
-use crate::core::wire::Method;
-use crate::core::wire::{Keys, Stream, TriggerReply};
 use crate::shells::history::History;
 use crate::shells::metrics::{Metrics, VesselMetrics};
 use crate::shells::recording::Recorder;
 use crate::shells::state::StateDir;
 use config::DaemonConfig;
 use fleet::{serve_controls, Control, Fleet};
+use helmwatch_core::config::ConfigError;
+use helmwatch_core::monitor::config::CoreConfig;
+use helmwatch_core::monitor::Monitor;
+use helmwatch_core::wire::Method;
+use helmwatch_core::wire::{Keys, Stream, TriggerReply};
 use std::future::Future;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -75,7 +75,7 @@ pub enum DaemonError {
     Recording(#[from] crate::shells::recording::RecordingError),
     /// The estimator's model files are missing, invalid, or not for this configuration.
     #[error(transparent)]
-    Estimator(#[from] crate::core::estimator::model::ModelError),
+    Estimator(#[from] helmwatch_core::estimator::model::ModelError),
     /// The Zenoh session could not be opened (bad endpoint, port in use...).
     #[error("cannot open the Zenoh session: {0}")]
     Open(String),
@@ -144,8 +144,8 @@ pub const MAX_SAMPLE_BYTES: usize = 4096;
 
 /// What vessels of one configuration share: the designed multisine and the estimator.
 type Parts = (
-    Option<crate::core::dsp::multisine::Multisine>,
-    Option<Arc<crate::core::estimator::Estimator>>,
+    Option<helmwatch_core::dsp::multisine::Multisine>,
+    Option<Arc<helmwatch_core::estimator::Estimator>>,
 );
 
 /// Counters the Zenoh callbacks update without touching the core.
@@ -241,7 +241,7 @@ impl Daemon {
                 None => {
                     core.check()?;
                     if cfg.takeover_s <= core.safety.hold_s {
-                        return Err(crate::core::config::fail(
+                        return Err(helmwatch_core::config::fail(
                             "daemon.takeover-s",
                             cfg.takeover_s,
                             &format!(
@@ -251,7 +251,7 @@ impl Daemon {
                         )
                         .into());
                     }
-                    let estimator = crate::core::estimator::Estimator::from_config(core)?;
+                    let estimator = helmwatch_core::estimator::Estimator::from_config(core)?;
                     let multisine = Monitor::design_multisine(core).ok();
                     cores.push((core, (multisine, estimator)));
                     cores.len() - 1
@@ -287,7 +287,7 @@ impl Daemon {
         let recorder = match (cfg.record, &cfg.state_dir) {
             (false, _) => None,
             (true, None) => {
-                return Err(crate::core::config::fail(
+                return Err(helmwatch_core::config::fail(
                     "daemon.record",
                     "true",
                     "false without a state directory (daemon.state-dir or run --state-dir)",

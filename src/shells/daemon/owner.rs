@@ -6,7 +6,7 @@
 //! a vessel also holds `vessels/<v>/fdi/holder/<id>` and `vessels/<v>/fdi/alive`. A liveliness
 //! subscriber with history on `fdi/candidate/*` and `fdi/holder/*` shows each daemon every
 //! other one (and, when they go, a crash, a stop or a lost link: Zenoh drops a session's
-//! tokens with it). Decisions ([`crate::core::ownership`]) are carried out in this order:
+//! tokens with it). Decisions ([`helmwatch_core::ownership`]) are carried out in this order:
 //!
 //! - **to holder**: the vessel task is told first (it restores the replicated state and starts
 //!   answering headings), then the tokens `fdi/holder/<id>` and `fdi/alive` are declared;
@@ -23,8 +23,8 @@
 //! The vessel task reads its role from a `watch` channel (never lost, never blocks).
 
 use super::DaemonError;
-use crate::core::ownership::{Event, Ownership, Role};
-use crate::core::wire::Keys;
+use helmwatch_core::ownership::{Event, Ownership, Role};
+use helmwatch_core::wire::Keys;
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::time::{Duration, Instant};
 use tokio::sync::{mpsc, oneshot, watch};

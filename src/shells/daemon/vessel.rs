@@ -19,15 +19,15 @@
 use super::owner::RoleView;
 use super::DaemonError;
 use super::{Msg, Shared, VesselSummary};
-use crate::core::monitor::abort::AbortCounts;
-use crate::core::monitor::input::RejectReason;
-use crate::core::monitor::VesselState;
-use crate::core::monitor::{Monitor, Output};
-use crate::core::ownership::Role;
-use crate::core::wire::{self, Input, Keys};
 use crate::shells::history::{History, Kind};
 use crate::shells::recording::{self, Recorder};
 use crate::shells::state::{Loaded, StateDir};
+use helmwatch_core::monitor::abort::AbortCounts;
+use helmwatch_core::monitor::input::RejectReason;
+use helmwatch_core::monitor::VesselState;
+use helmwatch_core::monitor::{Monitor, Output};
+use helmwatch_core::ownership::Role;
+use helmwatch_core::wire::{self, Input, Keys};
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -133,7 +133,7 @@ pub(super) struct VesselTask {
     /// Ship time of the last report (a notification's time in the history) [s].
     pub(super) last_report_t: f64,
     /// The alarm notification restored from the state directory, published at start.
-    pub(super) restored: Option<crate::core::wire::Notification>,
+    pub(super) restored: Option<helmwatch_core::wire::Notification>,
     pub(super) rx: mpsc::Receiver<Msg>,
     pub(super) pubs: Publishers,
     pub(super) shared: Arc<Shared>,
@@ -175,9 +175,9 @@ pub(super) struct VesselTask {
 
 /// What a fresh core is made of.
 pub(super) struct Fresh {
-    pub core: crate::core::monitor::config::CoreConfig,
-    pub multisine: Option<crate::core::dsp::multisine::Multisine>,
-    pub estimator: Option<Arc<crate::core::estimator::Estimator>>,
+    pub core: helmwatch_core::monitor::config::CoreConfig,
+    pub multisine: Option<helmwatch_core::dsp::multisine::Multisine>,
+    pub estimator: Option<Arc<helmwatch_core::estimator::Estimator>>,
     /// The core's analysis records are wanted (recording).
     pub analysis: bool,
 }
@@ -383,7 +383,7 @@ impl VesselTask {
             } => {
                 if start {
                     self.monitor.commission(method);
-                    tracing::info!(vessel = %self.name, method = ?method.map(crate::core::wire::Method::name), "commissioning started on request: {}", self.monitor.commissioning_text());
+                    tracing::info!(vessel = %self.name, method = ?method.map(helmwatch_core::wire::Method::name), "commissioning started on request: {}", self.monitor.commissioning_text());
                     self.save_state();
                 }
                 let mut r = self.monitor.commissioning_status();
@@ -461,7 +461,7 @@ impl VesselTask {
     }
 
     /// Records a completed test's analysis: one message per grid point.
-    fn record_analysis(&mut self, a: &crate::core::monitor::AnalysisRecord) {
+    fn record_analysis(&mut self, a: &helmwatch_core::monitor::AnalysisRecord) {
         let topic = self.recording.analysis.clone();
         for i in 0..a.len() {
             let t = a.t0_s + i as f64 * a.dt_s;
@@ -674,7 +674,7 @@ pub(super) fn restore(
     dir: &StateDir,
     vessel: &str,
     monitor: &mut Monitor,
-) -> Option<crate::core::wire::Notification> {
+) -> Option<helmwatch_core::wire::Notification> {
     match dir.load(vessel) {
         Loaded::Fresh => {
             tracing::info!(vessel, "no saved state: starting fresh");

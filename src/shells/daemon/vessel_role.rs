@@ -189,7 +189,7 @@ impl VesselTask {
                 let _ = reply.send(None);
             }
             Msg::Trigger { reply, .. } => {
-                let r = (!holder_alive).then(|| crate::core::wire::TriggerReply {
+                let r = (!holder_alive).then(|| helmwatch_core::wire::TriggerReply {
                     accepted: false,
                     test: None,
                     reason: Some(view.describe()),

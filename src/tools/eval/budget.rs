@@ -3,8 +3,8 @@
 //! with the mechanisms that keep the budget at a small sample switched off in turn
 //! (`core::fdi::budget::SCAN`).
 
-use crate::core::fdi::ablation::{switch_off, Mechanism};
-use crate::core::fdi::budget::{run, SCAN};
+use helmwatch_core::fdi::ablation::{switch_off, Mechanism};
+use helmwatch_core::fdi::budget::{run, SCAN};
 use std::fmt::Write;
 
 /// The mechanisms switched off for the small-sample cells (K = 8, no floors): the one that

@@ -15,11 +15,11 @@
 //! targets ([`target_mse`]) are per method, sea state and parameter. Failed tests (aborted,
 //! refused) are counted and left out.
 
-use crate::core::estimator::model::{Model, Target};
-use crate::core::estimator::nn::Scratch;
-use crate::core::model::SeaState;
-use crate::core::wire::Method;
 use crate::tools::training::database::Database;
+use helmwatch_core::estimator::model::{Model, Target};
+use helmwatch_core::estimator::nn::Scratch;
+use helmwatch_core::model::SeaState;
+use helmwatch_core::wire::Method;
 use std::fmt::Write as _;
 
 /// The paper's Table I MSE for `method` (traincgf, 100 epochs).
@@ -208,7 +208,7 @@ pub fn fmt_unit(v: f64, target: Target) -> String {
 }
 
 /// The accuracy of `models` on each member of the family of real ships
-/// ([`crate::sim::config::family`]): the held-out database of `spec` simulated on ships of
+/// ([`helmwatch_core::sim::config::family`]): the held-out database of `spec` simulated on ships of
 /// each structure (the monitor and the models unchanged), in family order.
 pub fn family_accuracy(
     cfg: &crate::config::Config,
@@ -216,7 +216,7 @@ pub fn family_accuracy(
     spec: &crate::tools::training::database::DatabaseSpec,
     threads: usize,
 ) -> Vec<(&'static str, Vec<Cell>, f64)> {
-    crate::sim::config::family()
+    helmwatch_core::sim::config::family()
         .into_iter()
         .map(|m| {
             let mut c = cfg.clone();
@@ -233,23 +233,23 @@ pub fn family_accuracy(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::core::estimator::model::tests::sample_model;
-    use crate::core::estimator::nn::Scratch;
     use crate::tools::training::database::{DatabaseSpec, Point, Purpose, TestRun};
+    use helmwatch_core::estimator::nn::Scratch;
+    use helmwatch_core::testing::sample_model;
 
     #[test]
     fn accuracy_matches_a_hand_computation() {
         // One displacement model, three tests with known features: MSE and RMSE by hand.
         let model = sample_model();
         let mk = |g: f64, sp: f64| {
-            use crate::core::wire::features::sample;
+            use helmwatch_core::testing::sample;
             let mut c = sample::clfrt(vec![
                 sample::tone(0.03, g, -2.0),
                 sample::tone(0.07, g * 0.3, -2.5),
                 sample::tone(0.18, g * 0.05, -2.9),
             ]);
             c.speed_log_mps = Some(sp);
-            crate::core::wire::Features::Clfrt(c)
+            helmwatch_core::wire::Features::Clfrt(c)
         };
         let feats = [mk(2.0, 6.0), mk(1.0, 7.0), mk(0.5, 8.0)];
         let truths = [5000.0, 7000.0, 9000.0];

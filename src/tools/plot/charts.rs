@@ -7,8 +7,8 @@
 
 use super::recording::{decimate, Trace};
 use super::{HistoryPoint, PlotError};
-use crate::core::wire::features::ToneFeatures;
-use crate::core::wire::Method;
+use helmwatch_core::wire::features::ToneFeatures;
+use helmwatch_core::wire::Method;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
@@ -261,7 +261,7 @@ impl Relay {
 pub(super) struct NyquistInput {
     pub relay: Relay,
     /// The servo (its describing function is in the loop).
-    pub servo: crate::core::model::ServoConfig,
+    pub servo: helmwatch_core::model::ServoConfig,
     /// Measured limit-cycle frequency [rad/s].
     pub omega_u_rad_s: f64,
     /// Measured first-harmonic heading amplitude [rad].
@@ -282,7 +282,7 @@ pub(super) fn nyquist(
     title: &str,
     n: &NyquistInput,
 ) -> Result<(), PlotError> {
-    use crate::core::dsp::relay::servo_describing_function;
+    use helmwatch_core::dsp::relay::servo_describing_function;
     use rustfft::num_complex::Complex64;
     let root = SVGBackend::with_string(svg, size).into_drawing_area();
     root.fill(&WHITE).map_err(draw_err)?;

@@ -10,7 +10,7 @@
 //!
 //! The nominal ship is the configuration's `[ship]` at its nominal speed and displacement; the
 //! estimated one is the same model at the report's `estimate`; `(a, b)` from `(u, D)` through
-//! [`crate::core::model::ShipConfig::nomoto`]. The relay's height and hysteresis are the
+//! [`helmwatch_core::model::ShipConfig::nomoto`]. The relay's height and hysteresis are the
 //! report's, as played (a test sized to the loop or to the sea plays another than `[hbt]`'s;
 //! the height clamped to `servo.max-angle-deg`, as the relay is).
 //!
@@ -33,7 +33,7 @@ pub mod recording;
 mod reference;
 
 use crate::config::Config;
-use crate::core::wire::{Method, Report};
+use helmwatch_core::wire::{Method, Report};
 use serde_json::Value;
 
 /// What an input holds.
@@ -223,12 +223,12 @@ pub fn plot(
                 None => format!("residuals of {} reports", reports.len()),
             };
             // The single-test limit of the sequential test (one method, a window of one).
-            let limit = crate::core::fdi::limits::DecisionLimits::new(
+            let limit = helmwatch_core::fdi::limits::DecisionLimits::new(
                 cfg.fdi.false_alarms_per_year,
                 cfg.scheduler.interval_s + cfg.scheduler.steady_time_s,
                 cfg.fdi.window_tests,
             )
-            .param[crate::core::fdi::stats::P];
+            .param[helmwatch_core::fdi::stats::P];
             charts::history(&mut svg, size, &title, &points, limit)?;
         }
         InputKind::Recording => {
@@ -237,7 +237,7 @@ pub fn plot(
             charts::trace(&mut svg, size, &trace)?;
         }
         InputKind::Reference => {
-            let state: crate::core::monitor::VesselState = serde_json::from_str(text)
+            let state: helmwatch_core::monitor::VesselState = serde_json::from_str(text)
                 .map_err(|e| data(format!("not a vessel state file: {e}")))?;
             // The vessel's own configuration, when the file has a table for it.
             let core = cfg
@@ -245,7 +245,7 @@ pub fn plot(
                 .ok()
                 .and_then(|v| v.into_iter().find(|(name, _)| *name == state.vessel))
                 .map_or_else(|| cfg.core(), |(_, c)| c);
-            let settings = crate::core::fdi::Fdi::new(&core).settings();
+            let settings = helmwatch_core::fdi::Fdi::new(&core).settings();
             let title = format!("{}: the learned reference over speed", state.vessel);
             reference::reference(&mut svg, size, &title, &state.fdi.commissioning, &settings)?;
         }
@@ -305,7 +305,7 @@ pub fn plot_report(
                 hysteresis_rad: f.hysteresis_rad,
             };
             let predict = |ab: (f64, f64)| {
-                crate::core::dsp::relay::limit_cycle_describing_function(
+                helmwatch_core::dsp::relay::limit_cycle_describing_function(
                     ab.0,
                     ab.1,
                     relay.height_rad,

@@ -8,8 +8,8 @@
 //! [`Trace::skipped`].
 
 use super::{data, PlotError};
-use crate::core::angle::wrap_pi;
-use crate::core::wire::{Excitation, ExcitationMode, Keys, RecordLine, Scalar, Stream};
+use helmwatch_core::angle::wrap_pi;
+use helmwatch_core::wire::{Excitation, ExcitationMode, Keys, RecordLine, Scalar, Stream};
 
 /// Most points a series keeps: longer series are reduced to the minimum and maximum of
 /// equal time buckets (the shape survives, the SVG stays small).

@@ -4,12 +4,12 @@
 //! predicted offset over speed at the learned tests' mean declared displacement (a line) and
 //! its band of two standard deviations of a test about it (dashed: the prediction's own
 //! error, the scatter at the learned tests' mean sea and the floors;
-//! `crate::core::fdi::reference::MethodReference::curve`).
+//! `helmwatch_core::fdi::reference::MethodReference::curve`).
 
 use super::charts::tick;
 use super::{data, PlotError};
-use crate::core::fdi::reference::{MethodReference, Settings};
-use crate::core::wire::Method;
+use helmwatch_core::fdi::reference::{MethodReference, Settings};
+use helmwatch_core::wire::Method;
 use plotters::prelude::*;
 
 /// Speeds on the curve.

@@ -4,7 +4,7 @@
 //! validation (15 %) and test (15 %) parts, the same split for both targets (MATLAB
 //! `dividerand`). Inputs are scaled by the minimum and maximum of the training part
 //! (`minmax(p)`), targets by the configured parameter range, both to [-1, 1]. Each of the
-//! four networks ([`crate::core::estimator::SLOTS`]) is trained by each requested trainer from several seeded
+//! four networks ([`helmwatch_core::estimator::SLOTS`]) is trained by each requested trainer from several seeded
 //! restarts; the restart with the lowest validation MSE is kept. The jobs (trainer, slot,
 //! restart) run on worker threads and are combined in their fixed order, so the models are
 //! a function of the database and the seed only.
@@ -16,14 +16,14 @@
 use super::database::{par_map, Database};
 use super::train::{best_of, train_restart, Dataset, TrainError, Trainer};
 use crate::config::Config;
-use crate::core::estimator::features::{self, Feature};
-use crate::core::estimator::model::{
+use helmwatch_core::estimator::features::{self, Feature};
+use helmwatch_core::estimator::model::{
     Design, Metadata, Model, ModelError, SeaSpread, Split, Target, TrainingRecord, Uncertainty,
 };
-use crate::core::estimator::nn::{Mlp, Scaling, Scratch};
-use crate::core::estimator::SLOTS;
-use crate::core::model::SeaState;
-use crate::core::wire::Method;
+use helmwatch_core::estimator::nn::{Mlp, Scaling, Scratch};
+use helmwatch_core::estimator::SLOTS;
+use helmwatch_core::model::SeaState;
+use helmwatch_core::wire::Method;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -49,7 +49,7 @@ pub enum BuildError {
     Model(#[from] ModelError),
     /// A scaling could not be formed.
     #[error("scaling: {0}")]
-    Scaling(#[from] crate::core::estimator::nn::NnError),
+    Scaling(#[from] helmwatch_core::estimator::nn::NnError),
 }
 
 /// Settings of a build.
@@ -245,7 +245,7 @@ pub fn build_models(
             &trainers[k],
             slot_seed(
                 settings.seed,
-                crate::core::estimator::slot_index(slots[s].0, slots[s].1),
+                helmwatch_core::estimator::slot_index(slots[s].0, slots[s].1),
             ),
             r,
         )

@@ -1,5 +1,5 @@
 //! The calibration `train` writes beside the networks (`calibration.json`,
-//! `crate::core::fdi::config::Calibration`): the numbers that describe the estimator on the
+//! `helmwatch_core::fdi::config::Calibration`): the numbers that describe the estimator on the
 //! class of hull the database was drawn from.
 //!
 //! Measured on the database: the sea index's anchors, the median wave yaw of the completed
@@ -10,9 +10,9 @@
 //! servo's spread, the slope priors), which one class's simulations cannot measure.
 
 use super::database::Database;
-use crate::core::fdi::config::Calibration;
-use crate::core::fdi::stats::median;
-use crate::core::model::SeaState;
+use helmwatch_core::fdi::config::Calibration;
+use helmwatch_core::fdi::stats::median;
+use helmwatch_core::model::SeaState;
 
 /// The median wave yaw [deg] of the completed tests of `db` in `sea`, both methods.
 pub fn wave_yaw_deg(db: &Database, sea: SeaState) -> f64 {
@@ -64,12 +64,12 @@ mod tests {
     /// sea keeps that anchor.
     #[test]
     fn the_sea_anchors_are_the_medians_of_the_databases_wave_yaw() {
-        use crate::core::wire::features::sample;
-        use crate::core::wire::{Features, Method};
         use crate::tools::training::database::{DatabaseSpec, Point, Purpose, TestRun};
+        use helmwatch_core::testing::sample;
+        use helmwatch_core::wire::{Features, Method};
         let test = |deg: f64| TestRun {
             features: Ok(Features::Clfrt(
-                crate::core::wire::features::ClfrtFeatures {
+                helmwatch_core::wire::features::ClfrtFeatures {
                     wave_yaw_rad: Some(f64::to_radians(deg)),
                     ..sample::clfrt(vec![])
                 },

@@ -18,7 +18,7 @@
 //!
 //! ## Runs
 //!
-//! At every point each requested method runs once through [`crate::drivers::probe::run_probe`] (the
+//! At every point each requested method runs once through [`helmwatch_core::drivers::probe::run_probe`] (the
 //! same monitor core as the daemon: the features and the speed-log mean are exactly what the
 //! daemon would report), the same ship seed for both methods. Runs are spread over worker
 //! threads (`std::thread::scope`) that take the next job from a shared counter; each result is
@@ -27,13 +27,13 @@
 //! with its reason and left out of training.
 
 use crate::config::Config;
-use crate::core::dsp::multisine::Multisine;
-use crate::core::model::SeaState;
-use crate::core::monitor::Monitor;
-use crate::core::wire::Method;
-use crate::core::wire::{Features, Outcome};
-use crate::drivers::probe::{run_probe, ProbeOptions};
-use crate::sim::{Fault, Scenario};
+use helmwatch_core::drivers::probe::{run_probe, ProbeOptions};
+use helmwatch_core::dsp::multisine::Multisine;
+use helmwatch_core::model::SeaState;
+use helmwatch_core::monitor::Monitor;
+use helmwatch_core::sim::{Fault, Scenario};
+use helmwatch_core::wire::Method;
+use helmwatch_core::wire::{Features, Outcome};
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -80,7 +80,7 @@ pub struct DatabaseSpec {
     /// Faults added to every scenario (e.g. a heading drift for the drift check).
     pub faults: Vec<Fault>,
     /// Draw each point's ship from the family of real ships
-    /// ([`crate::sim::config::draw_family_member`], on a random stream of its own: the points,
+    /// ([`helmwatch_core::sim::config::draw_family_member`], on a random stream of its own: the points,
     /// seeds and every other draw are those of the database without it).
     pub family: bool,
 }
@@ -98,7 +98,7 @@ pub struct Point {
     pub seed: u64,
     /// The ship's structure and autopilot, when drawn from the family (else the
     /// configuration's).
-    pub ship: Option<crate::sim::config::FamilyMember>,
+    pub ship: Option<helmwatch_core::sim::config::FamilyMember>,
 }
 
 /// The outcome of one test at one point.
@@ -148,7 +148,7 @@ pub fn design(cfg: &Config, spec: &DatabaseSpec) -> Vec<Point> {
                 seed,
                 ship: spec
                     .family
-                    .then(|| crate::sim::config::draw_family_member(&mut family)),
+                    .then(|| helmwatch_core::sim::config::draw_family_member(&mut family)),
             });
         }
     }

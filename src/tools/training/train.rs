@@ -5,7 +5,7 @@
 //! ## The problem
 //!
 //! Both minimise the mean squared error on the training set, in the scaled units of
-//! [`crate::core::estimator::nn`]:
+//! [`helmwatch_core::estimator::nn`]:
 //!
 //! ```text
 //! L(theta) = (1/N) sum_i e_i^2,   e_i = y(x_i; theta) - t_i,   grad L = (2/N) J^T e
@@ -49,7 +49,7 @@
 //! restart index on a tie). Everything is a deterministic function of the data and the seed:
 //! sums run in a fixed order, and no clock is read.
 
-use crate::core::estimator::nn::{n_params, Mlp, Scratch, HIDDEN};
+use helmwatch_core::estimator::nn::{n_params, Mlp, Scratch, HIDDEN};
 use nalgebra::{DMatrix, DVector};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -225,7 +225,7 @@ impl LeastSquares for NetProblem<'_> {
     }
 }
 
-pub use crate::core::estimator::trainer::{CgfOptions, LmOptions, StopReason, Trainer};
+pub use helmwatch_core::estimator::trainer::{CgfOptions, LmOptions, StopReason, Trainer};
 
 /// What one optimisation produced.
 #[derive(Debug, Clone, PartialEq)]

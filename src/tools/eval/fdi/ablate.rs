@@ -1,13 +1,13 @@
 //! `eval --fdi --ablate`: the suite once as built and once with each mechanism of the
-//! decision off (`crate::core::fdi::ablation`), the same seeds, ships and seas: what each
+//! decision off (`helmwatch_core::fdi::ablation`), the same seeds, ships and seas: what each
 //! mechanism buys in false alarms, the healthy alert tail, detection and naming. A mechanism
 //! whose removal changes none of them past Monte Carlo noise buys nothing the suite can see.
 
 use super::compare::totals_table;
 use super::{run_suite, FdiEvalOptions, RowFigures};
 use crate::config::Config;
-use crate::core::estimator::Estimator;
-use crate::core::fdi::ablation::{switch_off, Mechanism};
+use helmwatch_core::estimator::Estimator;
+use helmwatch_core::fdi::ablation::{switch_off, Mechanism};
 use std::fmt::Write;
 use std::sync::Arc;
 

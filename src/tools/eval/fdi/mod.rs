@@ -30,7 +30,7 @@
 //! (classic and envelope sets) goes on past its tests while a method has no reference (an
 //! aborted test is no commissioning test), for at most as many tests of the ship again: what
 //! follows "after commissioning" follows the vessel's commissioning. Each report is
-//! the vessel's (its alarm is the worse track's, its naming the vessel's: `crate::core::fdi`).
+//! the vessel's (its alarm is the worse track's, its naming the vessel's: `helmwatch_core::fdi`).
 //!
 //! `scenarios` (`--scenarios`) selects the sets: the classic ones above (the default), the
 //! envelope's and the commissioning's (all listed in the module `scenarios`).
@@ -61,9 +61,9 @@ pub(crate) use score::quantiles;
 pub use score::{score, score_commissioning, score_envelope, Cell, CommissioningCell};
 
 use crate::config::Config;
-use crate::core::estimator::Estimator;
-use crate::core::model::SeaState;
-use crate::core::wire::Method;
+use helmwatch_core::estimator::Estimator;
+use helmwatch_core::model::SeaState;
+use helmwatch_core::wire::Method;
 use std::sync::Arc;
 
 /// Options of the suite.
@@ -150,7 +150,7 @@ fn rows<'a>(
 ) -> Vec<Row<'a>> {
     let mut rows = Vec::new();
     if o.family {
-        let members = crate::sim::config::family();
+        let members = helmwatch_core::sim::config::family();
         for (mi, m) in members.iter().enumerate().skip(1) {
             if o.member
                 .as_ref()
@@ -230,7 +230,7 @@ impl RowFigures {
 
 /// Completed tests after commissioning of healthy runs, alert or alarm, and all of them.
 pub(super) fn alerts(runs: &[RunOutcome]) -> [usize; 2] {
-    use crate::core::wire::residuals::TrackState;
+    use helmwatch_core::wire::residuals::TrackState;
     let done = || {
         runs.iter()
             .flat_map(|r| r.tests.iter())
@@ -306,7 +306,7 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) ->
         }
     );
     let f = &cfg.fdi;
-    let limits = crate::core::fdi::limits::DecisionLimits::new(
+    let limits = helmwatch_core::fdi::limits::DecisionLimits::new(
         f.false_alarms_per_year,
         cfg.scheduler.interval_s + cfg.scheduler.steady_time_s,
         f.window_tests,
@@ -318,8 +318,8 @@ pub fn run_suite(cfg: &Config, estimator: Arc<Estimator>, o: &FdiEvalOptions) ->
         f.window_tests,
         f.false_alarms_per_year,
         limits.alpha_test,
-        limits.param[crate::core::fdi::stats::P],
-        limits.param[2 * crate::core::fdi::stats::P],
+        limits.param[helmwatch_core::fdi::stats::P],
+        limits.param[2 * helmwatch_core::fdi::stats::P],
         limits.cause[0],
         limits.cause[1],
         limits.servo

@@ -1,7 +1,7 @@
 //! The outcomes file (`--outcomes`): one JSON line per test, for analysis of the residuals.
 
 use super::run::RunOutcome;
-use crate::core::model::SeaState;
+use helmwatch_core::model::SeaState;
 
 /// Writes one JSON line per test of `runs` (commissioning and after it): the row, the run,
 /// its drawn operating point and the one after the change, the test's phase (`commissioning`,

@@ -5,14 +5,14 @@
 use super::scenarios::{draw, FdiScenario, Onset, ScenarioSet};
 use super::FdiEvalOptions;
 use crate::config::Config;
-use crate::core::estimator::Estimator;
-use crate::core::model::SeaState;
-use crate::core::monitor::{Monitor, Output};
-use crate::core::wire::features::ToneFeatures;
-use crate::core::wire::residuals::TrackState;
-use crate::core::wire::Method;
-use crate::core::wire::{Cause, Decision, Features, Outcome, Report};
-use crate::drivers::probe::Lockstep;
+use helmwatch_core::drivers::probe::Lockstep;
+use helmwatch_core::estimator::Estimator;
+use helmwatch_core::model::SeaState;
+use helmwatch_core::monitor::{Monitor, Output};
+use helmwatch_core::wire::features::ToneFeatures;
+use helmwatch_core::wire::residuals::TrackState;
+use helmwatch_core::wire::Method;
+use helmwatch_core::wire::{Cause, Decision, Features, Outcome, Report};
 use std::sync::Arc;
 
 /// Where a test sits in its run's schedule.
@@ -69,7 +69,7 @@ pub struct TestOutcome {
     /// phase's [rad] (`features.tones`; NaN for HBT).
     pub tone_ci90: [f64; 2],
     /// CLFRT: the residual's standard deviations from the test's own tone intervals
-    /// (`crate::core::fdi::noise`; NaN for HBT).
+    /// (`helmwatch_core::fdi::noise`; NaN for HBT).
     pub meas_sd: [f64; 3],
     /// `residuals.parameters.noise_ratio` (1 when absent, NaN without parameters).
     pub noise_ratio: f64,
@@ -215,7 +215,7 @@ pub(super) fn outcome_of(r: &Report) -> TestOutcome {
         fault_present: false,
         speed_log_mps: r.features.speed_log_mps().unwrap_or(nan),
         relay_scale: match &r.features {
-            crate::core::wire::Features::Hbt(f) => f.relay_scale.unwrap_or(1.0),
+            helmwatch_core::wire::Features::Hbt(f) => f.relay_scale.unwrap_or(1.0),
             _ => nan,
         },
         displacement_nominal_t: res.displacement_nominal_t.unwrap_or(nan),
@@ -455,7 +455,7 @@ pub fn run_one(
             return run;
         };
         let mut t = outcome_of(&r);
-        if let Some(c) = crate::core::fdi::raw::measurement_cov(
+        if let Some(c) = helmwatch_core::fdi::raw::measurement_cov(
             r.method,
             &r.features,
             estimator,

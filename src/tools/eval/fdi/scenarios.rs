@@ -3,9 +3,9 @@
 //! fault's onset.
 
 use crate::config::Config;
-use crate::core::model::SeaState;
-use crate::core::wire::Cause;
-use crate::sim::{Fault, Scenario};
+use helmwatch_core::model::SeaState;
+use helmwatch_core::sim::{Fault, Scenario};
+use helmwatch_core::wire::Cause;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -540,7 +540,7 @@ pub fn draw(
     corner: Option<usize>,
 ) -> Result<Drawn, String> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let family = crate::core::model::ShipConfig::default();
+    let family = helmwatch_core::model::ShipConfig::default();
     let [u_lo, u_hi] = sc.speed_mps.map_or(cfg.ship.speed_range_mps, |r| {
         on_box(r, family.speed_range_mps, cfg.ship.speed_range_mps)
     });

@@ -2,8 +2,8 @@
 //! envelope scenarios), flags raised during commissioning (commissioning scenarios).
 
 use super::run::{Phase, RunOutcome, TestOutcome};
-use crate::core::wire::residuals::TrackState;
-use crate::core::wire::{Cause, Decision, Method};
+use helmwatch_core::wire::residuals::TrackState;
+use helmwatch_core::wire::{Cause, Decision, Method};
 
 /// Figures of one (method or baseline, sea, scenario) cell.
 #[derive(Debug, Clone, PartialEq)]

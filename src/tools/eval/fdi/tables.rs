@@ -6,10 +6,10 @@ use super::run::{run_one, RunOutcome};
 use super::score::{operating_point, pct, quantiles, score, score_commissioning, score_envelope};
 use super::RowFigures;
 use super::{FdiEvalOptions, Row};
-use crate::core::estimator::Estimator;
-use crate::core::model::SeaState;
-use crate::core::wire::{Decision, Method};
 use crate::tools::training::database::par_map;
+use helmwatch_core::estimator::Estimator;
+use helmwatch_core::model::SeaState;
+use helmwatch_core::wire::{Decision, Method};
 use std::fmt::Write;
 use std::sync::Arc;
 

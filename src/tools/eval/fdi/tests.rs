@@ -3,8 +3,8 @@
 use super::outcomes::write_outcomes;
 use super::*;
 use crate::config::Config;
-use crate::core::estimator::Estimator;
-use crate::core::wire::{Cause, Decision};
+use helmwatch_core::estimator::Estimator;
+use helmwatch_core::wire::{Cause, Decision};
 
 fn outcome(decision: Decision, raw0: f64) -> TestOutcome {
     TestOutcome {
@@ -512,7 +512,7 @@ fn a_fault_arising_during_commissioning_is_found_in_both_samples_when_one_comple
         assert!(t.inconsistent, "{t:?}");
         assert_ne!(
             t.state,
-            Some(crate::core::wire::residuals::TrackState::Normal),
+            Some(helmwatch_core::wire::residuals::TrackState::Normal),
             "{t:?}"
         );
     }

@@ -1,0 +1,288 @@
+//! The operator's `[fdi]` and `[reference]` sections, and the calibration the models carry.
+//!
+//! The operator sets what is required of the decision: the false-alarm budget every limit
+//! follows from, the window and commissioning sample sizes, the faults commissioning must
+//! resolve, and the physical floors of the residuals (docs/fdi.md, "The model"). Numbers
+//! that describe the estimator on a class of hull (the sea anchors, the servo check's
+//! spread, the model fit's floors, the commissioning spreads, the regression's bandwidths
+//! and slope priors) are the models' [`Calibration`], written by `helmwatch train` into
+//! `calibration.json` beside the networks.
+
+use crate::config::{check_count, check_range, check_range_open_low, fail, ConfigError};
+use serde::{Deserialize, Serialize};
+
+/// The `[reference]` section: what commissioning must resolve before it ends.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
+pub struct ReferenceConfig {
+    /// Commissioning ends when a speed-log bias of this size would cross the single-test
+    /// limit with 95 % probability [m/s] (and the displacement's below)...
+    pub resolve_speed_mps: f64,
+    /// ... and a displacement change of this fraction would.
+    pub resolve_displacement: f64,
+}
+
+impl Default for ReferenceConfig {
+    fn default() -> Self {
+        Self {
+            resolve_speed_mps: 0.5,
+            resolve_displacement: 0.1,
+        }
+    }
+}
+
+impl ReferenceConfig {
+    /// Checks the section's limits; the error names the key and its allowed range.
+    pub fn check(&self) -> Result<(), ConfigError> {
+        check_range_open_low(
+            "reference.resolve-speed-mps",
+            self.resolve_speed_mps,
+            0.0,
+            10.0,
+        )?;
+        check_range_open_low(
+            "reference.resolve-displacement",
+            self.resolve_displacement,
+            0.0,
+            1.0,
+        )
+    }
+}
+
+/// The `[fdi]` section: the decision's budget, sample sizes and physical floors.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
+pub struct FdiConfig {
+    /// Decide on completed tests (false: residuals are still reported, decision inconclusive).
+    pub enabled: bool,
+    /// The false alarms per vessel-year the operator accepts from a healthy ship at sea all
+    /// year at the scheduler's test rate: every limit of the decision follows from it.
+    pub false_alarms_per_year: f64,
+    /// The longest window of the vessel's tests (both methods) the sequential test looks
+    /// back over; an alarm clears after this many tests under the alert limits.
+    pub window_tests: u32,
+    /// Commissioning: at most this many completed tests per method set the vessel's own
+    /// reference, fewer when they resolve `reference.resolve-*` (0: the design reference for
+    /// good; else at least 5; from 6 the sample is checked for a change inside it).
+    pub commissioning_tests: u32,
+    /// Physical floor of the speed residual's standard deviation under the vessel's own
+    /// reference [m/s]: the speed log's noise (the log is the speed residual's reference).
+    pub floor_speed_mps: f64,
+    /// Physical floor of the displacement residual's standard deviation [fraction of the
+    /// nominal displacement]: how well a healthy ship's displacement is known between
+    /// declarations (fuel and ballast move it).
+    pub floor_displacement: f64,
+}
+
+impl Default for FdiConfig {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            false_alarms_per_year: 0.1,
+            window_tests: 4,
+            commissioning_tests: 16,
+            floor_speed_mps: 0.05,
+            floor_displacement: 0.004,
+        }
+    }
+}
+
+impl FdiConfig {
+    /// Checks the section's limits; the error names the key and its allowed range.
+    pub fn check(&self) -> Result<(), ConfigError> {
+        check_range_open_low(
+            "fdi.false-alarms-per-year",
+            self.false_alarms_per_year,
+            0.0,
+            100.0,
+        )?;
+        check_count("fdi.window-tests", self.window_tests, 1, 12)?;
+        if self.commissioning_tests != 0 && !(5..=50).contains(&self.commissioning_tests) {
+            return Err(fail(
+                "fdi.commissioning-tests",
+                self.commissioning_tests,
+                "0 (the design reference) or [5, 50] tests",
+            ));
+        }
+        check_range("fdi.floor-speed-mps", self.floor_speed_mps, 0.0, 5.0)?;
+        check_range("fdi.floor-displacement", self.floor_displacement, 0.0, 0.5)
+    }
+}
+
+/// The calibration of the estimator on its class of hull (`calibration.json` in the models
+/// directory, written by `helmwatch train`). Pairs are `[calm, moderate]` or `[e_u, e_D]`.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, rename_all = "kebab-case")]
+pub struct Calibration {
+    /// Band of the wave yaw on the heading (`features.wave_yaw_rad`) [rad/s].
+    pub wave_band_rad_s: [f64; 2],
+    /// The wave yaw of a calm and of a moderate sea [deg]: the sea index's anchors.
+    pub sea_wave_yaw_deg: [f64; 2],
+    /// Standard deviation of the servo check's rate ratio on a healthy servo.
+    pub actuator_rate_sigma: f64,
+    /// Floor of the ln-gain spread of a tone in the CLFRT model fit.
+    pub model_fit_floor_ln_gain: f64,
+    /// Floor of the phase spread of a tone in the model fit [deg].
+    pub model_fit_floor_phase_deg: f64,
+    /// Model-fit chi-square above which a report warns `model_mismatch` (never a fault).
+    pub model_mismatch_chi2: f64,
+    /// Speed spread of the design's reference while commissioning [m/s]: the networks'
+    /// error on a hull of the class that is not the training model.
+    pub commissioning_spread_speed_mps: f64,
+    /// Displacement spread while commissioning [fraction of the nominal displacement].
+    pub commissioning_spread_displacement: f64,
+    /// Kernel width in speed of the reference's regression [m/s].
+    pub bandwidth_speed_mps: f64,
+    /// Kernel width in declared loading [ln D].
+    pub bandwidth_loading: f64,
+    /// Kernel width in the excitation's scale [ln s].
+    pub bandwidth_excitation: f64,
+    /// Kernel width in the sea [ln of the sea index over its calm anchor].
+    pub bandwidth_sea: f64,
+    /// Prior sd of the offset's slope in speed about the similarity law's: `[e_u, e_D]`
+    /// [m/s per m/s, fraction of D per m/s].
+    pub slope_speed: [f64; 2],
+    /// The same for `e_b` [ln per m/s] (its other slopes take `e_D`'s).
+    pub slope_speed_gain: f64,
+    /// Prior sd of the slope in declared loading about `b ~ 1 / D`'s [per unit ln D].
+    pub slope_loading: [f64; 2],
+    /// Prior sd of the slope in the excitation's scale [per unit ln s].
+    pub slope_excitation: [f64; 2],
+    /// Prior sd of the slope in the sea [per unit of ln of the sea index].
+    pub slope_sea: [f64; 2],
+}
+
+/// The calibration of the models shipped in `models/` (the embedded default).
+pub const EMBEDDED_CALIBRATION: &str = include_str!(concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../../models/calibration.json"
+));
+
+impl Default for Calibration {
+    /// The shipped models' (`models/calibration.json`, embedded). The text is a constant of
+    /// the binary, parsed and checked by this module's unit test: it cannot fail at run time.
+    #[allow(clippy::expect_used)]
+    fn default() -> Self {
+        Self::from_json(EMBEDDED_CALIBRATION)
+            .expect("models/calibration.json is checked by a unit test")
+    }
+}
+
+impl Calibration {
+    /// Parses and checks a `calibration.json`; the error names the key and its range.
+    pub fn from_json(text: &str) -> Result<Self, ConfigError> {
+        let c: Calibration =
+            serde_json::from_str(text).map_err(|e| ConfigError::Parse(e.to_string()))?;
+        c.check()?;
+        Ok(c)
+    }
+
+    /// Checks the limits; the error names the key and its allowed range.
+    pub fn check(&self) -> Result<(), ConfigError> {
+        let increasing = |key: &str, p: [f64; 2], hi: f64| -> Result<(), ConfigError> {
+            check_range(key, p[0], 0.0, hi)?;
+            check_range(key, p[1], 0.0, hi)?;
+            if p[1] > p[0] {
+                Ok(())
+            } else {
+                Err(fail(
+                    key,
+                    format!("[{}, {}]", p[0], p[1]),
+                    "[low, high] with low < high",
+                ))
+            }
+        };
+        increasing("calibration.sea-wave-yaw-deg", self.sea_wave_yaw_deg, 10.0)?;
+        increasing("calibration.wave-band-rad-s", self.wave_band_rad_s, 10.0)?;
+        let open = |key: &str, v: f64, hi: f64| check_range_open_low(key, v, 0.0, hi);
+        open(
+            "calibration.actuator-rate-sigma",
+            self.actuator_rate_sigma,
+            1.0,
+        )?;
+        open(
+            "calibration.model-fit-floor-ln-gain",
+            self.model_fit_floor_ln_gain,
+            10.0,
+        )?;
+        open(
+            "calibration.model-fit-floor-phase-deg",
+            self.model_fit_floor_phase_deg,
+            90.0,
+        )?;
+        open(
+            "calibration.model-mismatch-chi2",
+            self.model_mismatch_chi2,
+            1e9,
+        )?;
+        open(
+            "calibration.commissioning-spread-speed-mps",
+            self.commissioning_spread_speed_mps,
+            10.0,
+        )?;
+        open(
+            "calibration.commissioning-spread-displacement",
+            self.commissioning_spread_displacement,
+            1.0,
+        )?;
+        open(
+            "calibration.bandwidth-speed-mps",
+            self.bandwidth_speed_mps,
+            20.0,
+        )?;
+        open("calibration.bandwidth-loading", self.bandwidth_loading, 2.0)?;
+        open(
+            "calibration.bandwidth-excitation",
+            self.bandwidth_excitation,
+            2.0,
+        )?;
+        open("calibration.bandwidth-sea", self.bandwidth_sea, 5.0)?;
+        let pair = |key: &str, p: [f64; 2], hi: [f64; 2]| -> Result<(), ConfigError> {
+            for (v, h) in p.iter().zip(hi) {
+                if !(v.is_finite() && *v > 0.0 && *v <= h) {
+                    return Err(fail(
+                        key,
+                        format!("[{}, {}]", p[0], p[1]),
+                        &format!("[e_u, e_D], in (0, {}] and (0, {}]", hi[0], hi[1]),
+                    ));
+                }
+            }
+            Ok(())
+        };
+        pair("calibration.slope-speed", self.slope_speed, [10.0, 1.0])?;
+        open("calibration.slope-speed-gain", self.slope_speed_gain, 1.0)?;
+        pair(
+            "calibration.slope-loading",
+            self.slope_loading,
+            [100.0, 10.0],
+        )?;
+        pair(
+            "calibration.slope-excitation",
+            self.slope_excitation,
+            [100.0, 10.0],
+        )?;
+        pair("calibration.slope-sea", self.slope_sea, [10.0, 1.0])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_shipped_calibration_parses_and_a_bad_one_names_its_key() {
+        let c = Calibration::default();
+        assert!(c.sea_wave_yaw_deg[0] < c.sea_wave_yaw_deg[1]);
+        let mut v: serde_json::Value = serde_json::from_str(EMBEDDED_CALIBRATION).unwrap();
+        v["sea-wave-yaw-deg"] = serde_json::json!([0.2, 0.1]);
+        let e = Calibration::from_json(&v.to_string()).unwrap_err();
+        assert!(
+            e.to_string().contains("calibration.sea-wave-yaw-deg"),
+            "{e}"
+        );
+        v["sea-wave-yaw-deg"] = serde_json::json!([0.05, 0.18]);
+        v["unknown-key"] = serde_json::json!(1);
+        let e = Calibration::from_json(&v.to_string()).unwrap_err();
+        assert!(e.to_string().contains("unknown-key"), "{e}");
+    }
+}

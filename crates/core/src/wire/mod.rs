@@ -1,0 +1,613 @@
+//! The wire contract: Zenoh keys and JSON payloads, parsed and built without any I/O.
+//!
+//! Keys live under `vessels/<vessel>/` and follow Signal K paths with `/` for `.`. Units are
+//! SI: angles in radians (heading in [0, 2 pi) clockwise from north, rudder positive to
+//! starboard), speed in m/s, time `t` in seconds on the ship's clock (f64).
+//!
+//! | key (after `vessels/<v>/`) | direction | payload |
+//! |---|---|---|
+//! | `navigation/headingTrue` | ship -> daemon | [`Scalar`] |
+//! | `steering/rudderAngle` | ship -> daemon | [`Scalar`] |
+//! | `navigation/speedThroughWater` | ship -> daemon | [`Scalar`] |
+//! | `steering/autopilot/state` | ship -> daemon | [`StateValue`] |
+//! | `steering/autopilot/target/headingTrue` | ship -> daemon | [`Scalar`] |
+//! | `steering/autopilot/excitation` | daemon -> autopilot | [`Excitation`] |
+//! | `fdi/status` | daemon -> world | [`Status`] |
+//! | `fdi/report` | daemon -> world | [`Report`] |
+//! | `notifications/steering/fdi` | daemon -> world | [`Notification`] |
+//! | `fdi/trigger` (queryable, `method=hbt\|clfrt`) | world -> daemon | reply [`TriggerReply`] |
+//! | `fdi/alive` (liveliness token) | the daemon that drives the vessel | - |
+//! | `fdi/candidate/<id>`, `fdi/holder/<id>` (liveliness tokens) | every daemon of the vessel; its driver | - (`core::ownership`) |
+//! | `fdi/ownership` | each daemon of the vessel, on a change of role | JSON (`shells::daemon`) |
+//! | `fdi/state` (and queryable) | the driver, on every change | the vessel's state (`shells::daemon`) |
+//!
+//! A recording (the output of `helmwatch simulate`, the input of `helmwatch replay`) is JSON
+//! lines, one [`RecordLine`] `{"key": .., "payload": {..}}` per publication.
+
+use serde::{Deserialize, Serialize};
+
+pub mod features;
+pub mod residuals;
+
+pub use features::Features;
+
+/// Key expressions of one vessel.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Keys {
+    /// `vessels/<vessel>`.
+    pub prefix: String,
+}
+
+/// The streams the daemon subscribes to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Stream {
+    /// `navigation/headingTrue` [rad].
+    Heading,
+    /// `steering/rudderAngle` [rad].
+    Rudder,
+    /// `navigation/speedThroughWater` [m/s].
+    Speed,
+    /// `steering/autopilot/state` (string).
+    AutopilotState,
+    /// `steering/autopilot/target/headingTrue` [rad].
+    TargetHeading,
+    /// `design/displacement` [kg, Signal K]: the parity test's nominal displacement when the
+    /// ship publishes it (optional; the configuration's value otherwise).
+    DesignDisplacement,
+}
+
+impl Stream {
+    /// Every input stream, in the order a lockstep ship publishes them (heading last).
+    pub const ALL: [Stream; 6] = [
+        Stream::Rudder,
+        Stream::Speed,
+        Stream::AutopilotState,
+        Stream::TargetHeading,
+        Stream::DesignDisplacement,
+        Stream::Heading,
+    ];
+    /// Every input stream in [`Stream::index`] order.
+    pub const BY_INDEX: [Stream; 6] = [
+        Stream::Heading,
+        Stream::Rudder,
+        Stream::Speed,
+        Stream::AutopilotState,
+        Stream::TargetHeading,
+        Stream::DesignDisplacement,
+    ];
+    /// The streams a test needs (fresh before it starts, watched for silence while it runs);
+    /// `design/displacement` is optional and rare.
+    pub const REQUIRED: [Stream; 5] = [
+        Stream::Heading,
+        Stream::Rudder,
+        Stream::Speed,
+        Stream::AutopilotState,
+        Stream::TargetHeading,
+    ];
+    /// Path below the vessel prefix.
+    pub fn path(self) -> &'static str {
+        match self {
+            Stream::Heading => "navigation/headingTrue",
+            Stream::Rudder => "steering/rudderAngle",
+            Stream::Speed => "navigation/speedThroughWater",
+            Stream::AutopilotState => "steering/autopilot/state",
+            Stream::TargetHeading => "steering/autopilot/target/headingTrue",
+            Stream::DesignDisplacement => "design/displacement",
+        }
+    }
+    /// Short name for logs and counters.
+    pub fn name(self) -> &'static str {
+        match self {
+            Stream::Heading => "heading",
+            Stream::Rudder => "rudder",
+            Stream::Speed => "speed",
+            Stream::AutopilotState => "autopilot_state",
+            Stream::TargetHeading => "target_heading",
+            Stream::DesignDisplacement => "design_displacement",
+        }
+    }
+    /// Index 0..6, for per-stream arrays.
+    pub fn index(self) -> usize {
+        match self {
+            Stream::Heading => 0,
+            Stream::Rudder => 1,
+            Stream::Speed => 2,
+            Stream::AutopilotState => 3,
+            Stream::TargetHeading => 4,
+            Stream::DesignDisplacement => 5,
+        }
+    }
+}
+
+impl Keys {
+    /// Keys of vessel `vessel` (already checked by the configuration).
+    pub fn new(vessel: &str) -> Self {
+        Self {
+            prefix: format!("vessels/{vessel}"),
+        }
+    }
+    /// Key of an input stream.
+    pub fn stream(&self, s: Stream) -> String {
+        format!("{}/{}", self.prefix, s.path())
+    }
+    /// Which input stream a key names, if any.
+    pub fn stream_of(&self, key: &str) -> Option<Stream> {
+        let rest = key.strip_prefix(&self.prefix)?.strip_prefix('/')?;
+        Stream::ALL.into_iter().find(|s| s.path() == rest)
+    }
+    /// `steering/autopilot/excitation`.
+    pub fn excitation(&self) -> String {
+        format!("{}/steering/autopilot/excitation", self.prefix)
+    }
+    /// `fdi/status`.
+    pub fn status(&self) -> String {
+        format!("{}/fdi/status", self.prefix)
+    }
+    /// `fdi/report`.
+    pub fn report(&self) -> String {
+        format!("{}/fdi/report", self.prefix)
+    }
+    /// `notifications/steering/fdi`.
+    pub fn notification(&self) -> String {
+        format!("{}/notifications/steering/fdi", self.prefix)
+    }
+    /// `fdi/trigger` (queryable).
+    pub fn trigger(&self) -> String {
+        format!("{}/fdi/trigger", self.prefix)
+    }
+    /// `fdi/commission` (queryable: the commissioning's progress; `start` begins it again).
+    pub fn commission(&self) -> String {
+        format!("{}/fdi/commission", self.prefix)
+    }
+    /// `fdi/history` (queryable: the report history).
+    pub fn history(&self) -> String {
+        format!("{}/fdi/history", self.prefix)
+    }
+    /// `fdi/alive` (liveliness token).
+    pub fn alive(&self) -> String {
+        format!("{}/fdi/alive", self.prefix)
+    }
+    /// `fdi/candidate/<daemon>` (liveliness token of every daemon configured for the vessel).
+    pub fn candidate(&self, daemon: &str) -> String {
+        format!("{}/fdi/candidate/{daemon}", self.prefix)
+    }
+    /// `fdi/holder/<daemon>` (liveliness token of the daemon that drives the vessel).
+    pub fn holder(&self, daemon: &str) -> String {
+        format!("{}/fdi/holder/{daemon}", self.prefix)
+    }
+    /// `fdi/yielded/<daemon>` (liveliness token of a daemon standing by after it yielded to
+    /// another holder: it drove the vessel until then).
+    pub fn yielded(&self, daemon: &str) -> String {
+        format!("{}/fdi/yielded/{daemon}", self.prefix)
+    }
+    /// `fdi/ownership`: each daemon's role, published on every change.
+    pub fn ownership(&self) -> String {
+        format!("{}/fdi/ownership", self.prefix)
+    }
+    /// `fdi/state`: the vessel's state, published by its driver on every change (and a
+    /// queryable answering the last one).
+    pub fn state(&self) -> String {
+        format!("{}/fdi/state", self.prefix)
+    }
+}
+
+/// `{"t": f64, "value": f64}`: heading, rudder, speed, target heading.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+pub struct Scalar {
+    /// Ship time [s].
+    pub t: f64,
+    /// Value in SI units (rad or m/s).
+    pub value: f64,
+}
+
+/// `{"t": f64, "value": "auto" | "standby" | ...}`: autopilot state.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct StateValue {
+    /// Ship time [s].
+    pub t: f64,
+    /// Signal K autopilot state.
+    pub value: String,
+}
+
+/// Excitation mode.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum ExcitationMode {
+    /// The autopilot's own command alone.
+    None,
+    /// The autopilot adds `value` to its command (CLFRT).
+    Add,
+    /// The autopilot uses `value` as its command (HBT relay).
+    Replace,
+}
+
+/// `steering/autopilot/excitation`: one per accepted heading sample, valid `t .. t + hold_s`.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct Excitation {
+    /// Ship time of the heading sample this answers [s].
+    pub t: f64,
+    /// How the autopilot uses `value`.
+    pub mode: ExcitationMode,
+    /// Rudder angle [rad] (0 when `mode` is `none`).
+    pub value: f64,
+    /// Validity after `t` [s].
+    pub hold_s: f64,
+    /// Test id, or null when idle.
+    pub test: Option<String>,
+}
+
+impl Excitation {
+    /// The idle heartbeat at `t`.
+    pub fn none(t: f64, hold_s: f64) -> Self {
+        Self {
+            t,
+            mode: ExcitationMode::None,
+            value: 0.0,
+            hold_s,
+            test: None,
+        }
+    }
+    /// Whether this message is valid at ship time `now` (`t <= now <= t + hold_s`).
+    pub fn valid_at(&self, now: f64) -> bool {
+        now >= self.t && now <= self.t + self.hold_s
+    }
+}
+
+/// Monitor state on `fdi/status`.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum MonitorState {
+    /// No test under way.
+    Idle,
+    /// Test started; letting the loop settle (trim measurement, first window, first cycles).
+    Settling,
+    /// Measuring.
+    Exciting,
+    /// Computing features, estimates and the decision.
+    Analysing,
+}
+
+/// `fdi/status`, published on every change.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct Status {
+    /// Ship time [s].
+    pub t: f64,
+    /// Monitor state.
+    pub state: MonitorState,
+    /// Test id, or null.
+    pub test: Option<String>,
+    /// Method, or null.
+    pub method: Option<crate::wire::Method>,
+    /// Why the state changed (e.g. an abort reason), or null.
+    pub reason: Option<String>,
+}
+
+/// Test outcome.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Outcome {
+    /// The test ran to the end.
+    Completed,
+    /// The test was stopped by a safety condition.
+    Aborted,
+}
+
+/// Decision of one test.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Decision {
+    /// Residuals consistent with the nominal ship.
+    Nominal,
+    /// A fault is declared.
+    Fault,
+    /// No decision (aborted test, no estimator, residuals pending persistence).
+    Inconclusive,
+}
+
+/// A suspected cause in a report's `isolation` (and the FDI's notification).
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Hash)]
+#[serde(rename_all = "snake_case")]
+pub enum Cause {
+    /// The speed log reads wrong.
+    SpeedLog,
+    /// The ship is heavier or lighter, or the rudder lost effectiveness (both move b).
+    DisplacementOrRudderEffectiveness,
+    /// The steering actuator (servo) responds unlike the nominal one.
+    SteeringActuator,
+}
+
+impl Cause {
+    /// Every cause.
+    pub const ALL: [Cause; 3] = [
+        Cause::SpeedLog,
+        Cause::DisplacementOrRudderEffectiveness,
+        Cause::SteeringActuator,
+    ];
+
+    /// The wire name (serde's), for messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            Cause::SpeedLog => "speed_log",
+            Cause::DisplacementOrRudderEffectiveness => "displacement_or_rudder_effectiveness",
+            Cause::SteeringActuator => "steering_actuator",
+        }
+    }
+}
+
+impl std::fmt::Display for Cause {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// `estimate` of a report.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+pub struct Estimate {
+    /// Estimated speed through water [m/s].
+    pub speed_mps: f64,
+    /// Estimated displacement [t].
+    pub displacement_t: f64,
+}
+
+/// `fdi/report`, after every test, completed or aborted.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct Report {
+    /// Test id.
+    pub test: String,
+    /// Method.
+    pub method: crate::wire::Method,
+    /// Start of the test (ship time) [s].
+    pub t_start: f64,
+    /// End of the test (ship time) [s].
+    pub t_end: f64,
+    /// Completed or aborted.
+    pub outcome: Outcome,
+    /// Abort reason, or null.
+    pub reason: Option<String>,
+    /// Method-specific features (documented in docs/contract.md; `{}` for an aborted test).
+    pub features: Features,
+    /// Estimated parameters, null for an aborted test or when no estimator is loaded.
+    pub estimate: Option<Estimate>,
+    /// Residuals (documented in docs/contract.md; `{}` for an aborted test).
+    #[serde(default)]
+    pub residuals: residuals::Residuals,
+    /// The decision.
+    pub decision: Decision,
+    /// Suspected causes.
+    pub isolation: Vec<Cause>,
+    /// Human-readable summary.
+    pub message: String,
+}
+
+/// Signal K notification state.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, PartialOrd, Ord)]
+#[serde(rename_all = "lowercase")]
+pub enum AlarmState {
+    /// No alarm.
+    Normal,
+    /// Something to look at.
+    Alert,
+    /// Warning.
+    Warn,
+    /// Alarm.
+    Alarm,
+}
+
+/// `notifications/steering/fdi`: Signal K notification value.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct Notification {
+    /// Alarm state.
+    pub state: AlarmState,
+    /// Signal K methods, e.g. `["visual", "sound"]`.
+    pub method: Vec<String>,
+    /// Human-readable message.
+    pub message: String,
+}
+
+/// Reply of the `fdi/trigger` queryable.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct TriggerReply {
+    /// Whether a test was started.
+    pub accepted: bool,
+    /// Id of the started test.
+    pub test: Option<String>,
+    /// Why not, when refused.
+    pub reason: Option<String>,
+}
+
+/// One line of a recording: `{"key": "<zenoh key>", "payload": {...}}`.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct RecordLine {
+    /// Zenoh key.
+    pub key: String,
+    /// JSON payload as published.
+    pub payload: serde_json::Value,
+}
+
+/// A decoded sample of one input stream.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Input {
+    /// True heading [rad].
+    Heading(Scalar),
+    /// Rudder angle [rad].
+    Rudder(Scalar),
+    /// Speed through water [m/s].
+    Speed(Scalar),
+    /// Autopilot state.
+    AutopilotState(StateValue),
+    /// Autopilot target heading [rad].
+    TargetHeading(Scalar),
+    /// Design displacement [kg] (Signal K `design.displacement`).
+    DesignDisplacement(Scalar),
+}
+
+impl Input {
+    /// The stream this sample belongs to.
+    pub fn stream(&self) -> Stream {
+        match self {
+            Input::Heading(_) => Stream::Heading,
+            Input::Rudder(_) => Stream::Rudder,
+            Input::Speed(_) => Stream::Speed,
+            Input::AutopilotState(_) => Stream::AutopilotState,
+            Input::TargetHeading(_) => Stream::TargetHeading,
+            Input::DesignDisplacement(_) => Stream::DesignDisplacement,
+        }
+    }
+    /// Ship time of the sample [s].
+    pub fn t(&self) -> f64 {
+        match self {
+            Input::Heading(s)
+            | Input::Rudder(s)
+            | Input::Speed(s)
+            | Input::TargetHeading(s)
+            | Input::DesignDisplacement(s) => s.t,
+            Input::AutopilotState(s) => s.t,
+        }
+    }
+    /// The JSON payload of this sample, as a ship publishes it.
+    pub fn payload(&self) -> serde_json::Value {
+        let r = match self {
+            Input::Heading(s)
+            | Input::Rudder(s)
+            | Input::Speed(s)
+            | Input::TargetHeading(s)
+            | Input::DesignDisplacement(s) => serde_json::to_value(s),
+            Input::AutopilotState(s) => serde_json::to_value(s),
+        };
+        r.unwrap_or(serde_json::Value::Null)
+    }
+}
+
+/// Why a payload was not accepted as an input sample.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum DecodeError {
+    /// Not JSON, or not of the payload's shape.
+    #[error("malformed payload: {0}")]
+    Malformed(String),
+}
+
+/// Decodes the payload of `stream` from JSON bytes. Only the shape is checked here; values
+/// (finiteness, ranges, time order) are checked by the monitor, which counts rejections.
+pub fn decode(stream: Stream, bytes: &[u8]) -> Result<Input, DecodeError> {
+    let m = |e: serde_json::Error| DecodeError::Malformed(e.to_string());
+    Ok(match stream {
+        Stream::Heading => Input::Heading(serde_json::from_slice(bytes).map_err(m)?),
+        Stream::Rudder => Input::Rudder(serde_json::from_slice(bytes).map_err(m)?),
+        Stream::Speed => Input::Speed(serde_json::from_slice(bytes).map_err(m)?),
+        Stream::AutopilotState => Input::AutopilotState(serde_json::from_slice(bytes).map_err(m)?),
+        Stream::TargetHeading => Input::TargetHeading(serde_json::from_slice(bytes).map_err(m)?),
+        Stream::DesignDisplacement => {
+            Input::DesignDisplacement(serde_json::from_slice(bytes).map_err(m)?)
+        }
+    })
+}
+
+/// Decodes a payload already parsed as JSON (recordings).
+pub fn decode_value(stream: Stream, v: serde_json::Value) -> Result<Input, DecodeError> {
+    let m = |e: serde_json::Error| DecodeError::Malformed(e.to_string());
+    Ok(match stream {
+        Stream::Heading => Input::Heading(serde_json::from_value(v).map_err(m)?),
+        Stream::Rudder => Input::Rudder(serde_json::from_value(v).map_err(m)?),
+        Stream::Speed => Input::Speed(serde_json::from_value(v).map_err(m)?),
+        Stream::AutopilotState => Input::AutopilotState(serde_json::from_value(v).map_err(m)?),
+        Stream::TargetHeading => Input::TargetHeading(serde_json::from_value(v).map_err(m)?),
+        Stream::DesignDisplacement => {
+            Input::DesignDisplacement(serde_json::from_value(v).map_err(m)?)
+        }
+    })
+}
+
+/// Test method.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Hash)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// Harmonic balance test (relay feedback replaces the autopilot).
+    Hbt,
+    /// Closed-loop frequency response test (multisine added to the autopilot's command).
+    Clfrt,
+}
+
+impl Method {
+    /// Name on the wire (`"hbt"`, `"clfrt"`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Hbt => "hbt",
+            Method::Clfrt => "clfrt",
+        }
+    }
+}
+
+impl std::str::FromStr for Method {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "hbt" => Ok(Method::Hbt),
+            "clfrt" => Ok(Method::Clfrt),
+            other => Err(format!("unknown method `{other}`: allowed hbt, clfrt")),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The names in messages are serde's wire names, for every variant.
+    #[test]
+    fn cause_names_are_the_wire_names() {
+        for c in Cause::ALL {
+            assert_eq!(serde_json::to_value(c).unwrap(), c.name());
+            assert_eq!(serde_json::from_value::<Cause>(c.name().into()).unwrap(), c);
+        }
+    }
+
+    #[test]
+    fn keys_follow_contract() {
+        let k = Keys::new("self");
+        assert_eq!(
+            k.stream(Stream::Heading),
+            "vessels/self/navigation/headingTrue"
+        );
+        assert_eq!(
+            k.stream(Stream::TargetHeading),
+            "vessels/self/steering/autopilot/target/headingTrue"
+        );
+        assert_eq!(k.excitation(), "vessels/self/steering/autopilot/excitation");
+        assert_eq!(k.notification(), "vessels/self/notifications/steering/fdi");
+        assert_eq!(
+            k.stream_of("vessels/self/steering/rudderAngle"),
+            Some(Stream::Rudder)
+        );
+        assert_eq!(k.stream_of("vessels/other/steering/rudderAngle"), None);
+    }
+
+    #[test]
+    fn by_index_matches_index() {
+        for (i, s) in Stream::BY_INDEX.into_iter().enumerate() {
+            assert_eq!(s.index(), i);
+        }
+        let mut all = Stream::ALL;
+        all.sort();
+        assert_eq!(all, Stream::BY_INDEX);
+    }
+
+    #[test]
+    fn excitation_serialises_as_contract() {
+        let e = Excitation::none(12.5, 1.0);
+        let v = serde_json::to_value(&e).unwrap();
+        assert_eq!(
+            v,
+            serde_json::json!({"t": 12.5, "mode": "none", "value": 0.0, "hold_s": 1.0, "test": null})
+        );
+        assert!(e.valid_at(13.5) && !e.valid_at(13.6) && !e.valid_at(12.4));
+    }
+
+    #[test]
+    fn malformed_payload_is_an_error_not_a_panic() {
+        assert!(decode(Stream::Heading, b"{\"t\": 1.0}").is_err());
+        assert!(decode(Stream::Heading, b"not json").is_err());
+        assert!(decode(Stream::AutopilotState, b"{\"t\": 1.0, \"value\": 3}").is_err());
+        let ok = decode(Stream::Heading, br#"{"t": 1.0, "value": 0.5}"#).unwrap();
+        assert_eq!(ok.t(), 1.0);
+    }
+}
