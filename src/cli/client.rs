@@ -6,7 +6,7 @@
 
 use super::args::{ClientArgs, CommissionArgs, FleetArgs, HistoryArgs, TriggerArgs};
 use super::service::runtime;
-use super::{fail, Failure, EX_UNAVAILABLE, EX_USAGE};
+use super::Failure;
 use crate::config::Config;
 use crate::shells::history::{HistoryReply, Kind};
 use helmwatch_core::wire::{Keys, TriggerReply};
@@ -18,27 +18,25 @@ fn vessel(cfg: &Config, a: &ClientArgs) -> Result<String, Failure> {
         .clone()
         .or_else(|| cfg.daemon.vessels.first().cloned())
         .unwrap_or_else(|| "self".to_string());
-    helmwatch_core::config::check_vessel_name("--vessel", &v)
-        .map_err(|e| fail(EX_USAGE)(e.into()))?;
+    helmwatch_core::config::check_vessel_name("--vessel", &v).map_err(Failure::usage)?;
     Ok(v)
 }
 
 async fn session(a: &ClientArgs) -> Result<zenoh::Session, Failure> {
     for e in &a.connect {
-        crate::shells::net::check_endpoint("--connect", e).map_err(|e| fail(EX_USAGE)(e.into()))?;
+        crate::shells::net::check_endpoint("--connect", e).map_err(Failure::usage)?;
     }
-    let zcfg =
-        crate::shells::net::loopback_peer(&[], &a.connect).map_err(|e| fail(EX_USAGE)(e.into()))?;
+    let zcfg = crate::shells::net::loopback_peer(&[], &a.connect).map_err(Failure::usage)?;
     zenoh::open(zcfg)
         .await
-        .map_err(|e| fail(EX_UNAVAILABLE)(anyhow::anyhow!("zenoh session: {e}")))
+        .map_err(|e| Failure::Unavailable(anyhow::anyhow!("zenoh session: {e}")))
 }
 
 fn timeout(a: &ClientArgs) -> Result<Duration, Failure> {
     if a.timeout_s.is_finite() && a.timeout_s > 0.0 && a.timeout_s <= 3600.0 {
         Ok(Duration::from_secs_f64(a.timeout_s))
     } else {
-        Err(fail(EX_USAGE)(anyhow::anyhow!(
+        Err(Failure::Usage(anyhow::anyhow!(
             "--timeout-s: (0, 3600] seconds"
         )))
     }
@@ -50,16 +48,16 @@ async fn get_one(s: &zenoh::Session, selector: &str, limit: Duration) -> Result<
         .get(selector)
         .timeout(limit)
         .await
-        .map_err(|e| fail(EX_UNAVAILABLE)(anyhow::anyhow!("{selector}: {e}")))?;
+        .map_err(|e| Failure::Unavailable(anyhow::anyhow!("{selector}: {e}")))?;
     match replies.recv_async().await {
         Ok(reply) => match reply.result() {
             Ok(sample) => Ok(sample.payload().to_bytes().into_owned()),
-            Err(e) => Err(fail(EX_USAGE)(anyhow::anyhow!(
+            Err(e) => Err(Failure::Usage(anyhow::anyhow!(
                 "{selector}: {}",
                 String::from_utf8_lossy(&e.payload().to_bytes())
             ))),
         },
-        Err(_) => Err(fail(EX_UNAVAILABLE)(anyhow::anyhow!(
+        Err(_) => Err(Failure::Unavailable(anyhow::anyhow!(
             "{selector}: no answer within {limit:?} (is a daemon monitoring the vessel, with a state directory for the history?)"
         ))),
     }
@@ -89,7 +87,7 @@ fn ask<T: serde::de::DeserializeOwned>(
     }
     serde_json::from_slice(&bytes)
         .map(Some)
-        .map_err(|e| fail(EX_UNAVAILABLE)(anyhow::anyhow!("{what}: {e}")))
+        .map_err(|e| Failure::Unavailable(anyhow::anyhow!("{what}: {e}")))
 }
 
 /// `helmwatch trigger`.
@@ -122,7 +120,7 @@ pub(crate) fn commission(cfg: &Config, a: CommissionArgs) -> Result<(), Failure>
     };
     if let Some(r) = ask::<serde_json::Value>(&a.client, &sel, "commission reply")? {
         if let Some(e) = r["error"].as_str() {
-            return Err(fail(EX_UNAVAILABLE)(anyhow::anyhow!("{v}: {e}")));
+            return Err(Failure::Unavailable(anyhow::anyhow!("{v}: {e}")));
         }
         if a.start {
             println!("{v}: commissioning started");
@@ -218,6 +216,74 @@ fn print_records(h: &HistoryReply) {
     }
 }
 
+/// What `status` saw of a vessel: its daemons' tokens and the last records of its history.
+struct Seen<'a> {
+    vessel: &'a str,
+    alive: bool,
+    holders: Vec<String>,
+    standbys: Vec<String>,
+    report: Option<serde_json::Value>,
+    notification: Option<serde_json::Value>,
+    commissioning: Option<serde_json::Value>,
+}
+
+impl Seen<'_> {
+    /// `status --json`: one object.
+    fn json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "vessel": self.vessel, "alive": self.alive,
+            "holders": self.holders, "standbys": self.standbys,
+            "alarm": self.notification.as_ref().map_or(serde_json::Value::Null, |n| n["state"].clone()),
+            "last_report": self.report, "last_notification": self.notification,
+            "commissioning": self.commissioning,
+        })
+    }
+
+    /// `status` for a person: one line per item.
+    fn print(&self) {
+        println!("vessel        {}", self.vessel);
+        println!(
+            "daemon        {}",
+            if self.alive {
+                "alive"
+            } else {
+                "NOT alive (no fdi/alive token)"
+            }
+        );
+        let list = |l: &[String]| {
+            if l.is_empty() {
+                "none".to_string()
+            } else {
+                l.join(", ")
+            }
+        };
+        println!("holder        {}", list(&self.holders));
+        println!("standby       {}", list(&self.standbys));
+        match &self.notification {
+            Some(n) => println!(
+                "alarm state   {} ({})",
+                n["state"].as_str().unwrap_or("?"),
+                n["message"].as_str().unwrap_or("")
+            ),
+            None => println!("alarm state   normal (no notification in the history)"),
+        }
+        if let Some(c) = &self.commissioning {
+            let text = |m: &str| c[m]["text"].as_str().unwrap_or("?").to_string();
+            println!("reference     CLFRT {}, HBT {}", text("clfrt"), text("hbt"));
+        }
+        match &self.report {
+            Some(r) => println!(
+                "last test     {} {} at t = {:.0} s: {}",
+                r["test"].as_str().unwrap_or("?"),
+                r["outcome"].as_str().unwrap_or("?"),
+                r["t_end"].as_f64().unwrap_or(f64::NAN),
+                r["message"].as_str().unwrap_or("")
+            ),
+            None => println!("last test     none in the history"),
+        }
+    }
+}
+
 /// `helmwatch status`.
 pub(crate) fn status(cfg: &Config, a: ClientArgs) -> Result<(), Failure> {
     let v = vessel(cfg, &a)?;
@@ -277,64 +343,23 @@ pub(crate) fn status(cfg: &Config, a: ClientArgs) -> Result<(), Failure> {
                 .and_then(|h| h.records.iter().rev().find(|r| r.kind == kind))
                 .map(|r| r.payload.clone())
         };
-        let (report, notification) = (last(Kind::Report), last(Kind::Notification));
-        if a.json {
-            println!(
-                "{}",
-                serde_json::json!({
-                    "vessel": v, "alive": alive,
-                    "holders": holders, "standbys": standbys,
-                    "alarm": notification.as_ref().map_or(serde_json::Value::Null, |n| n["state"].clone()),
-                    "last_report": report, "last_notification": notification,
-                    "commissioning": commissioning,
-                })
-            );
-        } else {
-            println!("vessel        {v}");
-            println!(
-                "daemon        {}",
-                if alive {
-                    "alive"
-                } else {
-                    "NOT alive (no fdi/alive token)"
-                }
-            );
-            let list = |l: &[String]| {
-                if l.is_empty() {
-                    "none".to_string()
-                } else {
-                    l.join(", ")
-                }
-            };
-            println!("holder        {}", list(&holders));
-            println!("standby       {}", list(&standbys));
-            match &notification {
-                Some(n) => println!(
-                    "alarm state   {} ({})",
-                    n["state"].as_str().unwrap_or("?"),
-                    n["message"].as_str().unwrap_or("")
-                ),
-                None => println!("alarm state   normal (no notification in the history)"),
-            }
-            if let Some(c) = &commissioning {
-                let text = |m: &str| c[m]["text"].as_str().unwrap_or("?").to_string();
-                println!("reference     CLFRT {}, HBT {}", text("clfrt"), text("hbt"));
-            }
-            match &report {
-                Some(r) => println!(
-                    "last test     {} {} at t = {:.0} s: {}",
-                    r["test"].as_str().unwrap_or("?"),
-                    r["outcome"].as_str().unwrap_or("?"),
-                    r["t_end"].as_f64().unwrap_or(f64::NAN),
-                    r["message"].as_str().unwrap_or("")
-                ),
-                None => println!("last test     none in the history"),
-            }
+        let seen = Seen {
+            vessel: &v,
+            alive,
+            holders,
+            standbys,
+            report: last(Kind::Report),
+            notification: last(Kind::Notification),
+            commissioning,
+        };
+        match a.json {
+            true => println!("{}", seen.json()),
+            false => seen.print(),
         }
         if alive {
             Ok(())
         } else {
-            Err(fail(EX_UNAVAILABLE)(anyhow::anyhow!(
+            Err(Failure::Unavailable(anyhow::anyhow!(
                 "no daemon monitors vessel {v}"
             )))
         }
@@ -344,22 +369,21 @@ pub(crate) fn status(cfg: &Config, a: ClientArgs) -> Result<(), Failure> {
 /// `helmwatch fleet`: the table redrawn on every change (cleared first on a terminal), or one
 /// JSON object per change; until Ctrl-C or `--duration-s`. Exit 69 when no session opens.
 pub(crate) fn fleet(a: FleetArgs) -> Result<(), Failure> {
-    use crate::tools::fleet::{watch, FleetError};
+    use crate::tools::fleet::watch;
     use std::io::{IsTerminal, Write};
     for e in &a.connect {
-        crate::shells::net::check_endpoint("--connect", e).map_err(|e| fail(EX_USAGE)(e.into()))?;
+        crate::shells::net::check_endpoint("--connect", e).map_err(Failure::usage)?;
     }
     let limit = match a.duration_s {
         Some(s) if s.is_finite() && s > 0.0 && s <= 1e7 => Some(Duration::from_secs_f64(s)),
         Some(s) => {
-            return Err(fail(EX_USAGE)(anyhow::anyhow!(
+            return Err(Failure::Usage(anyhow::anyhow!(
                 "--duration-s: (0, 1e7] seconds, not {s}"
             )))
         }
         None => None,
     };
-    let zcfg =
-        crate::shells::net::loopback_peer(&[], &a.connect).map_err(|e| fail(EX_USAGE)(e.into()))?;
+    let zcfg = crate::shells::net::loopback_peer(&[], &a.connect).map_err(Failure::usage)?;
     let terminal = std::io::stdout().is_terminal();
     let stop = async move {
         match limit {
@@ -388,10 +412,7 @@ pub(crate) fn fleet(a: FleetArgs) -> Result<(), Failure> {
             let _ = out.flush();
         })
         .await
-        .map(|_| ())
-        .map_err(|e| match e {
-            FleetError::Session(_) => fail(EX_UNAVAILABLE)(e.into()),
-            FleetError::Subscribe { .. } => fail(EX_UNAVAILABLE)(e.into()),
-        })
+        .map(|_| ())?;
+        Ok(())
     })
 }

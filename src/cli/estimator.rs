@@ -9,7 +9,7 @@
 //! on other random streams and prints the accuracy tables, the test durations, the
 //! accuracy against test length and, with `--drift`, the effect of a 1 deg/min heading drift.
 
-use crate::cli::{fail, Failure, EX_CONFIG, EX_IOERR, EX_SOFTWARE};
+use crate::cli::Failure;
 use crate::config::Config;
 use crate::tools::eval::estimator::{accuracy, durations, find, fmt_unit, table, target_mse, Cell};
 use crate::tools::training::build::{build_models, BuildSettings};
@@ -161,27 +161,24 @@ pub(crate) fn train(cfg: &Config, o: &TrainOptions) -> Result<(), Failure> {
     let t1 = Instant::now();
     let trainers = [lm_trainer(), cgf_trainer()];
     let settings = BuildSettings::new(o.seed, o.restarts, threads);
-    let built =
-        build_models(cfg, &db, &settings, &trainers).map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
+    let built = build_models(cfg, &db, &settings, &trainers).map_err(Failure::software)?;
     let t_train = t1.elapsed().as_secs_f64();
     let dirs = [o.out.clone(), o.out.join("traincgf")];
     for (models, dir) in built.iter().zip(&dirs) {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", dir.display())))?;
+        std::fs::create_dir_all(dir).map_err(|e| Failure::io(dir, e))?;
         for m in models {
-            m.save(dir).map_err(|e| fail(EX_IOERR)(e.into()))?;
+            m.save(dir).map_err(|e| Failure::Write(e.into()))?;
         }
     }
     // The calibration beside the networks (measured where the database can, the rest
     // carried from the shipped models'): tools::training::calibrate.
     let calibration = crate::tools::training::calibrate::calibrate(&db, &cfg.core().calibration);
-    let mut json =
-        serde_json::to_string_pretty(&calibration).map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
+    let mut json = serde_json::to_string_pretty(&calibration).map_err(Failure::software)?;
     json.push('\n');
     for dir in &dirs {
         let path = dir.join(helmwatch_core::estimator::CALIBRATION_FILE);
         crate::tools::results::write_atomic(&path, json.as_bytes())
-            .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", path.display())))?;
+            .map_err(|e| Failure::io(&path, e))?;
     }
     println!(
         "calibration: sea index anchors {:.4} / {:.4} deg (the median wave yaw in a calm / moderate sea)",
@@ -256,7 +253,7 @@ fn print_durations(db: &Database) {
 pub(crate) fn eval(cfg: &Config, o: &EvalOptions) -> Result<(), Failure> {
     let t0 = Instant::now();
     let threads = o.threads.unwrap_or_else(default_threads).max(1);
-    let lm = Estimator::load_dir(&o.models, &cfg.core()).map_err(|e| fail(EX_CONFIG)(e.into()))?;
+    let lm = Estimator::load_dir(&o.models, &cfg.core())?;
     let cgf_dir = o.models.join("traincgf");
     let cgf = match Estimator::load_dir(&cgf_dir, &cfg.core()) {
         Ok(e) => Some(e),
@@ -288,8 +285,31 @@ pub(crate) fn eval(cfg: &Config, o: &EvalOptions) -> Result<(), Failure> {
     print_failures(&db);
     let cells_lm = accuracy(&lm_models, &db);
     let cells_cgf = cgf_models.as_ref().map(|m| accuracy(m, &db));
-    let mut labelled: Vec<(&str, &[Cell])> = vec![("LM", &cells_lm)];
-    if let Some(c) = &cells_cgf {
+    print_accuracy(&cells_lm, cells_cgf.as_deref(), &db);
+    println!();
+    println!("## Test durations (trigger to report, settling and ramp-down included)");
+    println!();
+    print_durations(&db);
+
+    if o.family {
+        print_family(cfg, &lm_models, &spec, threads);
+    }
+
+    if o.drift {
+        print_drift(cfg, &lm_models, &cells_lm, &spec, threads)?;
+    }
+    if o.lengths {
+        print_lengths(cfg, &lm_models, o, threads);
+    }
+    println!();
+    println!("eval time: {:.1} s", t0.elapsed().as_secs_f64());
+    Ok(())
+}
+
+/// `eval`'s accuracy table (LM models, and FR-CG's when present) and the LM targets met.
+fn print_accuracy(cells_lm: &[Cell], cells_cgf: Option<&[Cell]>, db: &Database) {
+    let mut labelled: Vec<(&str, &[Cell])> = vec![("LM", cells_lm)];
+    if let Some(c) = cells_cgf {
         labelled.push(("FR-CG 100 ep.", c));
     }
     println!();
@@ -311,90 +331,88 @@ pub(crate) fn eval(cfg: &Config, o: &EvalOptions) -> Result<(), Failure> {
             format!(" (missed: {})", misses.join(", "))
         }
     );
+}
+
+/// `eval --drift`: the held-out set again with a 1 deg/min heading drift on every test.
+fn print_drift(
+    cfg: &Config,
+    lm_models: &[Model],
+    cells_lm: &[Cell],
+    spec: &DatabaseSpec,
+    threads: usize,
+) -> Result<(), Failure> {
+    let drift: Fault = "heading_drift_deg_per_min:1@0"
+        .parse()
+        .map_err(|e| Failure::Software(anyhow::anyhow!("{e}")))?;
+    let mut dspec = spec.clone();
+    dspec.faults = vec![drift];
+    let ddb = simulate(cfg, &dspec, threads, &progress("held-out with drift"));
+    let cells_d = accuracy(lm_models, &ddb);
     println!();
-    println!("## Test durations (trigger to report, settling and ramp-down included)");
+    println!("## Heading drift 1 deg/min on every test (same points and seeds), LM models");
     println!();
-    print_durations(&db);
-
-    if o.family {
-        print_family(cfg, &lm_models, &spec, threads);
-    }
-
-    if o.drift {
-        let drift: Fault = "heading_drift_deg_per_min:1@0"
-            .parse()
-            .map_err(|e| fail(EX_SOFTWARE)(anyhow::anyhow!("{e}")))?;
-        let mut dspec = spec.clone();
-        dspec.faults = vec![drift];
-        let ddb = simulate(cfg, &dspec, threads, &progress("held-out with drift"));
-        let cells_d = accuracy(&lm_models, &ddb);
-        println!();
-        println!("## Heading drift 1 deg/min on every test (same points and seeds), LM models");
-        println!();
-        println!("| method | sea | parameter | MSE | MSE with drift | growth | limit |");
-        println!("|---|---|---|---:|---:|---:|---|");
-        for c in &cells_lm {
-            if let Some(d) = find(&cells_d, c.method, c.sea, c.target) {
-                let g = 100.0 * (d.mse / c.mse - 1.0);
-                println!(
-                    "| {} | {} | {} | {:.5} | {:.5} | {g:+.1} % | {} |",
-                    c.method.name().to_uppercase(),
-                    c.sea.name(),
-                    c.target.name(),
-                    c.mse,
-                    d.mse,
-                    if g <= 10.0 {
-                        "<= +10 % ok"
-                    } else {
-                        "> +10 % MISS"
-                    }
-                );
-            }
-        }
-        print_failures(&ddb);
-    }
-
-    if o.lengths {
-        println!();
-        println!("## Accuracy against test length (LM models; the same design, shorter or longer measurement)");
-        println!();
-        println!("| method | measurement | mean duration | longest | calm speed | calm displacement | moderate speed | moderate displacement |");
-        println!("|---|---|---:|---:|---:|---:|---:|---:|");
-        for (label, variant) in length_variants(cfg) {
-            let lspec = DatabaseSpec {
-                methods: vec![variant.0],
-                ..evaluation_spec(o.seed, o.points)
-            };
-            let vdb = simulate(&variant.1, &lspec, threads, &|_, _| {});
-            let cells = accuracy(&lm_models, &vdb);
-            let (n_c, mean_c, max_c) = durations(&vdb, variant.0, SeaState::Calm);
-            let (n_m, mean_m, max_m) = durations(&vdb, variant.0, SeaState::Moderate);
-            let failed = vdb.failures(variant.0).len();
-            let mut row = format!(
-                "| {} | {label} | {:.0} s | {:.0} s |",
-                variant.0.name().to_uppercase(),
-                (mean_c * n_c as f64 + mean_m * n_m as f64) / (n_c + n_m).max(1) as f64,
-                max_c.max(max_m)
+    println!("| method | sea | parameter | MSE | MSE with drift | growth | limit |");
+    println!("|---|---|---|---:|---:|---:|---|");
+    for c in cells_lm {
+        if let Some(d) = find(&cells_d, c.method, c.sea, c.target) {
+            let g = 100.0 * (d.mse / c.mse - 1.0);
+            println!(
+                "| {} | {} | {} | {:.5} | {:.5} | {g:+.1} % | {} |",
+                c.method.name().to_uppercase(),
+                c.sea.name(),
+                c.target.name(),
+                c.mse,
+                d.mse,
+                if g <= 10.0 {
+                    "<= +10 % ok"
+                } else {
+                    "> +10 % MISS"
+                }
             );
-            for sea in SEAS {
-                for t in Target::ALL {
-                    match find(&cells, variant.0, sea, t) {
-                        Some(c) if c.n > 0 => {
-                            row.push_str(&format!(" {:.5} ({}) |", c.mse, fmt_unit(c.rmse, t)))
-                        }
-                        _ => row.push_str(" - |"),
+        }
+    }
+    print_failures(&ddb);
+    Ok(())
+}
+
+/// `eval`'s table of accuracy against the test length.
+fn print_lengths(cfg: &Config, lm_models: &[Model], o: &EvalOptions, threads: usize) {
+    println!();
+    println!("## Accuracy against test length (LM models; the same design, shorter or longer measurement)");
+    println!();
+    println!("| method | measurement | mean duration | longest | calm speed | calm displacement | moderate speed | moderate displacement |");
+    println!("|---|---|---:|---:|---:|---:|---:|---:|");
+    for (label, variant) in length_variants(cfg) {
+        let lspec = DatabaseSpec {
+            methods: vec![variant.0],
+            ..evaluation_spec(o.seed, o.points)
+        };
+        let vdb = simulate(&variant.1, &lspec, threads, &|_, _| {});
+        let cells = accuracy(lm_models, &vdb);
+        let (n_c, mean_c, max_c) = durations(&vdb, variant.0, SeaState::Calm);
+        let (n_m, mean_m, max_m) = durations(&vdb, variant.0, SeaState::Moderate);
+        let failed = vdb.failures(variant.0).len();
+        let mut row = format!(
+            "| {} | {label} | {:.0} s | {:.0} s |",
+            variant.0.name().to_uppercase(),
+            (mean_c * n_c as f64 + mean_m * n_m as f64) / (n_c + n_m).max(1) as f64,
+            max_c.max(max_m)
+        );
+        for sea in SEAS {
+            for t in Target::ALL {
+                match find(&cells, variant.0, sea, t) {
+                    Some(c) if c.n > 0 => {
+                        row.push_str(&format!(" {:.5} ({}) |", c.mse, fmt_unit(c.rmse, t)))
                     }
+                    _ => row.push_str(" - |"),
                 }
             }
-            if failed > 0 {
-                row.push_str(&format!(" {failed} failed"));
-            }
-            println!("{row}");
         }
+        if failed > 0 {
+            row.push_str(&format!(" {failed} failed"));
+        }
+        println!("{row}");
     }
-    println!();
-    println!("eval time: {:.1} s", t0.elapsed().as_secs_f64());
-    Ok(())
 }
 
 /// Configurations that change only the measurement length of one method (the default one

@@ -2,10 +2,10 @@
 //!
 //! clap parses the whole command line first ([`args`]); logging starts next, with a default
 //! filter chosen by the subcommand, before the configuration is loaded, so configuration
-//! errors are logged. Exit codes follow sysexits: 0 success, 64 usage, 65 bad input data,
-//! 69 Zenoh session unavailable, 70 internal error, 71 OS error, 73 the state directory
-//! cannot be created, 74 I/O error,
-//! 78 configuration error.
+//! errors are logged. Exit codes follow sysexits: 0 success, else the class of the
+//! [`failure::Failure`] a subcommand returns (64 usage, 65 bad input data, 69 Zenoh session
+//! unavailable, 70 internal error, 71 OS error, 73 the state directory cannot be created, 74
+//! I/O error, 78 configuration error), mapped in that one module.
 //!
 //! | file | subcommands |
 //! |---|---|
@@ -16,10 +16,12 @@
 //! | [`client`] | `status`, `trigger`, `history`, `commission`, `fleet`: clients over Zenoh |
 //! | [`print`] | reports on a terminal |
 //! | [`logging`] | the journal under systemd, standard error otherwise |
+//! | [`failure`] | why a subcommand failed, and its exit code |
 
 mod args;
 mod client;
 pub mod estimator;
+mod failure;
 mod logging;
 mod offline;
 mod print;
@@ -29,44 +31,29 @@ use crate::cli::estimator::{EvalOptions, TrainOptions};
 use crate::config::Config;
 use args::{Cli, Command, EvalArgs, TrainArgs};
 use clap::Parser;
+use failure::Failure;
 use helmwatch_core::config::ConfigError;
-
-/// Exit code: success.
-pub const EX_OK: i32 = 0;
-/// Exit code: command line usage error.
-pub const EX_USAGE: i32 = 64;
-/// Exit code: bad input data.
-pub const EX_DATAERR: i32 = 65;
-/// Exit code: a service is unavailable (the Zenoh session cannot be opened).
-pub const EX_UNAVAILABLE: i32 = 69;
-/// Exit code: internal software error.
-pub const EX_SOFTWARE: i32 = 70;
-/// Exit code: operating system error (no runtime).
-pub const EX_OSERR: i32 = 71;
-/// Exit code: an output file (the state directory) cannot be created.
-pub const EX_CANTCREAT: i32 = 73;
-/// Exit code: I/O error.
-pub const EX_IOERR: i32 = 74;
-/// Exit code: configuration error.
-pub const EX_CONFIG: i32 = ConfigError::EXIT_CODE;
 
 /// Runs the command line; returns the process exit code.
 pub fn main() -> i32 {
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {
-            let code = if e.use_stderr() { EX_USAGE } else { EX_OK };
             let _ = e.print();
-            return code;
+            return match e.use_stderr() {
+                true => Failure::usage(anyhow::anyhow!("{e}")).exit_code(),
+                false => 0,
+            };
         }
     };
     init_logging(&cli.command);
     let cfg = match load_config(cli.config.as_deref()) {
         Ok(c) => c,
         Err(e) => {
-            tracing::error!("{e}");
-            eprintln!("helmwatch: {e}");
-            return EX_CONFIG;
+            let failure = Failure::from(e);
+            tracing::error!("{failure}");
+            eprintln!("helmwatch: {failure}");
+            return failure.exit_code();
         }
     };
     let result = match cli.command {
@@ -97,10 +84,10 @@ pub fn main() -> i32 {
         Command::Eval(a) => estimator::eval(&cfg, &a.into()),
     };
     match result {
-        Ok(()) => EX_OK,
+        Ok(()) => 0,
         Err(e) => {
-            eprintln!("helmwatch: {:#}", e.error);
-            e.code
+            eprintln!("helmwatch: {e}");
+            e.exit_code()
         }
     }
 }
@@ -111,25 +98,8 @@ fn vessel_config(cfg: &Config, vessel: Option<&str>) -> Result<Config, Failure> 
     let Some(v) = vessel else {
         return Ok(cfg.clone());
     };
-    helmwatch_core::config::check_vessel_name("--vessel", v).map_err(|e| Failure {
-        error: e.into(),
-        code: EX_USAGE,
-    })?;
-    cfg.for_vessel(v).map_err(|e| Failure {
-        error: e.into(),
-        code: EX_CONFIG,
-    })
-}
-
-/// An error at the binary's edge, with its exit code.
-pub(crate) struct Failure {
-    pub(crate) error: anyhow::Error,
-    pub(crate) code: i32,
-}
-
-/// Wraps an error with the exit code it ends the process with.
-pub(crate) fn fail(code: i32) -> impl FnOnce(anyhow::Error) -> Failure {
-    move |error| Failure { error, code }
+    helmwatch_core::config::check_vessel_name("--vessel", v).map_err(Failure::usage)?;
+    Ok(cfg.for_vessel(v)?)
 }
 
 /// Logging to the journal under systemd, else to standard error ([`logging`]); `RUST_LOG`

@@ -4,7 +4,7 @@
 
 use super::args::{EvalArgs, PlotArgs, ProbeArgs, ReplayArgs, ShipArgs, SimulateArgs};
 use super::print::{print_baseline, print_estimate, print_features};
-use super::{fail, Failure, EX_CONFIG, EX_DATAERR, EX_IOERR, EX_SOFTWARE, EX_USAGE};
+use super::Failure;
 use crate::config::Config;
 use helmwatch_core::drivers::probe::{run_probe, ProbeOptions};
 use helmwatch_core::estimator::Estimator;
@@ -20,7 +20,7 @@ pub(crate) fn scenario(cfg: &Config, a: &ShipArgs) -> Result<Scenario, Failure> 
                 .map_err(|e| anyhow::anyhow!("--fault {f}: {e}"))
         })
         .collect::<Result<Vec<_>, _>>()
-        .map_err(fail(EX_USAGE))?;
+        .map_err(Failure::Usage)?;
     Ok(Scenario {
         speed_mps: a.speed_mps.unwrap_or(cfg.ship.nominal_speed_mps),
         displacement_t: a.displacement_t.unwrap_or(cfg.ship.nominal_displacement_t),
@@ -33,18 +33,16 @@ pub(crate) fn scenario(cfg: &Config, a: &ShipArgs) -> Result<Scenario, Failure> 
 pub(crate) fn simulate(cfg: &Config, a: SimulateArgs) -> Result<(), Failure> {
     let sc = scenario(cfg, &a.ship)?;
     if !(a.duration_s.is_finite() && a.duration_s > 0.0) {
-        return Err(fail(EX_USAGE)(anyhow::anyhow!(
+        return Err(Failure::Usage(anyhow::anyhow!(
             "--duration-s must be a positive number of seconds"
         )));
     }
-    helmwatch_core::config::check_vessel_name("--vessel", &a.vessel)
-        .map_err(|e| fail(EX_USAGE)(e.into()))?;
+    helmwatch_core::config::check_vessel_name("--vessel", &a.vessel).map_err(Failure::usage)?;
     let lines = if a.out.as_os_str() == "-" {
         let stdout = std::io::stdout();
         helmwatch_core::sim::record(&cfg.sim(), &sc, a.duration_s, &a.vessel, stdout.lock())
     } else {
-        let file = std::fs::File::create(&a.out)
-            .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", a.out.display())))?;
+        let file = std::fs::File::create(&a.out).map_err(|e| Failure::io(&a.out, e))?;
         helmwatch_core::sim::record(
             &cfg.sim(),
             &sc,
@@ -53,7 +51,7 @@ pub(crate) fn simulate(cfg: &Config, a: SimulateArgs) -> Result<(), Failure> {
             std::io::BufWriter::new(file),
         )
     }
-    .map_err(|e| fail(EX_IOERR)(e.into()))?;
+    .map_err(|e| Failure::Write(e.into()))?;
     tracing::info!(lines, out = %a.out.display(), "recording written");
     Ok(())
 }
@@ -74,11 +72,10 @@ pub(crate) fn probe(cfg: &Config, a: ProbeArgs) -> Result<(), Failure> {
             eprintln!("helmwatch: no estimate: {e}");
         }
     }
-    let result =
-        run_probe(&cfg.core(), &cfg.sim(), &sc, &opts).map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
+    let result = run_probe(&cfg.core(), &cfg.sim(), &sc, &opts).map_err(Failure::software)?;
     let r = &result.report;
     if a.json {
-        let text = serde_json::to_string_pretty(r).map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
+        let text = serde_json::to_string_pretty(r).map_err(Failure::software)?;
         println!("{text}");
     } else {
         println!(
@@ -105,24 +102,19 @@ pub(crate) fn replay(cfg: &Config, a: ReplayArgs) -> Result<(), Failure> {
     let mut reader: Box<dyn std::io::BufRead> = if a.file.as_os_str() == "-" {
         Box::new(std::io::BufReader::new(std::io::stdin()))
     } else {
-        let f = std::fs::File::open(&a.file)
-            .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", a.file.display())))?;
+        let f = std::fs::File::open(&a.file).map_err(|e| Failure::io(&a.file, e))?;
         Box::new(std::io::BufReader::new(f))
     };
     // An MCAP recording (the daemon's `[daemon] record`) starts with its magic bytes.
-    let mcap = crate::shells::recording::is_mcap(
-        reader
-            .fill_buf()
-            .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", a.file.display())))?,
-    );
+    let mcap =
+        crate::shells::recording::is_mcap(reader.fill_buf().map_err(|e| Failure::io(&a.file, e))?);
     let json = a.json;
     // Vessels with a `[vessel.<name>]` table are replayed with their own configuration.
     let own = cfg
         .vessel
         .keys()
         .map(|v| Ok((v.clone(), cfg.for_vessel(v)?.core())))
-        .collect::<Result<Vec<_>, crate::config::ConfigError>>()
-        .map_err(|e| fail(EX_CONFIG)(e.into()))?;
+        .collect::<Result<Vec<_>, crate::config::ConfigError>>()?;
     let on_output = |vessel: &str, out: &Output| {
         if let Output::Report(r) = out {
             if json {
@@ -152,7 +144,7 @@ pub(crate) fn replay(cfg: &Config, a: ReplayArgs) -> Result<(), Failure> {
     } else {
         helmwatch_core::drivers::replay::replay_fleet(&cfg.core(), &own, reader, on_output)
     }
-    .map_err(|e| fail(EX_IOERR)(e.into()))?;
+    .map_err(|e| Failure::Write(e.into()))?;
     tracing::info!(
         lines = sum.lines,
         bad_lines = sum.bad_lines,
@@ -163,7 +155,7 @@ pub(crate) fn replay(cfg: &Config, a: ReplayArgs) -> Result<(), Failure> {
         "replay done"
     );
     if sum.lines > 0 && sum.bad_lines == sum.lines {
-        return Err(fail(EX_DATAERR)(anyhow::anyhow!(
+        return Err(Failure::Data(anyhow::anyhow!(
             "{}: no line is a {{\"key\", \"payload\"}} object",
             a.file.display()
         )));
@@ -172,7 +164,7 @@ pub(crate) fn replay(cfg: &Config, a: ReplayArgs) -> Result<(), Failure> {
 }
 
 pub(crate) fn check_config(cfg: &Config) -> Result<(), Failure> {
-    let text = toml::to_string_pretty(cfg).map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
+    let text = toml::to_string_pretty(cfg).map_err(Failure::software)?;
     println!("{text}");
     Ok(())
 }
@@ -181,8 +173,7 @@ pub(crate) fn eval_fdi(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
     use crate::tools::eval::fdi::compare::{compare_table, suite_name};
     use crate::tools::eval::fdi::{run_suite, FdiEvalOptions};
     let t0 = std::time::Instant::now();
-    let est = helmwatch_core::estimator::Estimator::load_dir(&a.models, &cfg.core())
-        .map_err(|e| fail(EX_CONFIG)(e.into()))?;
+    let est = helmwatch_core::estimator::Estimator::load_dir(&a.models, &cfg.core())?;
     let mut o = FdiEvalOptions {
         seed: a.seed,
         runs: a.runs,
@@ -230,10 +221,9 @@ pub(crate) fn eval_fdi(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
     print!("{body}");
     if let Some(dir) = &a.results {
         let name = suite_name(&o);
-        let io = |e: std::io::Error| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", dir.display()));
+        let io = |e: std::io::Error| Failure::io(dir, e);
         let path = crate::tools::results::write(dir, &name, o.seed, &body).map_err(io)?;
-        let json =
-            serde_json::to_vec_pretty(&res.figures).map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
+        let json = serde_json::to_vec_pretty(&res.figures).map_err(Failure::software)?;
         crate::tools::results::write_atomic(&dir.join(format!("{name}.json")), &json)
             .map_err(io)?;
         eprintln!("wrote {}", path.display());
@@ -255,7 +245,7 @@ pub(crate) fn eval_budget(a: &EvalArgs) -> Result<(), Failure> {
     if let Some(dir) = &a.results {
         let name = format!("budget-seed{}", a.seed);
         let path = crate::tools::results::write(dir, &name, a.seed, &body)
-            .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", dir.display())))?;
+            .map_err(|e| Failure::io(dir, e))?;
         eprintln!("wrote {}", path.display());
     }
     Ok(())
@@ -274,7 +264,7 @@ fn mechanisms(list: &str) -> Result<Vec<Vec<helmwatch_core::fdi::ablation::Mecha
             .find(|m| m.name() == w.trim())
             .ok_or_else(|| {
                 let names: Vec<&str> = Mechanism::ALL.iter().map(|m| m.name()).collect();
-                fail(EX_USAGE)(anyhow::anyhow!(
+                Failure::Usage(anyhow::anyhow!(
                     "--ablate: unknown mechanism {w:?}; one of all, {} (a+b: both off)",
                     names.join(", ")
                 ))
@@ -289,10 +279,9 @@ fn mechanisms(list: &str) -> Result<Vec<Vec<helmwatch_core::fdi::ablation::Mecha
 fn read_figures(
     path: &std::path::Path,
 ) -> Result<Vec<crate::tools::eval::fdi::RowFigures>, Failure> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", path.display())))?;
+    let text = std::fs::read_to_string(path).map_err(|e| Failure::io(path, e))?;
     serde_json::from_str(&text)
-        .map_err(|e| fail(EX_DATAERR)(anyhow::anyhow!("{}: {e}", path.display())))
+        .map_err(|e| Failure::Data(anyhow::anyhow!("{}: {e}", path.display())))
 }
 
 /// `helmwatch plot`: exit 65 when the input is not what its kind needs, 64 for a bad size or
@@ -303,21 +292,16 @@ pub(crate) fn plot(cfg: &Config, a: PlotArgs) -> Result<(), Failure> {
     };
     for (key, v) in [("--width", a.width), ("--height", a.height)] {
         if !(200..=10_000).contains(&v) {
-            return Err(fail(EX_USAGE)(anyhow::anyhow!(
+            return Err(Failure::Usage(anyhow::anyhow!(
                 "{key}: 200 to 10000 pixels, not {v}"
             )));
         }
     }
     if let Some(v) = &a.vessel {
-        helmwatch_core::config::check_vessel_name("--vessel", v)
-            .map_err(|e| fail(EX_USAGE)(e.into()))?;
+        helmwatch_core::config::check_vessel_name("--vessel", v).map_err(Failure::usage)?;
     }
-    let bytes = read_input(&a.input)
-        .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", a.input.display())))?;
-    let code = |e: PlotError| match e {
-        PlotError::Data(_) => fail(EX_DATAERR)(anyhow::anyhow!("{}: {e}", a.input.display())),
-        PlotError::Draw(_) => fail(EX_SOFTWARE)(e.into()),
-    };
+    let bytes = read_input(&a.input).map_err(|e| Failure::io(&a.input, e))?;
+    let code = |e: PlotError| Failure::plot(&a.input, e);
     let opts = PlotOptions {
         width_px: a.width,
         height_px: a.height,
@@ -339,8 +323,7 @@ pub(crate) fn plot(cfg: &Config, a: PlotArgs) -> Result<(), Failure> {
         };
         (kind, plot(cfg, text, kind, &opts).map_err(code)?)
     };
-    std::fs::write(&a.out, svg)
-        .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", a.out.display())))?;
+    std::fs::write(&a.out, svg).map_err(|e| Failure::io(&a.out, e))?;
     eprintln!(
         "helmwatch: {} ({}) drawn to {}",
         a.input.display(),

@@ -3,10 +3,7 @@
 
 use super::args::{BenchArgs, DemoArgs, NmeaBridgeArgs, RunArgs, ShipPeerArgs};
 use super::offline::scenario;
-use super::{
-    fail, Failure, EX_CANTCREAT, EX_CONFIG, EX_IOERR, EX_OSERR, EX_SOFTWARE, EX_UNAVAILABLE,
-    EX_USAGE,
-};
+use super::Failure;
 use crate::config::Config;
 use helmwatch_core::sim::Fault;
 use std::path::Path;
@@ -15,44 +12,31 @@ pub(crate) fn runtime() -> Result<tokio::runtime::Runtime, Failure> {
     tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()
-        .map_err(|e| fail(EX_OSERR)(anyhow::anyhow!("cannot start the async runtime: {e}")))
+        .map_err(|e| Failure::Os(anyhow::anyhow!("cannot start the async runtime: {e}")))
 }
 
 pub(crate) fn check_endpoints(flag: &str, eps: &[String]) -> Result<(), Failure> {
     for e in eps {
-        crate::shells::net::check_endpoint(flag, e).map_err(|e| fail(EX_USAGE)(e.into()))?;
+        crate::shells::net::check_endpoint(flag, e).map_err(Failure::usage)?;
     }
     Ok(())
 }
 
 pub(crate) fn run_daemon(cfg: &Config, a: RunArgs) -> Result<(), Failure> {
-    use crate::shells::daemon::{Daemon, DaemonError};
+    use crate::shells::daemon::Daemon;
     use crate::shells::systemd;
     check_endpoints("--listen", &a.listen)?;
     check_endpoints("--connect", &a.connect)?;
-    let zcfg = crate::shells::net::zenoh_config(&cfg.zenoh, &a.listen, &a.connect)
-        .map_err(|e| fail(EX_CONFIG)(e.into()))?;
+    let zcfg = crate::shells::net::zenoh_config(&cfg.zenoh, &a.listen, &a.connect)?;
     let mut dcfg = cfg.daemon.clone();
     if let Some(d) = &a.state_dir {
         dcfg.state_dir = Some(d.display().to_string());
     }
     // Each vessel's own configuration: `[vessel.<name>]` over the file's top level.
-    let fleet = cfg.fleet().map_err(|e| fail(EX_CONFIG)(e.into()))?;
+    let fleet = cfg.fleet()?;
     let rt = runtime()?;
     rt.block_on(async {
-        let daemon = Daemon::start_fleet(&fleet, &dcfg, zcfg)
-            .await
-            .map_err(|e| {
-                let code = match e {
-                    DaemonError::Config(_) | DaemonError::Estimator(_) => EX_CONFIG,
-                    DaemonError::Open(_) | DaemonError::Metrics(_) => EX_UNAVAILABLE,
-                    DaemonError::Declare { .. } => EX_SOFTWARE,
-                    DaemonError::State(_) | DaemonError::History(_) | DaemonError::Recording(_) => {
-                        EX_CANTCREAT
-                    }
-                };
-                fail(code)(e.into())
-            })?;
+        let daemon = Daemon::start_fleet(&fleet, &dcfg, zcfg).await?;
         let status = format!("monitoring {} vessel(s)", daemon.vessels().len());
         systemd::ready(&status);
         let watchdog = systemd::spawn_watchdog();
@@ -73,24 +57,20 @@ pub(crate) fn ship(cfg: &Config, a: ShipPeerArgs) -> Result<(), Failure> {
     use crate::shells::shipnode::{ShipNode, ShipNodeOptions};
     let vessel = match &a.vessel {
         Some(v) => {
-            helmwatch_core::config::check_vessel_name("--vessel", v)
-                .map_err(|e| fail(EX_USAGE)(e.into()))?;
+            helmwatch_core::config::check_vessel_name("--vessel", v).map_err(Failure::usage)?;
             v.clone()
         }
         None => cfg.simulation.vessel.clone(),
     };
     // The simulated ship is the vessel's own: `[vessel.<name>]` over the top level.
-    let cfg = &cfg
-        .for_vessel(&vessel)
-        .map_err(|e| fail(EX_CONFIG)(e.into()))?;
+    let cfg = &cfg.for_vessel(&vessel)?;
     let mut sc = scenario(cfg, &a.ship)?;
     let mut faults = cfg
         .ship_peer
         .faults
         .iter()
         .map(|f| f.parse::<Fault>())
-        .collect::<Result<Vec<_>, _>>()
-        .map_err(|e| fail(EX_CONFIG)(e.into()))?;
+        .collect::<Result<Vec<_>, _>>()?;
     faults.append(&mut sc.faults);
     sc.faults = faults;
     let mut opts = ShipNodeOptions::from_config(&cfg.ship_peer, &vessel);
@@ -99,22 +79,20 @@ pub(crate) fn ship(cfg: &Config, a: ShipPeerArgs) -> Result<(), Failure> {
     }
     if let Some(s) = a.speed_up {
         helmwatch_core::config::check_range_open_low("--speed-up", s, 0.0, 10000.0)
-            .map_err(|e| fail(EX_USAGE)(e.into()))?;
+            .map_err(Failure::usage)?;
         opts.speed_up = s;
     }
     if let Some(d) = a.duration_s {
         helmwatch_core::config::check_range_open_low("--duration-s", d, 0.0, 366.0 * 86400.0)
-            .map_err(|e| fail(EX_USAGE)(e.into()))?;
+            .map_err(Failure::usage)?;
         opts.duration_s = Some(d);
     }
     check_endpoints("--listen", &a.listen)?;
     check_endpoints("--connect", &a.connect)?;
-    let zcfg = crate::shells::net::zenoh_config(&cfg.ship_peer.zenoh(), &a.listen, &a.connect)
-        .map_err(|e| fail(EX_CONFIG)(e.into()))?;
-    let mut node = ShipNode::new(&cfg.sim(), &sc, opts).map_err(|e| fail(EX_USAGE)(e.into()))?;
+    let zcfg = crate::shells::net::zenoh_config(&cfg.ship_peer.zenoh(), &a.listen, &a.connect)?;
+    let mut node = ShipNode::new(&cfg.sim(), &sc, opts).map_err(Failure::usage)?;
     if let Some(path) = &a.record {
-        let file = std::fs::File::create(path)
-            .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", path.display())))?;
+        let file = std::fs::File::create(path).map_err(|e| Failure::io(path, e))?;
         node = node.record_to(file);
     }
     if let Some(addr) = a.nmea_udp {
@@ -123,7 +101,7 @@ pub(crate) fn ship(cfg: &Config, a: ShipPeerArgs) -> Result<(), Failure> {
     let rt = runtime()?;
     let summary = rt
         .block_on(node.run(zcfg, crate::shells::systemd::signals()))
-        .map_err(|e| fail(EX_UNAVAILABLE)(e.into()))?;
+        .map_err(|e| Failure::Unavailable(e.into()))?;
     println!(
         "ship: {} ticks, t = {:.1} s, {} excitations received, {} lockstep timeouts",
         summary.ticks, summary.t_end_s, summary.excitations, summary.excitation_timeouts
@@ -135,7 +113,7 @@ pub(crate) fn demo(cfg: &Config, a: DemoArgs) -> Result<(), Failure> {
     let fault = a
         .fault
         .parse::<Fault>()
-        .map_err(|e| fail(EX_USAGE)(anyhow::anyhow!("--fault {}: {e}", a.fault)))?;
+        .map_err(|e| Failure::Usage(anyhow::anyhow!("--fault {}: {e}", a.fault)))?;
     let opts = crate::tools::demo::DemoOptions {
         seed: a.seed,
         fault,
@@ -145,7 +123,7 @@ pub(crate) fn demo(cfg: &Config, a: DemoArgs) -> Result<(), Failure> {
     let rt = runtime()?;
     let mut out = std::io::stdout();
     rt.block_on(crate::tools::demo::run(cfg, &opts, &mut out))
-        .map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
+        .map_err(Failure::software)?;
     Ok(())
 }
 
@@ -159,7 +137,7 @@ pub(crate) fn bench(cfg: &Config, config: Option<&Path>, a: BenchArgs) -> Result
     if let Some(n) = a.one_fleet {
         let f = rt
             .block_on(bench::fleet(cfg, n, window))
-            .map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
+            .map_err(Failure::software)?;
         println!("{}", bench::fleet_json(&f));
         return Ok(());
     }
@@ -176,15 +154,15 @@ pub(crate) fn bench(cfg: &Config, config: Option<&Path>, a: BenchArgs) -> Result
     );
     let l = rt
         .block_on(bench::lockstep(cfg, a.lockstep_s))
-        .map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
+        .map_err(Failure::software)?;
     println!(
         "lockstep, one vessel over Zenoh at {} Hz: {:.0} ship s in {:.2} wall s = {:.0}x real time ({} lockstep timeouts)",
         cfg.sensors.rate_hz, l.ship_s, l.wall_s, l.ratio, l.excitation_timeouts
     );
     drop(rt);
-    let exe = std::env::current_exe().map_err(|e| fail(EX_OSERR)(e.into()))?;
+    let exe = std::env::current_exe().map_err(|e| Failure::Os(e.into()))?;
     let best = bench::fleet_sizes(&exe, config, &a.fleet, a.window_s, &mut std::io::stdout())
-        .map_err(|e| fail(EX_OSERR)(e.into()))?;
+        .map_err(|e| Failure::Os(e.into()))?;
     println!("vessels kept up with at 10 Hz: {best} (largest size tried that passed)");
     Ok(())
 }
@@ -193,7 +171,7 @@ pub(crate) fn bench(cfg: &Config, config: Option<&Path>, a: BenchArgs) -> Result
 /// a run fails.
 fn time_to_alarm(cfg: &Config, a: &BenchArgs) -> Result<(), Failure> {
     use crate::tools::time_to_alarm::{bench_faults, print, run, TimeToAlarmOptions};
-    let usage = |e: helmwatch_core::config::ConfigError| fail(EX_USAGE)(e.into());
+    let usage = |e: helmwatch_core::config::ConfigError| Failure::Usage(e.into());
     for &i in &a.intervals {
         helmwatch_core::config::check_range("--intervals", i, 0.0, 30.0 * 86400.0)
             .map_err(usage)?;
@@ -201,7 +179,7 @@ fn time_to_alarm(cfg: &Config, a: &BenchArgs) -> Result<(), Failure> {
     helmwatch_core::config::check_range_open_low("--cap-h", a.cap_h, 0.0, 24.0 * 366.0)
         .map_err(usage)?;
     if a.runs == 0 || a.intervals.is_empty() {
-        return Err(fail(EX_USAGE)(anyhow::anyhow!(
+        return Err(Failure::Usage(anyhow::anyhow!(
             "--runs and --intervals: at least one each"
         )));
     }
@@ -216,17 +194,16 @@ fn time_to_alarm(cfg: &Config, a: &BenchArgs) -> Result<(), Failure> {
             .unwrap_or_else(crate::tools::training::database::default_threads)
             .max(1),
     };
-    let faults = bench_faults().map_err(|e| fail(EX_SOFTWARE)(anyhow::anyhow!(e)))?;
+    let faults = bench_faults().map_err(|e| Failure::Software(anyhow::anyhow!(e)))?;
     let started = std::time::Instant::now();
-    let per = run(cfg, &o, &faults).map_err(|e| fail(EX_SOFTWARE)(e.into()))?;
+    let per = run(cfg, &o, &faults).map_err(Failure::software)?;
     let mut out = Vec::new();
-    print(cfg, &o, &faults, &per, &mut out).map_err(|e| fail(EX_IOERR)(e.into()))?;
+    print(cfg, &o, &faults, &per, &mut out).map_err(|e| Failure::Write(e.into()))?;
     let mut text = String::from_utf8_lossy(&out).into_owned();
     let name = format!("time-to-alarm-{}-seed{}", o.sea.name(), o.seed);
     if let Some(dir) = &a.compare {
         let path = dir.join(format!("{name}.md"));
-        let before = std::fs::read_to_string(&path)
-            .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", path.display())))?;
+        let before = std::fs::read_to_string(&path).map_err(|e| Failure::io(&path, e))?;
         // The earlier file's tables, without its header, their titles two levels down.
         let body = before
             .find("\n# ")
@@ -247,7 +224,7 @@ fn time_to_alarm(cfg: &Config, a: &BenchArgs) -> Result<(), Failure> {
     print!("{text}");
     if let Some(dir) = &a.results {
         let path = crate::tools::results::write(dir, &name, o.seed, &text)
-            .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", dir.display())))?;
+            .map_err(|e| Failure::io(dir, e))?;
         eprintln!("wrote {}", path.display());
     }
     println!(
@@ -261,7 +238,7 @@ fn time_to_alarm(cfg: &Config, a: &BenchArgs) -> Result<(), Failure> {
 /// `helmwatch bridge nmea`: the `[bridge]` section with the command line's overrides, until
 /// SIGTERM or SIGINT.
 pub(crate) fn bridge_nmea(cfg: &Config, a: NmeaBridgeArgs) -> Result<(), Failure> {
-    use crate::shells::bridge::{Bridge, BridgeError, BridgeInput};
+    use crate::shells::bridge::{Bridge, BridgeInput};
     let mut b = cfg.bridge.clone();
     if let Some(v) = a.vessel {
         b.vessel = v;
@@ -278,20 +255,13 @@ pub(crate) fn bridge_nmea(cfg: &Config, a: NmeaBridgeArgs) -> Result<(), Failure
         b.input = BridgeInput::Serial;
         b.serial_path = p;
     }
-    b.check().map_err(|e| fail(EX_USAGE)(e.into()))?;
+    b.check().map_err(Failure::usage)?;
     check_endpoints("--listen", &a.listen)?;
     check_endpoints("--connect", &a.connect)?;
-    let zcfg = crate::shells::net::zenoh_config(&b.zenoh(), &a.listen, &a.connect)
-        .map_err(|e| fail(EX_CONFIG)(e.into()))?;
+    let zcfg = crate::shells::net::zenoh_config(&b.zenoh(), &a.listen, &a.connect)?;
     let rt = runtime()?;
     rt.block_on(async {
-        let bridge = Bridge::start(&b, zcfg).await.map_err(|e| {
-            let code = match e {
-                BridgeError::Zenoh(_) => EX_UNAVAILABLE,
-                BridgeError::Udp { .. } | BridgeError::Metrics(_) => EX_OSERR,
-            };
-            fail(code)(e.into())
-        })?;
+        let bridge = Bridge::start(&b, zcfg).await?;
         crate::shells::systemd::ready(&format!("bridging NMEA for vessel {}", b.vessel));
         let watchdog = crate::shells::systemd::spawn_watchdog();
         let r = bridge.run(crate::shells::systemd::signals()).await;
@@ -299,6 +269,6 @@ pub(crate) fn bridge_nmea(cfg: &Config, a: NmeaBridgeArgs) -> Result<(), Failure
         if let Some(w) = watchdog {
             w.abort();
         }
-        r.map(|_| ()).map_err(|e| fail(EX_UNAVAILABLE)(e.into()))
+        r.map(|_| ()).map_err(|e| Failure::Unavailable(e.into()))
     })
 }
