@@ -42,4 +42,5 @@ mod relay_sea;
 mod residual_docs;
 mod servo_check;
 mod sim;
+mod sizes;
 mod standby;
