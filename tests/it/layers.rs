@@ -7,11 +7,12 @@
 //! `crate::...` (or `super::...`) that lands in a unit listed *after* the referring file's
 //! unit is an upward import. Because the list is a total order, a cycle between folders always
 //! contains an upward import, so this also rules out cycles. Comments and string literals are
-//! left out; test modules inside `src/` are held to the same rule.
+//! left out ([`blank`]); test modules inside `src/` are held to the same rule.
 //!
 //! A new folder or top-level file must be placed in the list (an unlisted module fails the
 //! test), which is where its floor is decided; docs/architecture.md draws the same order.
 
+use super::source::{blank, rust_files};
 use std::collections::BTreeSet;
 use std::path::Path;
 
@@ -126,98 +127,6 @@ fn unit_of(floors: &'static [&'static str], path: &str) -> Option<(usize, &'stat
         .filter(|(_, u)| path == **u || path.starts_with(&format!("{u}::")))
         .max_by_key(|(_, u)| u.len())
         .map(|(i, u)| (i, *u))
-}
-
-/// The source text without comments, string and char literals (replaced by spaces).
-fn strip(src: &str) -> String {
-    let b: Vec<char> = src.chars().collect();
-    let mut out = String::with_capacity(b.len());
-    let mut i = 0;
-    while i < b.len() {
-        let c = b[i];
-        let next = b.get(i + 1).copied();
-        if c == '/' && next == Some('/') {
-            while i < b.len() && b[i] != '\n' {
-                i += 1;
-            }
-        } else if c == '/' && next == Some('*') {
-            let mut depth = 0;
-            while i < b.len() {
-                if b[i] == '/' && b.get(i + 1) == Some(&'*') {
-                    depth += 1;
-                    i += 2;
-                } else if b[i] == '*' && b.get(i + 1) == Some(&'/') {
-                    depth -= 1;
-                    i += 2;
-                    if depth == 0 {
-                        break;
-                    }
-                } else {
-                    i += 1;
-                }
-            }
-            out.push(' ');
-        } else if c == 'r' && (next == Some('"') || next == Some('#')) && !prev_ident(&b, i) {
-            // Raw string r"..." or r#"..."#.
-            let mut j = i + 1;
-            let mut hashes = 0;
-            while b.get(j) == Some(&'#') {
-                hashes += 1;
-                j += 1;
-            }
-            if b.get(j) != Some(&'"') {
-                out.push(c);
-                i += 1;
-                continue;
-            }
-            j += 1;
-            loop {
-                if j >= b.len() {
-                    break;
-                }
-                if b[j] == '"' && (0..hashes).all(|k| b.get(j + 1 + k) == Some(&'#')) {
-                    j += 1 + hashes;
-                    break;
-                }
-                j += 1;
-            }
-            i = j;
-            out.push_str("\"\"");
-        } else if c == '"' {
-            i += 1;
-            while i < b.len() && b[i] != '"' {
-                if b[i] == '\\' {
-                    i += 1;
-                }
-                i += 1;
-            }
-            i += 1;
-            out.push_str("\"\"");
-        } else if c == '\'' {
-            // A char literal ('a', '\n', '\u{..}') or a lifetime ('a): skip only literals.
-            let close = if next == Some('\\') {
-                (i + 2..b.len().min(i + 12)).find(|&k| b[k] == '\'')
-            } else if b.get(i + 2) == Some(&'\'') {
-                Some(i + 2)
-            } else {
-                None
-            };
-            match close {
-                Some(k) => {
-                    i = k + 1;
-                    out.push_str("' '");
-                }
-                None => {
-                    out.push(c);
-                    i += 1;
-                }
-            }
-        } else {
-            out.push(c);
-            i += 1;
-        }
-    }
-    out
 }
 
 fn prev_ident(b: &[char], i: usize) -> bool {
@@ -359,7 +268,7 @@ fn check(
             unlisted.push(rel.clone());
             continue;
         };
-        for target in references(&strip(text), &module) {
+        for target in references(&blank(text), &module) {
             if let Some((t_rank, t_unit)) = unit_of(floors, &target) {
                 if t_rank > rank && !TEST_ONLY.contains(&t_unit) {
                     violations.push((
@@ -375,24 +284,6 @@ fn check(
     (violations, unlisted)
 }
 
-fn source_files(dir: &Path, root: &Path, out: &mut Vec<(String, String)>) {
-    let mut entries: Vec<_> = std::fs::read_dir(dir).unwrap().flatten().collect();
-    entries.sort_by_key(|e| e.path());
-    for e in entries {
-        let p = e.path();
-        if p.is_dir() {
-            source_files(&p, root, out);
-        } else if p.extension().is_some_and(|x| x == "rs") {
-            let rel = p
-                .strip_prefix(root)
-                .unwrap()
-                .to_string_lossy()
-                .replace('\\', "/");
-            out.push((rel, std::fs::read_to_string(&p).unwrap()));
-        }
-    }
-}
-
 #[test]
 fn no_module_imports_from_a_floor_above_it() {
     for (src, floors, least) in [
@@ -401,7 +292,7 @@ fn no_module_imports_from_a_floor_above_it() {
     ] {
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join(src);
         let mut files = Vec::new();
-        source_files(&root, &root, &mut files);
+        rust_files(&root, &root, &mut files);
         assert!(files.len() > least, "read {} files in {src}", files.len());
         floors_hold(floors, &files);
     }

@@ -43,4 +43,5 @@ mod residual_docs;
 mod servo_check;
 mod sim;
 mod sizes;
+mod source;
 mod standby;
