@@ -156,7 +156,7 @@ impl AnalysisRecord {
 #[derive(Debug, Clone, PartialEq)]
 pub enum Measured {
     /// Relay test analysis.
-    Hbt(hbt::HbtReport),
+    Hbt(HbtReport),
     /// Multisine test analysis.
     Clfrt(clfrt::ClfrtReport),
 }
@@ -172,7 +172,7 @@ impl Measured {
 }
 
 pub use clfrt::ClfrtReport;
-pub use hbt::HbtReport;
+pub use hbt::analysis::HbtReport;
 pub use sizing::{square_wave_peak_factor, RelayPrediction};
 
 /// Why the CLFRT multisine could not be designed from the configuration (a CLFRT test then
