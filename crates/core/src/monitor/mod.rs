@@ -60,7 +60,8 @@
 //! | `feed.rs` | each sample's way in: validation, clock steps, the streams' handlers, silence |
 //! | `run.rs` | a test under way: its steps, its end (report, decision), the outputs, shutdown |
 //! | `safety.rs` | preconditions, steady course, the safety checks, the excitation gate |
-//! | `hbt.rs`, `clfrt.rs` | each method's run and analysis, and its typed features |
+//! | `hbt.rs`, `hbt_analysis.rs` | HBT's relay run; its analysis and typed features |
+//! | `clfrt.rs`, `clfrt_servo_check.rs` | CLFRT's run, analysis and typed features; its servo check |
 //! | `sizing.rs`, `sizing_relay.rs` | the excitation sized to the loop: CLFRT's tones; HBT's relay |
 //! | `input.rs`, `record.rs` | input validation and counters; bounded test records |
 //! | `abort.rs` | why a test stopped |
