@@ -224,7 +224,9 @@ pub fn run_probe(
     if opts.clfrt_heading_guard {
         let mut state = ls.monitor.saved_state();
         state.clfrt_heading_guard = true;
-        ls.monitor.restore(state).map_err(ProbeError::Refused)?;
+        ls.monitor
+            .restore(state)
+            .map_err(|e| ProbeError::Refused(e.to_string()))?;
     }
     ls.run_test(opts)
 }

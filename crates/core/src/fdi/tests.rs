@@ -1,12 +1,14 @@
 use super::decision::tests::entry;
+use super::measured::Basis;
 use super::raw::spread;
-use super::reference::MethodReference;
+use super::reference::{Added, MethodReference};
 use super::*;
 use crate::estimator::model::Uncertainty;
 use crate::fdi::config::Calibration;
 use crate::fdi::raw::servo_check;
 use crate::testing::sample;
 use crate::wire::features::{ClfrtFeatures, ServoRateFeatures};
+use crate::wire::Features;
 
 /// Relative spreads scale with the reference; absolute ones (or files without relative
 /// figures) do not; between the anchors both interpolate, above moderate the spread grows.

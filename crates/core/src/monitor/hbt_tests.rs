@@ -1,6 +1,7 @@
 //! HBT's tests: the relay run against the describing function and its measurements by hand.
 
-use super::{handback_instant, nominal_slew_rad_s, slew_peak, HbtReport, HbtRun};
+use super::analysis::{handback_instant, nominal_slew_rad_s, slew_peak, HbtReport};
+use super::HbtRun;
 use crate::monitor::config::CoreConfig;
 use crate::monitor::{AbortReason, Measured};
 use crate::wire::ExcitationMode;

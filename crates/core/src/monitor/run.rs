@@ -4,6 +4,19 @@
 //! test; this file runs and ends it).
 
 use super::*;
+use crate::fdi::Assessment;
+use crate::wire::Estimate;
+
+/// How a test ended, for its report: the outcome, the abort's reason, the features, the
+/// message, and for a completed test the estimate and the FDI's assessment.
+struct Ending {
+    outcome: Outcome,
+    reason: Option<String>,
+    features: Features,
+    message: String,
+    estimate: Option<Estimate>,
+    assessment: Option<Assessment>,
+}
 
 impl Monitor {
     /// One heading sample of a running test: safety, then the method's step.
@@ -46,94 +59,19 @@ impl Monitor {
     pub(super) fn finish(&mut self, t: f64, result: Result<Measured, AbortReason>) {
         let Some(run) = self.run.take() else { return };
         self.last_test_end = Some(t);
-        // The tones' heading guard: armed after a CLFRT test that ended on the heading limit,
-        // kept while the armed tests need it (`crate::monitor::sizing`).
-        if let RunKind::Clfrt(c) = &run.kind {
-            self.clfrt_heading_guard = self.cfg.clfrt.resize_heading_fraction < 1.0
-                && match &result {
-                    Ok(_) => c.heading_guarded(),
-                    Err(AbortReason::HeadingError { .. }) => true,
-                    Err(_) => self.clfrt_heading_guard,
-                };
-        }
-        let mut estimate = None;
-        let mut assessment = None;
-        let (outcome, reason, features, message) = match result {
-            Ok(f) => {
-                self.stats.tests_completed += 1;
-                let mut features = f.to_features();
-                if run.speed_n > 0 {
-                    features.set_speed_log_mps(Some(run.speed_sum_mps / run.speed_n as f64));
-                }
-                let name = run.method.name().to_uppercase();
-                let d_nom_t = self.nominal_displacement_t();
-                let (est_text, a) = match &mut self.estimator {
-                    None => (
-                        "no estimator loaded".to_string(),
-                        self.fdi.assess(run.method, &features, None, d_nom_t),
-                    ),
-                    Some((est, scratch)) => match est.estimate(run.method, &features, scratch) {
-                        Ok(e) => {
-                            estimate = Some(e);
-                            let a = self.fdi.assess(
-                                run.method,
-                                &features,
-                                Some((&e, est.as_ref(), scratch)),
-                                d_nom_t,
-                            );
-                            (
-                                format!(
-                                    "estimate {:.2} m/s, {:.0} t",
-                                    e.speed_mps, e.displacement_t
-                                ),
-                                a,
-                            )
-                        }
-                        Err(e) => (
-                            format!("no estimate: {e}"),
-                            self.fdi.assess(run.method, &features, None, d_nom_t),
-                        ),
-                    },
-                };
-                if let Some(w) = features
-                    .wave_yaw_rad()
-                    .filter(|w| w.is_finite() && *w >= 0.0)
-                {
-                    self.sea_wave_yaw_rad = Some(w);
-                }
-                let mut msg = format!("{name} test completed; {est_text}; {}", a.summary);
-                if let Some(scales) = features.clfrt().and_then(|c| c.amplitude_scales.as_ref()) {
-                    let pct: Vec<String> = scales
-                        .iter()
-                        .map(|s| format!("{:.0} %", 100.0 * s))
-                        .collect();
-                    msg.push_str(&format!(
-                        "; tones sized to the loop: {} of the design amplitude",
-                        pct.join(", ")
-                    ));
-                }
-                if let Some(scale) = features.hbt().and_then(|h| h.relay_scale) {
-                    let to = if scale > 1.0 { "sea" } else { "loop" };
-                    msg.push_str(&format!(
-                        "; relay sized to the {to}: {:.0} % of the design",
-                        100.0 * scale
-                    ));
-                }
-                assessment = Some(a);
-                (Outcome::Completed, None, features, msg)
-            }
-            Err(reason) => {
-                self.stats.tests_aborted += 1;
-                self.stats.aborts.add(&reason);
-                let reason = reason.to_string();
-                tracing::warn!(vessel = %self.vessel, test = %run.id, "test aborted: {reason}");
-                let msg = format!(
-                    "{} test aborted: {reason}",
-                    run.method.name().to_uppercase()
-                );
-                (Outcome::Aborted, Some(reason), Features::None, msg)
-            }
+        self.update_heading_guard(&run, &result);
+        let ending = match result {
+            Ok(f) => self.completed(&run, f),
+            Err(reason) => self.aborted(&run, reason),
         };
+        let Ending {
+            outcome,
+            reason,
+            features,
+            message,
+            estimate,
+            assessment,
+        } = ending;
         // Stop the excitation first: at a heading sample, its excitation is `none`.
         if self.last_heading_t() == Some(t) && !self.excitation_sent_at(t) {
             self.emit_excitation(t, ExcitationMode::None, 0.0);
@@ -173,6 +111,121 @@ impl Monitor {
             Outcome::Aborted => reason.map(|r| format!("aborted: {r}")),
         };
         self.emit_status_for(t, MonitorState::Idle, None, None, status_reason);
+    }
+
+    /// The tones' heading guard: armed after a CLFRT test that ended on the heading limit,
+    /// kept while the armed tests need it (`crate::monitor::sizing`).
+    fn update_heading_guard(&mut self, run: &Run, result: &Result<Measured, AbortReason>) {
+        if let RunKind::Clfrt(c) = &run.kind {
+            self.clfrt_heading_guard = self.cfg.clfrt.resize_heading_fraction < 1.0
+                && match result {
+                    Ok(_) => c.heading_guarded(),
+                    Err(AbortReason::HeadingError { .. }) => true,
+                    Err(_) => self.clfrt_heading_guard,
+                };
+        }
+    }
+
+    /// A completed test: its features with the speed log's mean, the estimate and the FDI's
+    /// assessment, the sea the next relay is sized for, and the report's message.
+    fn completed(&mut self, run: &Run, f: Measured) -> Ending {
+        self.stats.tests_completed += 1;
+        let mut features = f.to_features();
+        if run.speed_n > 0 {
+            features.set_speed_log_mps(Some(run.speed_sum_mps / run.speed_n as f64));
+        }
+        let name = run.method.name().to_uppercase();
+        let (est_text, estimate, a) = self.estimate_and_assess(run.method, &features);
+        if let Some(w) = features
+            .wave_yaw_rad()
+            .filter(|w| w.is_finite() && *w >= 0.0)
+        {
+            self.sea_wave_yaw_rad = Some(w);
+        }
+        let mut msg = format!("{name} test completed; {est_text}; {}", a.summary);
+        if let Some(scales) = features.clfrt().and_then(|c| c.amplitude_scales.as_ref()) {
+            let pct: Vec<String> = scales
+                .iter()
+                .map(|s| format!("{:.0} %", 100.0 * s))
+                .collect();
+            msg.push_str(&format!(
+                "; tones sized to the loop: {} of the design amplitude",
+                pct.join(", ")
+            ));
+        }
+        if let Some(scale) = features.hbt().and_then(|h| h.relay_scale) {
+            let to = if scale > 1.0 { "sea" } else { "loop" };
+            msg.push_str(&format!(
+                "; relay sized to the {to}: {:.0} % of the design",
+                100.0 * scale
+            ));
+        }
+        Ending {
+            outcome: Outcome::Completed,
+            reason: None,
+            features,
+            message: msg,
+            estimate,
+            assessment: Some(a),
+        }
+    }
+
+    /// The networks' estimate from a completed test's `features` (when an estimator is
+    /// loaded and it reads them) and the FDI's assessment; with the message's sentence on the
+    /// estimate.
+    fn estimate_and_assess(
+        &mut self,
+        method: Method,
+        features: &Features,
+    ) -> (String, Option<Estimate>, Assessment) {
+        let d_nom_t = self.nominal_displacement_t();
+        match &mut self.estimator {
+            None => (
+                "no estimator loaded".to_string(),
+                None,
+                self.fdi.assess(method, features, None, d_nom_t),
+            ),
+            Some((est, scratch)) => match est.estimate(method, features, scratch) {
+                Ok(e) => {
+                    let a = self.fdi.assess(
+                        method,
+                        features,
+                        Some((&e, est.as_ref(), scratch)),
+                        d_nom_t,
+                    );
+                    (
+                        format!("estimate {:.2} m/s, {:.0} t", e.speed_mps, e.displacement_t),
+                        Some(e),
+                        a,
+                    )
+                }
+                Err(e) => (
+                    format!("no estimate: {e}"),
+                    None,
+                    self.fdi.assess(method, features, None, d_nom_t),
+                ),
+            },
+        }
+    }
+
+    /// An aborted test: counted by reason, logged, and the report's message.
+    fn aborted(&mut self, run: &Run, reason: AbortReason) -> Ending {
+        self.stats.tests_aborted += 1;
+        self.stats.aborts.add(&reason);
+        let reason = reason.to_string();
+        tracing::warn!(vessel = %self.vessel, test = %run.id, "test aborted: {reason}");
+        let msg = format!(
+            "{} test aborted: {reason}",
+            run.method.name().to_uppercase()
+        );
+        Ending {
+            outcome: Outcome::Aborted,
+            reason: Some(reason),
+            features: Features::None,
+            message: msg,
+            estimate: None,
+            assessment: None,
+        }
     }
 
     pub(super) fn emit_excitation(&mut self, t: f64, mode: ExcitationMode, value: f64) {

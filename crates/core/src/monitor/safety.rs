@@ -7,30 +7,57 @@ use super::{AbortReason, Monitor};
 use crate::angle::wrap_pi;
 use crate::wire::{ExcitationMode, Stream};
 
+/// A precondition of a test that does not hold (the trigger's reply gives this text).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub(super) enum Precondition {
+    /// A required stream has sent nothing yet.
+    #[error("no {} received yet", .0.name())]
+    NotReceived(Stream),
+    /// A required stream has been silent longer than `safety.stream-timeout-s`.
+    #[error("{} stream silent for {silent_s:.1} s", .stream.name())]
+    Silent {
+        /// The stream.
+        stream: Stream,
+        /// For how long [s].
+        silent_s: f64,
+    },
+    /// The autopilot is not in `auto`.
+    #[error("autopilot is not in auto")]
+    NotAuto,
+    /// |heading error| is over `safety.max-heading-error-deg`.
+    #[error("heading error {error_deg:.1} deg over the limit")]
+    HeadingError {
+        /// |heading error| [deg].
+        error_deg: f64,
+    },
+}
+
 impl Monitor {
     /// Conditions for starting any test at `t`: fresh streams, autopilot in auto, a target,
     /// a heading error within the abort limit.
-    pub(super) fn preconditions(&self, t: f64) -> Result<(), String> {
+    pub(super) fn preconditions(&self, t: f64) -> Result<(), Precondition> {
         let timeout = self.cfg.safety.stream_timeout_s;
         for s in Stream::REQUIRED {
             match self.latest.t(s) {
-                None => return Err(format!("no {} received yet", s.name())),
+                None => return Err(Precondition::NotReceived(s)),
                 Some(ts) if t - ts > timeout => {
-                    return Err(format!("{} stream silent for {:.1} s", s.name(), t - ts))
+                    return Err(Precondition::Silent {
+                        stream: s,
+                        silent_s: t - ts,
+                    })
                 }
                 _ => {}
             }
         }
         if !matches!(self.latest.auto, Some((_, true))) {
-            return Err("autopilot is not in auto".into());
+            return Err(Precondition::NotAuto);
         }
         if let (Some((_, h)), Some((_, target))) = (self.latest.heading, self.latest.target) {
             let e = self.heading_error(target, h).abs();
             if e > self.cfg.safety.max_heading_error_deg.to_radians() {
-                return Err(format!(
-                    "heading error {:.1} deg over the limit",
-                    e.to_degrees()
-                ));
+                return Err(Precondition::HeadingError {
+                    error_deg: e.to_degrees(),
+                });
             }
         }
         Ok(())

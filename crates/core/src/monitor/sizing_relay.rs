@@ -1,8 +1,9 @@
 //! HBT's relay sized to the loop it finds (see "HBT: the relay" in the module doc of
 //! `super`, `crate::monitor::sizing`).
-use crate::baseline::{self, BaselineConfig};
+use crate::baseline::{self, BaselineConfig, BaselineError};
 use crate::dsp::relay::limit_cycle_describing_function;
 use crate::dsp::spectrum::{band_rms, Spectrum};
+use crate::dsp::DspError;
 use crate::model::{ServoConfig, ShipConfig};
 use crate::monitor::config::CoreConfig;
 use crate::monitor::AbortReason;
@@ -55,6 +56,36 @@ pub enum RelayDecision {
     Play(RelayPrediction),
     /// No relay the hysteresis floor allows stays inside the heading limit.
     Abort(AbortReason),
+}
+
+/// Why the relay sizing could not predict (the relay then plays as it is).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RelaySizingError {
+    /// The records are too short or of different lengths for the fit.
+    #[error("fit: {heading} heading and {rudder} rudder samples")]
+    FitSamples {
+        /// Heading samples.
+        heading: usize,
+        /// Rudder samples.
+        rudder: usize,
+    },
+    /// The fit (its filter, or the baseline's least squares) failed.
+    #[error("fit: {0}")]
+    Fit(BaselineError),
+    /// The rudder did not move enough to fit its gain.
+    #[error("fit: no rudder excitation")]
+    NoRudderExcitation,
+    /// The fitted ship is not a ship (`a < 0` or `b <= 0`).
+    #[error("fitted a = {a:.3e} 1/s, b = {b:.3e} 1/s^2")]
+    NotAShip {
+        /// Fitted yaw damping [1/s].
+        a: f64,
+        /// Fitted rudder gain [1/s^2].
+        b: f64,
+    },
+    /// The describing function found no limit cycle.
+    #[error("describing function: {0}")]
+    DescribingFunction(DspError),
 }
 
 /// The relay's size (see "HBT" in the module doc): one look, at a given switch.
@@ -158,7 +189,7 @@ impl RelaySizing {
         (h_rad, eps_rad): (f64, f64),
         scale: f64,
         sea_wave_yaw_rad: Option<f64>,
-    ) -> Result<RelayDecision, String> {
+    ) -> Result<RelayDecision, RelaySizingError> {
         let (a, (b, c)) = match speed_mps.filter(|u| u.is_finite() && *u > 0.0) {
             Some(u) => {
                 let a = self.ship.yaw_damping_a0 * u / self.ship.length_m;
@@ -166,12 +197,12 @@ impl RelaySizing {
             }
             None => {
                 let fit = baseline::fit(heading_rad, rudder_rad, dt_s, &self.fit)
-                    .map_err(|e| format!("fit: {e}"))?;
+                    .map_err(RelaySizingError::Fit)?;
                 (fit.a_per_s, (fit.b_per_s2, 0.0))
             }
         };
         if !(a >= 0.0 && b > 0.0) {
-            return Err(format!("fitted a = {a:.3e} 1/s, b = {b:.3e} 1/s^2"));
+            return Err(RelaySizingError::NotAShip { a, b });
         }
         // The sea on this record: what the fitted ship does not explain (the relay's own
         // swing dominates the heading, and on a record of a few tens of seconds the wave
@@ -179,10 +210,10 @@ impl RelaySizing {
         let unexplained = unexplained_heading(heading_rad, rudder_rad, dt_s, a, b, c);
         let (band, spectrum, scratch) = &mut self.wave;
         let wave_yaw_rad = band_rms(&unexplained, dt_s, *band, spectrum, scratch).ok();
-        let peak = |s: f64| -> Result<(f64, f64, f64), String> {
+        let peak = |s: f64| -> Result<(f64, f64, f64), RelaySizingError> {
             let (w, amp) =
                 limit_cycle_describing_function(a, b, s * h_rad, s * eps_rad, &self.servo)
-                    .map_err(|e| format!("describing function: {e}"))?;
+                    .map_err(RelaySizingError::DescribingFunction)?;
             Ok((w, amp, square_wave_peak_factor(w, a) * amp))
         };
         let (omega_rad_s, amplitude_rad, peak_rad) = peak(1.0)?;
@@ -240,15 +271,14 @@ fn fit_b(
     dt_s: f64,
     a: f64,
     cfg: &BaselineConfig,
-) -> Result<(f64, f64), String> {
+) -> Result<(f64, f64), RelaySizingError> {
     if heading_rad.len() != rudder_rad.len() || heading_rad.len() < baseline::MIN_FIT_SAMPLES {
-        return Err(format!(
-            "fit: {} heading and {} rudder samples",
-            heading_rad.len(),
-            rudder_rad.len()
-        ));
+        return Err(RelaySizingError::FitSamples {
+            heading: heading_rad.len(),
+            rudder: rudder_rad.len(),
+        });
     }
-    let err = |e: baseline::BaselineError| format!("fit: {e}");
+    let err = RelaySizingError::Fit;
     let mut fh = baseline::StateVariableFilter::new(cfg.filter_rad_s, dt_s).map_err(err)?;
     let mut fd = baseline::StateVariableFilter::new(cfg.filter_rad_s, dt_s).map_err(err)?;
     let psi0 = heading_rad[0];
@@ -272,7 +302,7 @@ fn fit_b(
     if det > 0.0 && b.is_finite() {
         Ok((b, (sy - b * sd) / n))
     } else {
-        Err("fit: no rudder excitation".into())
+        Err(RelaySizingError::NoRudderExcitation)
     }
 }
 

@@ -36,6 +36,22 @@ impl VesselState {
     pub const FORMAT: &'static str = "helmwatch-vessel-state/1";
 }
 
+/// Why a saved state was refused ([`Monitor::restore`]; the daemon logs this text).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum RestoreError {
+    /// Another format than [`VesselState::FORMAT`].
+    #[error("format `{0}`, expected `{expected}`", expected = VesselState::FORMAT)]
+    Format(String),
+    /// Saved for another vessel.
+    #[error("saved for vessel `{saved}`, not `{this}`")]
+    Vessel {
+        /// The vessel it was saved for.
+        saved: String,
+        /// This monitor's vessel.
+        this: String,
+    },
+}
+
 impl Monitor {
     /// What to save after a decision (see [`VesselState`]).
     pub fn saved_state(&self) -> VesselState {
@@ -54,19 +70,15 @@ impl Monitor {
     /// Takes up a saved state (before any sample). Refused, changing nothing, when it is of
     /// another format or another vessel. `Ok(Some(message))` when the commissioning
     /// reference was discarded (made under another ship configuration or other models).
-    pub fn restore(&mut self, s: VesselState) -> Result<Option<String>, String> {
+    pub fn restore(&mut self, s: VesselState) -> Result<Option<String>, RestoreError> {
         if s.format != VesselState::FORMAT {
-            return Err(format!(
-                "format `{}`, expected `{}`",
-                s.format,
-                VesselState::FORMAT
-            ));
+            return Err(RestoreError::Format(s.format));
         }
         if s.vessel != self.vessel {
-            return Err(format!(
-                "saved for vessel `{}`, not `{}`",
-                s.vessel, self.vessel
-            ));
+            return Err(RestoreError::Vessel {
+                saved: s.vessel,
+                this: self.vessel.clone(),
+            });
         }
         let discarded = self.fdi.restore(s.fdi);
         self.last_test_end = s.last_test_end.filter(|t| t.is_finite());
