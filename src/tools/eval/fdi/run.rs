@@ -2,7 +2,8 @@
 //! after the other, the operating point changed and the fault injected on schedule, and each
 //! report read into a [`TestOutcome`].
 
-use super::scenarios::{draw, DrawnChange, FdiScenario, Onset, ScenarioSet};
+use super::draw::{draw, DrawnChange};
+use super::scenarios::{FdiScenario, Onset, ScenarioSet};
 use super::FdiEvalOptions;
 use crate::config::Config;
 use helmwatch_core::drivers::probe::Lockstep;
