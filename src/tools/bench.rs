@@ -12,32 +12,16 @@
 //!   Memory is the process's resident set (daemon and feeder together, so an upper bound).
 
 use crate::config::Config;
-use crate::shells::daemon::{Daemon, DaemonError};
-use crate::shells::net::{free_loopback_port, loopback_peer, NetError};
-use crate::shells::shipnode::{ShipNode, ShipNodeError, ShipNodeOptions};
+use crate::shells::daemon::Daemon;
+use crate::shells::net::{free_loopback_port, loopback_peer};
+use crate::shells::shipnode::{ShipNode, ShipNodeOptions};
+use crate::tools::loopback::LoopbackError;
 use helmwatch_core::sim::Scenario;
 use helmwatch_core::wire::{Excitation, Keys, Scalar, StateValue, Stream};
 use std::io::Write;
 use std::path::Path;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
-
-/// Why a benchmark failed.
-#[derive(Debug, thiserror::Error)]
-pub enum BenchError {
-    /// Setting up Zenoh.
-    #[error(transparent)]
-    Net(#[from] NetError),
-    /// The daemon.
-    #[error(transparent)]
-    Daemon(#[from] DaemonError),
-    /// The ship.
-    #[error(transparent)]
-    Ship(#[from] ShipNodeError),
-    /// Anything else.
-    #[error("{0}")]
-    Other(String),
-}
 
 /// One vessel in lockstep over Zenoh.
 #[derive(Debug, Clone, PartialEq)]
@@ -53,8 +37,8 @@ pub struct LockstepFigure {
 }
 
 /// Runs the daemon and a lockstep ship for `ship_s` seconds of ship time.
-pub async fn lockstep(cfg: &Config, ship_s: f64) -> Result<LockstepFigure, BenchError> {
-    let port = free_loopback_port().map_err(|e| BenchError::Other(e.to_string()))?;
+pub async fn lockstep(cfg: &Config, ship_s: f64) -> Result<LockstepFigure, LoopbackError> {
+    let port = free_loopback_port().map_err(|e| LoopbackError::Other(e.to_string()))?;
     let ep = format!("tcp/127.0.0.1:{port}");
     let mut dcfg = cfg.clone();
     dcfg.daemon.vessels = vec![cfg.simulation.vessel.clone()];
@@ -118,14 +102,23 @@ pub fn rss_mib() -> f64 {
         .unwrap_or(f64::NAN)
 }
 
+/// Send time of each tick (by tick number), shared with the excitation subscribers.
+type SentAt = Arc<Mutex<Vec<Option<Instant>>>>;
+
+/// Period of the feeder's ticks [s].
+const FEED_DT: f64 = 0.1;
+
+/// Ticks of warm-up before the measurement window.
+const WARMUP_TICKS: usize = 10;
+
 /// Feeds `vessels` vessels at 10 Hz for a second of warm-up and `window` of measurement.
 pub async fn fleet(
     cfg: &Config,
     vessels: usize,
     window: Duration,
-) -> Result<FleetFigure, BenchError> {
-    let other = |e: zenoh::Error| BenchError::Other(e.to_string());
-    let port = free_loopback_port().map_err(|e| BenchError::Other(e.to_string()))?;
+) -> Result<FleetFigure, LoopbackError> {
+    let other = |e: zenoh::Error| LoopbackError::Other(e.to_string());
+    let port = free_loopback_port().map_err(|e| LoopbackError::Other(e.to_string()))?;
     let ep = format!("tcp/127.0.0.1:{port}");
     let names: Vec<String> = (0..vessels).map(|i| format!("v{i:05}")).collect();
     let mut dcfg = cfg.clone();
@@ -142,90 +135,17 @@ pub async fn fleet(
     let feeder = zenoh::open(loopback_peer(&[], &[ep])?)
         .await
         .map_err(other)?;
-    let dt = 0.1;
+    let dt = FEED_DT;
     // Send time of each tick, and the delays of the excitations of measured ticks.
-    let sent: Arc<Mutex<Vec<Option<Instant>>>> = Arc::new(Mutex::new(Vec::new()));
+    let sent: SentAt = Arc::new(Mutex::new(Vec::new()));
     let delays: Arc<Mutex<Vec<f64>>> = Arc::new(Mutex::new(Vec::new()));
-    let warmup_ticks = 10usize;
-    let ticks = warmup_ticks + (window.as_secs_f64() / dt).round() as usize;
-    // One excitation subscriber per vessel, as each ship has its own.
-    let mut subs = Vec::with_capacity(vessels);
-    for n in &names {
-        let (s2, d2) = (sent.clone(), delays.clone());
-        let sub = feeder
-            .declare_subscriber(Keys::new(n).excitation())
-            .callback(move |sample| {
-                let now = Instant::now();
-                let Ok(e) = serde_json::from_slice::<Excitation>(&sample.payload().to_bytes())
-                else {
-                    return;
-                };
-                let k = (e.t / dt).round() as usize;
-                if k < warmup_ticks {
-                    return;
-                }
-                let at = s2.lock().ok().and_then(|s| s.get(k).copied().flatten());
-                if let (Some(at), Ok(mut d)) = (at, d2.lock()) {
-                    d.push(now.duration_since(at).as_secs_f64() * 1e3);
-                }
-            })
-            .await
-            .map_err(other)?;
-        subs.push(sub);
-    }
-    let mut pubs = Vec::with_capacity(vessels * 5);
-    for n in &names {
-        let k = Keys::new(n);
-        for s in [
-            Stream::Rudder,
-            Stream::Speed,
-            Stream::AutopilotState,
-            Stream::TargetHeading,
-            Stream::Heading,
-        ] {
-            let ke = feeder.declare_keyexpr(k.stream(s)).await.map_err(other)?;
-            pubs.push(
-                feeder
-                    .declare_publisher(ke)
-                    .encoding(zenoh::bytes::Encoding::APPLICATION_JSON)
-                    .await
-                    .map_err(other)?,
-            );
-        }
-    }
+    let ticks = WARMUP_TICKS + (window.as_secs_f64() / dt).round() as usize;
+    let subs = excitation_subscribers(&feeder, &names, &sent, &delays).await?;
+    let pubs = stream_publishers(&feeder, &names).await?;
     if let Some(p) = pubs.last() {
         crate::shells::net::wait_matching(p, Duration::from_secs(10)).await;
     }
-    let target = 1.0;
-    let mut interval = tokio::time::interval(Duration::from_secs_f64(dt));
-    interval.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Burst);
-    let mut headings = 0u64;
-    for k in 0..ticks {
-        interval.tick().await;
-        if let Ok(mut s) = sent.lock() {
-            s.push(Some(Instant::now()));
-        }
-        let t = k as f64 * dt;
-        let js = |v: f64| serde_json::to_vec(&Scalar { t, value: v }).unwrap_or_default();
-        let (rudder, speed, heading) = (js(0.01), js(7.0), js(target + 0.001 * (0.3 * t).sin()));
-        let state = serde_json::to_vec(&StateValue {
-            t,
-            value: "auto".into(),
-        })
-        .unwrap_or_default();
-        for i in 0..names.len() {
-            let _ = pubs[5 * i].put(rudder.clone()).await;
-            let _ = pubs[5 * i + 1].put(speed.clone()).await;
-            if k % 10 == 0 {
-                let _ = pubs[5 * i + 2].put(state.clone()).await;
-                let _ = pubs[5 * i + 3].put(js(target)).await;
-            }
-            let _ = pubs[5 * i + 4].put(heading.clone()).await;
-            if k >= warmup_ticks {
-                headings += 1;
-            }
-        }
-    }
+    let headings = feed(&pubs, names.len(), ticks, &sent).await;
     tokio::time::sleep(Duration::from_millis(500)).await;
     let rss = rss_mib();
     let flood_drops = daemon.flood_drops();
@@ -257,6 +177,117 @@ pub async fn fleet(
             && p99_ms < dt * 1e3
             && flood_drops == 0,
     })
+}
+
+/// One excitation subscriber per vessel, as each ship has its own: each pushes the delay of an
+/// excitation of a measured tick (from the tick's send time) to `delays` [ms].
+async fn excitation_subscribers(
+    feeder: &zenoh::Session,
+    names: &[String],
+    sent: &SentAt,
+    delays: &Arc<Mutex<Vec<f64>>>,
+) -> Result<Vec<zenoh::pubsub::Subscriber<()>>, LoopbackError> {
+    let other = |e: zenoh::Error| LoopbackError::Other(e.to_string());
+    let dt = FEED_DT;
+    let warmup_ticks = WARMUP_TICKS;
+    let mut subs = Vec::with_capacity(names.len());
+    for n in names {
+        let (s2, d2) = (sent.clone(), delays.clone());
+        let sub = feeder
+            .declare_subscriber(Keys::new(n).excitation())
+            .callback(move |sample| {
+                let now = Instant::now();
+                let Ok(e) = serde_json::from_slice::<Excitation>(&sample.payload().to_bytes())
+                else {
+                    return;
+                };
+                let k = (e.t / dt).round() as usize;
+                if k < warmup_ticks {
+                    return;
+                }
+                let at = s2.lock().ok().and_then(|s| s.get(k).copied().flatten());
+                if let (Some(at), Ok(mut d)) = (at, d2.lock()) {
+                    d.push(now.duration_since(at).as_secs_f64() * 1e3);
+                }
+            })
+            .await
+            .map_err(other)?;
+        subs.push(sub);
+    }
+    Ok(subs)
+}
+
+/// The feeder's publishers: five per vessel, in the order rudder, speed, autopilot state,
+/// target heading, heading.
+async fn stream_publishers(
+    feeder: &zenoh::Session,
+    names: &[String],
+) -> Result<Vec<zenoh::pubsub::Publisher<'static>>, LoopbackError> {
+    let other = |e: zenoh::Error| LoopbackError::Other(e.to_string());
+    let mut pubs = Vec::with_capacity(names.len() * 5);
+    for n in names {
+        let k = Keys::new(n);
+        for s in [
+            Stream::Rudder,
+            Stream::Speed,
+            Stream::AutopilotState,
+            Stream::TargetHeading,
+            Stream::Heading,
+        ] {
+            let ke = feeder.declare_keyexpr(k.stream(s)).await.map_err(other)?;
+            pubs.push(
+                feeder
+                    .declare_publisher(ke)
+                    .encoding(zenoh::bytes::Encoding::APPLICATION_JSON)
+                    .await
+                    .map_err(other)?,
+            );
+        }
+    }
+    Ok(pubs)
+}
+
+/// Publishes `ticks` ticks at 10 Hz to `vessels` vessels (rudder, speed, heading every tick;
+/// autopilot state and target every tenth), noting each tick's send time in `sent`. Returns
+/// the headings published after the warm-up.
+async fn feed(
+    pubs: &[zenoh::pubsub::Publisher<'static>],
+    vessels: usize,
+    ticks: usize,
+    sent: &SentAt,
+) -> u64 {
+    let dt = FEED_DT;
+    let target = 1.0;
+    let mut interval = tokio::time::interval(Duration::from_secs_f64(dt));
+    interval.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Burst);
+    let mut headings = 0u64;
+    for k in 0..ticks {
+        interval.tick().await;
+        if let Ok(mut s) = sent.lock() {
+            s.push(Some(Instant::now()));
+        }
+        let t = k as f64 * dt;
+        let js = |v: f64| serde_json::to_vec(&Scalar { t, value: v }).unwrap_or_default();
+        let (rudder, speed, heading) = (js(0.01), js(7.0), js(target + 0.001 * (0.3 * t).sin()));
+        let state = serde_json::to_vec(&StateValue {
+            t,
+            value: "auto".into(),
+        })
+        .unwrap_or_default();
+        for i in 0..vessels {
+            let _ = pubs[5 * i].put(rudder.clone()).await;
+            let _ = pubs[5 * i + 1].put(speed.clone()).await;
+            if k % 10 == 0 {
+                let _ = pubs[5 * i + 2].put(state.clone()).await;
+                let _ = pubs[5 * i + 3].put(js(target)).await;
+            }
+            let _ = pubs[5 * i + 4].put(heading.clone()).await;
+            if k >= WARMUP_TICKS {
+                headings += 1;
+            }
+        }
+    }
+    headings
 }
 
 /// A fleet figure as the one JSON line `helmwatch bench --one-fleet N` prints.

@@ -10,32 +10,16 @@
 //! `127.0.0.1` (a free port), multicast off.
 
 use crate::config::Config;
-use crate::shells::daemon::{Daemon, DaemonError};
-use crate::shells::net::{free_loopback_port, loopback_peer, NetError};
-use crate::shells::shipnode::{ShipNode, ShipNodeError, ShipNodeOptions};
+use crate::shells::daemon::Daemon;
+use crate::shells::net::{free_loopback_port, loopback_peer};
+use crate::shells::shipnode::{ShipNode, ShipNodeOptions};
+use crate::tools::loopback::LoopbackError;
 use helmwatch_core::sim::{Fault, Scenario};
 use helmwatch_core::wire::{Keys, Notification, Report, Status};
 use std::io::Write;
 use std::time::Instant;
 use tokio::sync::mpsc;
 use tokio_util::sync::CancellationToken;
-
-/// Why the demo failed.
-#[derive(Debug, thiserror::Error)]
-pub enum DemoError {
-    /// Setting up Zenoh.
-    #[error(transparent)]
-    Net(#[from] NetError),
-    /// The daemon.
-    #[error(transparent)]
-    Daemon(#[from] DaemonError),
-    /// The ship.
-    #[error(transparent)]
-    Ship(#[from] ShipNodeError),
-    /// The observer session or the output.
-    #[error("{0}")]
-    Io(String),
-}
 
 /// What the demo runs.
 #[derive(Debug, Clone, PartialEq)]
@@ -102,8 +86,8 @@ pub async fn run(
     cfg: &Config,
     opts: &DemoOptions,
     out: &mut (impl Write + Send),
-) -> Result<DemoSummary, DemoError> {
-    let io = |e: std::io::Error| DemoError::Io(e.to_string());
+) -> Result<DemoSummary, LoopbackError> {
+    let io = |e: std::io::Error| LoopbackError::Other(e.to_string());
     let started = Instant::now();
     let vessel = cfg.simulation.vessel.clone();
     let keys = Keys::new(&vessel);
@@ -122,11 +106,58 @@ pub async fn run(
     )
     .await?;
 
-    // The observer: a client of the daemon, as any other program would be.
-    let observer = zenoh::open(loopback_peer(&[], std::slice::from_ref(&endpoint))?)
+    let (observer, subs, mut rx) = observe(&endpoint, &keys).await?;
+    print_header(cfg, opts, &endpoint, &vessel, out).map_err(io)?;
+
+    let mut scenario = Scenario::nominal(&cfg.sim(), opts.seed);
+    scenario.faults = vec![opts.fault];
+    let mut sopts = ShipNodeOptions::from_config(&cfg.ship_peer, &cfg.simulation.vessel);
+    sopts.vessel = vessel.clone();
+    sopts.lockstep = true;
+    sopts.duration_s = Some(opts.max_ship_s);
+    let ship = ShipNode::new(&cfg.sim(), &scenario, sopts)?;
+    let stop_ship = CancellationToken::new();
+    let stop = stop_ship.clone();
+    let ship_task = tokio::spawn(ship.run(
+        loopback_peer(&[], std::slice::from_ref(&endpoint))?,
+        async move { stop.cancelled().await },
+    ));
+
+    let mut summary = DemoSummary::default();
+    watch(&mut rx, || ship_task.is_finished(), opts, &mut summary, out).await?;
+    stop_ship.cancel();
+    let ship_summary = match ship_task.await {
+        Ok(r) => r?,
+        Err(e) => return Err(LoopbackError::Other(format!("ship task: {e}"))),
+    };
+    daemon.stop().await;
+    for s in subs {
+        let _ = s.undeclare().await;
+    }
+    let _ = observer.close().await;
+    summary.ship_s = ship_summary.t_end_s - cfg.simulation.start_time_s;
+    summary.wall_s = started.elapsed().as_secs_f64();
+    print_summary(&summary, opts, out).map_err(io)?;
+    Ok(summary)
+}
+
+/// The observer: a client of the daemon, as any other program would be. Its session, its
+/// subscribers (status, report, notification) and what they see.
+async fn observe(
+    endpoint: &str,
+    keys: &Keys,
+) -> Result<
+    (
+        zenoh::Session,
+        Vec<zenoh::pubsub::Subscriber<()>>,
+        mpsc::Receiver<Seen>,
+    ),
+    LoopbackError,
+> {
+    let observer = zenoh::open(loopback_peer(&[], &[endpoint.to_string()])?)
         .await
-        .map_err(|e| DemoError::Io(e.to_string()))?;
-    let (tx, mut rx) = mpsc::channel::<Seen>(1024);
+        .map_err(|e| LoopbackError::Other(e.to_string()))?;
+    let (tx, rx) = mpsc::channel::<Seen>(1024);
     let mut subs = Vec::new();
     for key in [keys.status(), keys.report(), keys.notification()] {
         let tx = tx.clone();
@@ -149,11 +180,21 @@ pub async fn run(
                 }
             })
             .await
-            .map_err(|e| DemoError::Io(e.to_string()))?;
+            .map_err(|e| LoopbackError::Other(e.to_string()))?;
         subs.push(sub);
     }
     drop(tx);
+    Ok((observer, subs, rx))
+}
 
+/// The demo's first lines: where, which ship, which fault.
+fn print_header(
+    cfg: &Config,
+    opts: &DemoOptions,
+    endpoint: &str,
+    vessel: &str,
+    out: &mut impl Write,
+) -> std::io::Result<()> {
     let onset = opts.fault.onset_s;
     writeln!(
         out,
@@ -167,23 +208,19 @@ pub async fn run(
         opts.commissioning_tests,
         opts.fault
     )
-    .map_err(io)?;
+}
 
-    let mut scenario = Scenario::nominal(&cfg.sim(), opts.seed);
-    scenario.faults = vec![opts.fault];
-    let mut sopts = ShipNodeOptions::from_config(&cfg.ship_peer, &cfg.simulation.vessel);
-    sopts.vessel = vessel.clone();
-    sopts.lockstep = true;
-    sopts.duration_s = Some(opts.max_ship_s);
-    let ship = ShipNode::new(&cfg.sim(), &scenario, sopts)?;
-    let stop_ship = CancellationToken::new();
-    let stop = stop_ship.clone();
-    let ship_task = tokio::spawn(ship.run(
-        loopback_peer(&[], std::slice::from_ref(&endpoint))?,
-        async move { stop.cancelled().await },
-    ));
-
-    let mut summary = DemoSummary::default();
+/// Prints what the observer sees, into `summary`, until the alarm and its report are both in,
+/// the cap of reports of the faulty ship is reached, or the ship has stopped.
+async fn watch(
+    rx: &mut mpsc::Receiver<Seen>,
+    ship_finished: impl Fn() -> bool,
+    opts: &DemoOptions,
+    summary: &mut DemoSummary,
+    out: &mut impl Write,
+) -> Result<(), LoopbackError> {
+    let io = |e: std::io::Error| LoopbackError::Other(e.to_string());
+    let onset = opts.fault.onset_s;
     let mut after_fault = 0usize;
     let mut fault_report = false;
     while let Some(seen) = rx.recv().await {
@@ -197,27 +234,7 @@ pub async fn run(
                 writeln!(out, "  t = {:>6.0} s  status: {what}", s.t).map_err(io)?;
             }
             Seen::Report(r) => {
-                let when = if r.t_start >= onset {
-                    "faulty ship"
-                } else if r.t_end >= onset {
-                    "fault began during the test"
-                } else {
-                    "nominal ship"
-                };
-                writeln!(
-                    out,
-                    "t = {:>6.0} s  REPORT {} ({when}): {:?}{}, decision {:?}\n    {}",
-                    r.t_end,
-                    r.test,
-                    r.outcome,
-                    r.reason
-                        .as_ref()
-                        .map(|x| format!(" ({x})"))
-                        .unwrap_or_default(),
-                    r.decision,
-                    r.message
-                )
-                .map_err(io)?;
+                print_report(&r, onset, out).map_err(io)?;
                 if r.t_start >= onset {
                     after_fault += 1;
                 }
@@ -237,22 +254,44 @@ pub async fn run(
                 }
             }
         }
-        if ship_task.is_finished() {
+        if ship_finished() {
             break;
         }
     }
-    stop_ship.cancel();
-    let ship_summary = match ship_task.await {
-        Ok(r) => r?,
-        Err(e) => return Err(DemoError::Io(format!("ship task: {e}"))),
+    Ok(())
+}
+
+/// A report as the observer prints it, with the ship's state relative to the fault's onset.
+fn print_report(r: &Report, onset: f64, out: &mut impl Write) -> std::io::Result<()> {
+    let when = if r.t_start >= onset {
+        "faulty ship"
+    } else if r.t_end >= onset {
+        "fault began during the test"
+    } else {
+        "nominal ship"
     };
-    daemon.stop().await;
-    for s in subs {
-        let _ = s.undeclare().await;
-    }
-    let _ = observer.close().await;
-    summary.ship_s = ship_summary.t_end_s - cfg.simulation.start_time_s;
-    summary.wall_s = started.elapsed().as_secs_f64();
+    writeln!(
+        out,
+        "t = {:>6.0} s  REPORT {} ({when}): {:?}{}, decision {:?}\n    {}",
+        r.t_end,
+        r.test,
+        r.outcome,
+        r.reason
+            .as_ref()
+            .map(|x| format!(" ({x})"))
+            .unwrap_or_default(),
+        r.decision,
+        r.message
+    )
+}
+
+/// The demo's last lines: reports, time, and when the alarm was raised.
+fn print_summary(
+    summary: &DemoSummary,
+    opts: &DemoOptions,
+    out: &mut impl Write,
+) -> std::io::Result<()> {
+    let onset = opts.fault.onset_s;
     writeln!(
         out,
         "\n{} reports; {:.0} s of ship time in {:.1} s ({:.0}x real time)",
@@ -260,8 +299,7 @@ pub async fn run(
         summary.ship_s,
         summary.wall_s,
         summary.ship_s / summary.wall_s.max(1e-9)
-    )
-    .map_err(io)?;
+    )?;
     let first_fault = summary
         .reports
         .iter()
@@ -280,8 +318,6 @@ pub async fn run(
             opts.fault_reports
         ),
     }
-    .map_err(io)?;
-    Ok(summary)
 }
 
 fn ordinal(n: usize) -> String {

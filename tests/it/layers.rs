@@ -92,6 +92,7 @@ const SERVICE_FLOORS: &[&str] = &[
     // Offline tools.
     "tools::training",
     "tools::eval",
+    "tools::loopback",
     "tools::demo",
     "tools::bench",
     "tools::time_to_alarm",

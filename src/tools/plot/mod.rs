@@ -28,9 +28,12 @@
 //! `RecordLine`s: [`recording::json_lines`] is one source; another format (MCAP) plugs in
 //! as another iterator.
 
-mod charts;
+mod bode;
+mod nyquist;
 pub mod recording;
 mod reference;
+mod style;
+mod timelines;
 
 use crate::config::Config;
 use helmwatch_core::wire::{Method, Report};
@@ -229,12 +232,12 @@ pub fn plot(
                 cfg.fdi.window_tests,
             )
             .param[helmwatch_core::fdi::stats::P];
-            charts::history(&mut svg, size, &title, &points, limit)?;
+            timelines::history(&mut svg, size, &title, &points, limit)?;
         }
         InputKind::Recording => {
             let trace =
                 recording::Trace::collect(recording::json_lines(text), opts.vessel.as_deref())?;
-            charts::trace(&mut svg, size, &trace)?;
+            timelines::trace(&mut svg, size, &trace)?;
         }
         InputKind::Reference => {
             let state: helmwatch_core::monitor::VesselState = serde_json::from_str(text)
@@ -257,7 +260,7 @@ pub fn plot(
 pub fn plot_mcap(bytes: &[u8], opts: &PlotOptions) -> Result<String, PlotError> {
     let mut svg = String::new();
     let trace = recording::Trace::collect(recording::mcap_lines(bytes), opts.vessel.as_deref())?;
-    charts::trace(&mut svg, (opts.width_px, opts.height_px), &trace)?;
+    timelines::trace(&mut svg, (opts.width_px, opts.height_px), &trace)?;
     Ok(svg)
 }
 
@@ -290,7 +293,7 @@ pub fn plot_report(
                 return Err(data(format!("report {}: no tones", r.test)));
             }
             let title = format!("CLFRT {}: heading / rudder", r.test);
-            charts::bode(svg, size, &title, &f.tones, nominal, estimated)
+            bode::bode(svg, size, &title, &f.tones, nominal, estimated)
         }
         Method::Hbt => {
             let f = r.features.hbt().ok_or_else(|| {
@@ -300,7 +303,7 @@ pub fn plot_report(
                 ))
             })?;
             // The relay as played (the report's: a sized test played another).
-            let relay = charts::Relay {
+            let relay = nyquist::Relay {
                 height_rad: f.relay_height_rad.min(cfg.servo.max_angle_rad()),
                 hysteresis_rad: f.hysteresis_rad,
             };
@@ -315,11 +318,11 @@ pub fn plot_report(
                 .ok()
             };
             let title = format!("HBT {}: limit cycle (describing function)", r.test);
-            charts::nyquist(
+            nyquist::nyquist(
                 svg,
                 size,
                 &title,
-                &charts::NyquistInput {
+                &nyquist::NyquistInput {
                     relay,
                     servo: cfg.servo.clone(),
                     omega_u_rad_s: f.omega_u_rad_s,

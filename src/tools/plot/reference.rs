@@ -6,7 +6,7 @@
 //! error, the scatter at the learned tests' mean sea and the floors;
 //! `helmwatch_core::fdi::reference::MethodReference::curve`).
 
-use super::charts::tick;
+use super::style::{draw_err, tick};
 use super::{data, PlotError};
 use helmwatch_core::fdi::reference::{MethodReference, Settings};
 use helmwatch_core::wire::Method;
@@ -14,10 +14,6 @@ use plotters::prelude::*;
 
 /// Speeds on the curve.
 const GRID: usize = 60;
-
-fn draw_err<E: std::fmt::Display>(e: E) -> PlotError {
-    PlotError::Draw(e.to_string())
-}
 
 /// Draws both methods' references (`learned[0]` CLFRT, `learned[1]` HBT).
 pub(super) fn reference(

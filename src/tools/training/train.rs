@@ -1,6 +1,8 @@
-//! Trainers: Levenberg-Marquardt (the default, MATLAB `trainlm`) and Fletcher-Reeves
-//! conjugate gradient with a line search and restarts (the paper's `traincgf`), both with a
-//! validation set for early stopping, and seeded restarts keeping the best on validation.
+//! Training the network: the least-squares problem the trainers minimise, their record and
+//! early stopping on a validation set, the initial weights, and seeded restarts keeping the
+//! best on validation. The trainers: Levenberg-Marquardt (the default, MATLAB `trainlm`;
+//! `lm`) and Fletcher-Reeves conjugate gradient with a line search and restarts (the paper's
+//! `traincgf`; `cg`, its line search in `line_search`).
 //!
 //! ## The problem
 //!
@@ -15,31 +17,6 @@
 //! [`LeastSquares`] can be trained: the network ([`NetProblem`]) and, in the tests, a linear
 //! least-squares problem whose answer is known in closed form.
 //!
-//! ## Levenberg-Marquardt
-//!
-//! Per epoch, with `H = J^T J` and `g = J^T e` at the current weights:
-//!
-//! ```text
-//! (H + mu I) dtheta = -g      (Cholesky; a failed factorisation counts as a rejected step)
-//! ```
-//!
-//! A step that lowers `L` is taken and `mu <- mu * mu_dec`; otherwise `mu <- mu * mu_inc` and
-//! the step is solved again, until `mu > mu_max` (stop). MATLAB's defaults: `mu = 1e-3`,
-//! `mu_dec = 0.1`, `mu_inc = 10`, `mu_max = 1e10`.
-//!
-//! ## Fletcher-Reeves conjugate gradient
-//!
-//! ```text
-//! d_0 = -g_0;   theta_{k+1} = theta_k + alpha_k d_k,   alpha_k = argmin_alpha L(theta_k + alpha d_k)
-//! beta_k = |g_{k+1}|^2 / |g_k|^2,   d_{k+1} = -g_{k+1} + beta_k d_k
-//! ```
-//!
-//! restarted (`d = -g`) every `P` iterations and whenever `d` is not a descent direction
-//! (`g . d >= 0`). The line search brackets the minimum (golden-ratio expansion, or shrinking
-//! when the first trial step already climbs) and refines it with Brent's method (parabolic
-//! interpolation with golden-section safeguards, MATLAB `srchbre`); it never returns a step
-//! that raises `L`. One epoch is one CG iteration, as in `traincgf`.
-//!
 //! ## Early stopping, restarts
 //!
 //! After each epoch the validation MSE is computed; the weights with the lowest validation
@@ -49,6 +26,8 @@
 //! restart index on a tie). Everything is a deterministic function of the data and the seed:
 //! sums run in a fixed order, and no clock is read.
 
+use super::cg::conjugate_gradient_fr;
+use super::lm::levenberg_marquardt;
 use helmwatch_core::estimator::nn::{n_params, Mlp, Scratch, HIDDEN};
 use nalgebra::{DMatrix, DVector};
 use rand::{Rng, SeedableRng};
@@ -245,7 +224,7 @@ pub struct Fit {
 }
 
 /// Tracks the best validation error for early stopping.
-struct EarlyStop<'v, V: LeastSquares> {
+pub(super) struct EarlyStop<'v, V: LeastSquares> {
     validation: Option<&'v mut V>,
     e: Vec<f64>,
     best: f64,
@@ -257,7 +236,12 @@ struct EarlyStop<'v, V: LeastSquares> {
 }
 
 impl<'v, V: LeastSquares> EarlyStop<'v, V> {
-    fn new(validation: Option<&'v mut V>, theta: &[f64], train_mse: f64, max_fail: usize) -> Self {
+    pub(super) fn new(
+        validation: Option<&'v mut V>,
+        theta: &[f64],
+        train_mse: f64,
+        max_fail: usize,
+    ) -> Self {
         let n = validation.as_ref().map_or(0, |v| v.n_residuals());
         let mut s = Self {
             validation,
@@ -285,7 +269,7 @@ impl<'v, V: LeastSquares> EarlyStop<'v, V> {
     }
 
     /// Records epoch `epoch`; returns true when training must stop.
-    fn update(&mut self, epoch: usize, theta: &[f64], train_mse: f64) -> bool {
+    pub(super) fn update(&mut self, epoch: usize, theta: &[f64], train_mse: f64) -> bool {
         let l = self.loss(theta, train_mse);
         if l < self.best {
             self.best = l;
@@ -300,7 +284,8 @@ impl<'v, V: LeastSquares> EarlyStop<'v, V> {
         }
     }
 
-    fn finish(self, epochs: usize, stop: StopReason) -> Fit {
+    /// The record: the kept parameters and why it stopped after `epochs` epochs.
+    pub(super) fn finish(self, epochs: usize, stop: StopReason) -> Fit {
         let has_val = self.validation.is_some();
         Fit {
             theta: self.best_theta,
@@ -311,299 +296,6 @@ impl<'v, V: LeastSquares> EarlyStop<'v, V> {
             stop,
         }
     }
-}
-
-/// Levenberg-Marquardt from `theta0`. See the module documentation.
-pub fn levenberg_marquardt<P: LeastSquares, V: LeastSquares>(
-    problem: &mut P,
-    validation: Option<&mut V>,
-    theta0: &[f64],
-    opts: &LmOptions,
-) -> Fit {
-    let p = problem.n_params();
-    let n = problem.n_residuals();
-    let mut theta = theta0.to_vec();
-    let mut trial = theta.clone();
-    let mut e = vec![0.0; n];
-    let mut jt = DMatrix::zeros(p, n);
-    let mut h = DMatrix::zeros(p, p);
-    let mut a = DMatrix::zeros(p, p);
-    let mut g = DVector::zeros(p);
-    problem.residuals(&theta, &mut e);
-    let mut loss = mean_square(&e);
-    let mut early = EarlyStop::new(validation, &theta, loss, opts.max_fail);
-    let mut mu = opts.mu;
-    let mut epoch = 0;
-    let stop = loop {
-        if epoch >= opts.max_epochs {
-            break StopReason::MaxEpochs;
-        }
-        problem.jacobian_t(&theta, &mut e, &mut jt);
-        let ev = DVector::from_column_slice(&e);
-        g.gemv(1.0, &jt, &ev, 0.0);
-        if 2.0 * g.norm() / n.max(1) as f64 <= opts.min_grad {
-            break StopReason::MinGradient;
-        }
-        h.gemm(1.0, &jt, &jt.transpose(), 0.0);
-        let mut accepted = false;
-        while mu <= opts.mu_max {
-            a.copy_from(&h);
-            for i in 0..p {
-                a[(i, i)] += mu;
-            }
-            let step = nalgebra::Cholesky::new(a.clone()).map(|c| c.solve(&g));
-            if let Some(step) = step {
-                for i in 0..p {
-                    trial[i] = theta[i] - step[i];
-                }
-                problem.residuals(&trial, &mut e);
-                let l = mean_square(&e);
-                if l.is_finite() && l < loss {
-                    theta.copy_from_slice(&trial);
-                    loss = l;
-                    mu *= opts.mu_dec;
-                    accepted = true;
-                    break;
-                }
-            }
-            mu *= opts.mu_inc;
-        }
-        if !accepted {
-            break StopReason::MaxMu;
-        }
-        epoch += 1;
-        if early.update(epoch, &theta, loss) {
-            break StopReason::ValidationStop;
-        }
-    };
-    early.finish(epoch, stop)
-}
-
-/// Golden ratio, for bracket expansion.
-const GOLD: f64 = 1.618_033_988_749_895;
-/// 1 - 1/golden ratio, for golden-section steps.
-const CGOLD: f64 = 0.381_966_011_250_105;
-
-/// Minimises `phi(alpha)` for `alpha >= 0` given `phi(0) = f0` and a first trial step
-/// `alpha0 > 0`: bracket, then Brent. Returns `(alpha, phi(alpha))` with
-/// `phi(alpha) <= f0` (`alpha = 0` when no lower point was found).
-pub fn line_search(
-    mut phi: impl FnMut(f64) -> f64,
-    f0: f64,
-    alpha0: f64,
-    tol: f64,
-    max_evals: usize,
-) -> (f64, f64) {
-    let mut evals = 0usize;
-    let mut eval = |x: f64, evals: &mut usize| {
-        *evals += 1;
-        let f = phi(x);
-        if f.is_finite() {
-            f
-        } else {
-            f64::INFINITY
-        }
-    };
-    // Bracket 0 <= a < b < c with f(b) < f(a) and f(b) <= f(c).
-    let mut a = 0.0;
-    let mut b = alpha0;
-    let mut fb = eval(alpha0, &mut evals);
-    let mut c;
-    if fb >= f0 {
-        // The first trial climbs: shrink towards 0 until a point below f(0).
-        c = b;
-        loop {
-            if evals >= max_evals || c < 1e-20 * alpha0.max(f64::MIN_POSITIVE) {
-                return (0.0, f0);
-            }
-            b = 0.1 * c;
-            fb = eval(b, &mut evals);
-            if fb < f0 {
-                break;
-            }
-            c = b;
-        }
-    } else {
-        // The first trial descends: expand by the golden ratio until the loss rises.
-        c = b + GOLD * (b - a);
-        let mut fc = eval(c, &mut evals);
-        while fc < fb {
-            if evals >= max_evals {
-                return (c, fc);
-            }
-            a = b;
-            b = c;
-            fb = fc;
-            c = b + GOLD * (b - a);
-            fc = eval(c, &mut evals);
-        }
-    }
-    // Brent's method on [a, c] from x = b.
-    let (mut lo, mut hi) = (a.min(c), a.max(c));
-    let (mut x, mut w, mut v) = (b, b, b);
-    let (mut fx, mut fw, mut fv) = (fb, fb, fb);
-    let (mut d, mut e) = (0.0f64, 0.0f64);
-    while evals < max_evals {
-        let xm = 0.5 * (lo + hi);
-        let tol1 = tol * x.abs() + 1e-30;
-        let tol2 = 2.0 * tol1;
-        if (x - xm).abs() <= tol2 - 0.5 * (hi - lo) {
-            break;
-        }
-        let mut golden = true;
-        if e.abs() > tol1 {
-            let r = (x - w) * (fx - fv);
-            let mut q = (x - v) * (fx - fw);
-            let mut p = (x - v) * q - (x - w) * r;
-            q = 2.0 * (q - r);
-            if q > 0.0 {
-                p = -p;
-            }
-            q = q.abs();
-            let etemp = e;
-            if !(p.abs() >= (0.5 * q * etemp).abs() || p <= q * (lo - x) || p >= q * (hi - x)) {
-                e = d;
-                d = p / q;
-                let u = x + d;
-                if u - lo < tol2 || hi - u < tol2 {
-                    d = tol1.copysign(xm - x);
-                }
-                golden = false;
-            }
-        }
-        if golden {
-            e = if x >= xm { lo - x } else { hi - x };
-            d = CGOLD * e;
-        }
-        let u = if d.abs() >= tol1 {
-            x + d
-        } else {
-            x + tol1.copysign(d)
-        };
-        let fu = eval(u, &mut evals);
-        if fu <= fx {
-            if u >= x {
-                lo = x;
-            } else {
-                hi = x;
-            }
-            v = w;
-            fv = fw;
-            w = x;
-            fw = fx;
-            x = u;
-            fx = fu;
-        } else {
-            if u < x {
-                lo = u;
-            } else {
-                hi = u;
-            }
-            if fu <= fw || w == x {
-                v = w;
-                fv = fw;
-                w = u;
-                fw = fu;
-            } else if fu <= fv || v == x || v == w {
-                v = u;
-                fv = fu;
-            }
-        }
-    }
-    if fx < f0 {
-        (x, fx)
-    } else {
-        (0.0, f0)
-    }
-}
-
-/// Fletcher-Reeves conjugate gradient from `theta0`. See the module documentation.
-pub fn conjugate_gradient_fr<P: LeastSquares, V: LeastSquares>(
-    problem: &mut P,
-    validation: Option<&mut V>,
-    theta0: &[f64],
-    opts: &CgfOptions,
-) -> Fit {
-    let p = problem.n_params();
-    let n = problem.n_residuals();
-    let scale = 2.0 / n.max(1) as f64;
-    let mut theta = theta0.to_vec();
-    let mut trial = theta.clone();
-    let mut e = vec![0.0; n];
-    let mut jt = DMatrix::zeros(p, n);
-    let mut g = DVector::zeros(p);
-    // Loss and gradient of the MSE at theta.
-    let mut grad = |problem: &mut P, theta: &[f64], g: &mut DVector<f64>, e: &mut [f64]| {
-        problem.jacobian_t(theta, e, &mut jt);
-        let ev = DVector::from_column_slice(e);
-        g.gemv(scale, &jt, &ev, 0.0);
-        mean_square(e)
-    };
-    let mut loss = grad(problem, &theta, &mut g, &mut e);
-    let mut early = EarlyStop::new(validation, &theta, loss, opts.max_fail);
-    let mut d = -&g;
-    let mut gg = g.norm_squared();
-    let mut alpha_prev = 1e-2 / d.amax().max(1e-12);
-    let mut since_restart = 0usize;
-    let mut epoch = 0;
-    let stop = loop {
-        if epoch >= opts.max_epochs {
-            break StopReason::MaxEpochs;
-        }
-        if gg.sqrt() <= opts.min_grad {
-            break StopReason::MinGradient;
-        }
-        if g.dot(&d) >= 0.0 {
-            // Not a descent direction: restart on steepest descent.
-            d = -&g;
-            since_restart = 0;
-        }
-        let (alpha, _) = line_search(
-            |a| {
-                for i in 0..p {
-                    trial[i] = theta[i] + a * d[i];
-                }
-                problem.residuals(&trial, &mut e);
-                mean_square(&e)
-            },
-            loss,
-            alpha_prev,
-            opts.line_tol,
-            opts.line_max_evals,
-        );
-        if alpha == 0.0 {
-            if since_restart == 0 {
-                break StopReason::NoProgress;
-            }
-            // Lost descent along the conjugate direction: restart on steepest descent.
-            d = -&g;
-            since_restart = 0;
-            continue;
-        }
-        let d_norm = d.norm();
-        for i in 0..p {
-            theta[i] += alpha * d[i];
-        }
-        loss = grad(problem, &theta, &mut g, &mut e);
-        let gg_new = g.norm_squared();
-        since_restart += 1;
-        if since_restart >= p {
-            d = -&g;
-            since_restart = 0;
-        } else {
-            let beta = gg_new / gg;
-            d *= beta;
-            d -= &g;
-        }
-        gg = gg_new;
-        // Next first trial: the same step length along the new direction.
-        alpha_prev = alpha * d_norm / d.norm().max(1e-300);
-        epoch += 1;
-        if early.update(epoch, &theta, loss) {
-            break StopReason::ValidationStop;
-        }
-    };
-    early.finish(epoch, stop)
 }
 
 /// Nguyen-Widrow initial weights (MATLAB `initnw`) for inputs scaled to [-1, 1], from `rng`.

@@ -1,7 +1,11 @@
-//! Tests of [`super`] (`train.rs`), kept beside it so that the module reads in one screenful
-//! of code; they check it against independent answers.
+//! Tests of [`super`] (`train.rs`) and of its trainers (`lm.rs`, `cg.rs`, `line_search.rs`),
+//! kept beside it so that the module reads in one screenful of code; they check them against
+//! independent answers.
 
 use super::*;
+use crate::tools::training::cg::conjugate_gradient_fr;
+use crate::tools::training::line_search::line_search;
+use crate::tools::training::lm::levenberg_marquardt;
 use nalgebra::DMatrix;
 
 /// Linear least squares: e = A theta - y.

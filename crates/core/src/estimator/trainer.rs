@@ -1,5 +1,5 @@
 //! What a model file records of its training: the trainer, its settings, and why it
-//! stopped. The trainers themselves are tools (`crate::tools::training::train`).
+//! stopped. The trainers themselves are the service's tools (`tools::training::lm`, `cg`).
 
 use serde::{Deserialize, Serialize};
 

@@ -41,11 +41,12 @@
 //! | envelope, faults | a speed change of 1.5 m/s, then D +-10 % 4 tests of the ship later (window 3 tests of the ship), or D +-25 % with the change (window 2) | false alarms before the onset, detection and isolation within the window |
 //! | commissioning | D +-12 %, speed log +0.5 m/s, servo 2 deg/s arising before commissioning test k of the ship (k in 2..6), and a healthy commissioning | runs flagged (track alert or alarm, or `fault`) from the onset through the confirmation (as many tests of the ship after commissioning as it had); false flags; "commissioning inconsistent" |
 //!
-//! Files: `scenarios` (the scenarios and the draw of a run), `run` (one run), `score` (the
+//! Files: `scenarios` (the scenarios), `draw` (the draw of a run), `run` (one run), `score` (the
 //! figures), `tables` (printing), `outcomes` (the JSON-lines file).
 
 pub mod ablate;
 pub mod compare;
+pub mod draw;
 mod outcomes;
 pub mod run;
 pub mod scenarios;

@@ -2,13 +2,15 @@
 //! after the other, the operating point changed and the fault injected on schedule, and each
 //! report read into a [`TestOutcome`].
 
-use super::scenarios::{draw, FdiScenario, Onset, ScenarioSet};
+use super::draw::{draw, DrawnChange};
+use super::scenarios::{FdiScenario, Onset, ScenarioSet};
 use super::FdiEvalOptions;
 use crate::config::Config;
 use helmwatch_core::drivers::probe::Lockstep;
 use helmwatch_core::estimator::Estimator;
 use helmwatch_core::model::SeaState;
 use helmwatch_core::monitor::{Monitor, Output};
+use helmwatch_core::sim::{Scenario, SimError};
 use helmwatch_core::wire::features::ToneFeatures;
 use helmwatch_core::wire::residuals::TrackState;
 use helmwatch_core::wire::Method;
@@ -136,6 +138,19 @@ pub struct RunOutcome {
 }
 
 impl RunOutcome {
+    /// A run of the drawn ship, its tests to come.
+    fn drawn(scenario: &Scenario, change: Option<DrawnChange>) -> Self {
+        RunOutcome {
+            speed_mps: scenario.speed_mps,
+            displacement_t: scenario.displacement_t,
+            speed_after_mps: change.and_then(|c| c.speed_mps).unwrap_or(f64::NAN),
+            declared_after_t: change.and_then(|c| c.displacement_t).unwrap_or(f64::NAN),
+            commissioning: Vec::new(),
+            tests: Vec::new(),
+            error: None,
+        }
+    }
+
     fn broken(error: String) -> Self {
         RunOutcome {
             speed_mps: f64::NAN,
@@ -328,15 +343,7 @@ pub fn run_one(
     };
     let (scenario, cfg, late) = (&drawn.scenario, &drawn.cfg, &drawn.late);
     let change = drawn.change;
-    let mut run = RunOutcome {
-        speed_mps: scenario.speed_mps,
-        displacement_t: scenario.displacement_t,
-        speed_after_mps: change.and_then(|c| c.speed_mps).unwrap_or(f64::NAN),
-        declared_after_t: change.and_then(|c| c.displacement_t).unwrap_or(f64::NAN),
-        commissioning: Vec::new(),
-        tests: Vec::new(),
-        error: None,
-    };
+    let mut run = RunOutcome::drawn(scenario, change);
     let Some(&first) = methods.first() else {
         run.error = Some("no method to run".into());
         return run;
@@ -353,17 +360,10 @@ pub fn run_one(
     // A classic fault is present from the start when commissioning is off.
     let mut injected = sc.fault.is_some() && late.is_empty();
     let mut changed = false;
-    let ms = Monitor::design_multisine(&cfg.core()).ok();
-    let mut ls = match Lockstep::with_parts(
-        &cfg.core(),
-        &cfg.sim(),
-        scenario,
-        ms,
-        Some(estimator.clone()),
-    ) {
+    let mut ls = match lockstep(cfg, scenario, estimator) {
         Ok(ls) => ls,
         Err(e) => {
-            run.error = Some(e.to_string());
+            run.error = Some(e);
             return run;
         }
     };
@@ -378,15 +378,10 @@ pub fn run_one(
     let mut extra: isize = 0;
     loop {
         let raw = run.commissioning.len() + run.tests.len();
-        let planned = raw as isize - extra;
-        let commissioned = || methods.iter().all(|&m| ls.monitor.method_commissioned(m));
         if sc.group != ScenarioSet::Commissioning {
-            let end = plan.commissioning as isize;
-            if planned < end && raw > 0 && commissioned() {
-                extra = raw as isize - end;
-            } else if planned == end && extra < end && !commissioned() {
-                extra += 1;
-            }
+            extra = stretch_commissioning(extra, raw, plan.commissioning, || {
+                methods.iter().all(|&m| ls.monitor.method_commissioned(m))
+            });
         }
         let method = methods.get(raw % methods.len()).copied().unwrap_or(first);
         let done = (raw as isize - extra).max(0) as usize;
@@ -395,23 +390,7 @@ pub fn run_one(
         }
         if plan.change_at == Some(done) && !changed {
             changed = true;
-            let c = change.unwrap_or(super::scenarios::DrawnChange {
-                speed_mps: None,
-                displacement_t: None,
-                sea: None,
-            });
-            let applied = c
-                .speed_mps
-                .map_or(Ok(()), |u| ls.ship.set_speed_mps(u))
-                .and_then(|()| {
-                    c.displacement_t
-                        .map_or(Ok(()), |d| ls.ship.set_loading_t(d))
-                })
-                .and_then(|()| {
-                    c.sea
-                        .map_or(Ok(()), |s| ls.ship.set_sea(cfg.sim().sea.levels(s)))
-                });
-            if let Err(e) = applied {
+            if let Err(e) = apply_change(&mut ls, change, cfg) {
                 run.error = Some(format!("the operating point cannot change: {e}"));
                 return run;
             }
@@ -424,58 +403,16 @@ pub fn run_one(
         }
         ls.run_until(next, &mut out);
         out.clear();
-        // Trigger, retried each second for up to one warm-up (the course must be steady).
-        let give_up = ls.time_s() + o.warmup_s;
-        let t_trigger = loop {
-            if ls.trigger(method).accepted {
-                break Some(ls.time_s());
-            }
-            if ls.time_s() > give_up {
-                break None;
-            }
-            let t = ls.time_s();
-            ls.run_until(t + 1.0, &mut out);
-            out.clear();
-        };
-        let Some(t_trigger) = t_trigger else {
+        let Some(t_trigger) = trigger(&mut ls, method, o.warmup_s, &mut out) else {
             run.error = Some("the monitor refused the test".into());
             return run;
         };
-        let mut report = None;
-        while report.is_none() && ls.time_s() < t_trigger + max_test_s {
-            ls.tick(&mut out, false);
-            for x in out.drain(..) {
-                if let Output::Report(r) = x {
-                    report = Some(r);
-                }
-            }
-        }
-        let Some(r) = report else {
+        let Some(r) = await_report(&mut ls, t_trigger + max_test_s, &mut out) else {
             run.error = Some("no report in time".into());
             return run;
         };
-        let mut t = outcome_of(&r);
-        if let Some(c) = helmwatch_core::fdi::raw::measurement_cov(
-            r.method,
-            &r.features,
-            estimator,
-            &mut estimator.scratch(),
-            t.displacement_nominal_t,
-        ) {
-            t.meas_sd = c.variances().map(f64::sqrt);
-        }
-        t.fault_present = injected;
-        t.phase = if done < plan.commissioning {
-            Phase::Commissioning
-        } else if classic {
-            Phase::Test
-        } else if injected {
-            Phase::AfterFault
-        } else if changed {
-            Phase::AfterChange
-        } else {
-            Phase::BeforeChange
-        };
+        let phase = phase_of(done, &plan, classic, injected, changed);
+        let t = read_report(&r, estimator, phase, injected);
         if done < plan.commissioning {
             run.commissioning.push(t);
         } else {
@@ -484,4 +421,136 @@ pub fn run_one(
         next = ls.time_s() + o.gap_s;
     }
     run
+}
+
+/// The drawn ship and a monitor (with the design's multisine, when it has one, and the suite's
+/// estimator) in lockstep.
+fn lockstep(
+    cfg: &Config,
+    scenario: &Scenario,
+    estimator: &Arc<Estimator>,
+) -> Result<Lockstep, String> {
+    let ms = Monitor::design_multisine(&cfg.core()).ok();
+    Lockstep::with_parts(
+        &cfg.core(),
+        &cfg.sim(),
+        scenario,
+        ms,
+        Some(estimator.clone()),
+    )
+    .map_err(|e| e.to_string())
+}
+
+/// Changes the ship's operating point as drawn (speed, declared loading, sea; each when
+/// drawn, in that order).
+fn apply_change(
+    ls: &mut Lockstep,
+    change: Option<DrawnChange>,
+    cfg: &Config,
+) -> Result<(), SimError> {
+    let c = change.unwrap_or(DrawnChange {
+        speed_mps: None,
+        displacement_t: None,
+        sea: None,
+    });
+    c.speed_mps
+        .map_or(Ok(()), |u| ls.ship.set_speed_mps(u))
+        .and_then(|()| {
+            c.displacement_t
+                .map_or(Ok(()), |d| ls.ship.set_loading_t(d))
+        })
+        .and_then(|()| {
+            c.sea
+                .map_or(Ok(()), |s| ls.ship.set_sea(cfg.sim().sea.levels(s)))
+        })
+}
+
+/// Triggers `method`, retried each second for up to one warm-up (the course must be steady).
+/// The time it was accepted, or `None` when the monitor kept refusing.
+fn trigger(ls: &mut Lockstep, method: Method, warmup_s: f64, out: &mut Vec<Output>) -> Option<f64> {
+    let give_up = ls.time_s() + warmup_s;
+    loop {
+        if ls.trigger(method).accepted {
+            break Some(ls.time_s());
+        }
+        if ls.time_s() > give_up {
+            break None;
+        }
+        let t = ls.time_s();
+        ls.run_until(t + 1.0, out);
+        out.clear();
+    }
+}
+
+/// Ticks until the test's report (the last one of a tick, if several), or `None` at `until_s`.
+fn await_report(ls: &mut Lockstep, until_s: f64, out: &mut Vec<Output>) -> Option<Box<Report>> {
+    let mut report = None;
+    while report.is_none() && ls.time_s() < until_s {
+        ls.tick(out, false);
+        for x in out.drain(..) {
+            if let Output::Report(r) = x {
+                report = Some(r);
+            }
+        }
+    }
+    report
+}
+
+/// The commissioning's stretch: `extra` tests of the ship past its planned end (negative:
+/// it ended sooner), given `raw` tests so far, its planned `end` and whether every method is
+/// `commissioned` now. It ends as soon as every method has its reference and goes on, one test
+/// at a time, while one has none, for at most `end` tests more.
+fn stretch_commissioning(
+    extra: isize,
+    raw: usize,
+    end: usize,
+    commissioned: impl Fn() -> bool,
+) -> isize {
+    let planned = raw as isize - extra;
+    let end = end as isize;
+    if planned < end && raw > 0 && commissioned() {
+        raw as isize - end
+    } else if planned == end && extra < end && !commissioned() {
+        extra + 1
+    } else {
+        extra
+    }
+}
+
+/// A test's place in the schedule: `done` tests of the ship before it.
+fn phase_of(done: usize, plan: &Schedule, classic: bool, injected: bool, changed: bool) -> Phase {
+    if done < plan.commissioning {
+        Phase::Commissioning
+    } else if classic {
+        Phase::Test
+    } else if injected {
+        Phase::AfterFault
+    } else if changed {
+        Phase::AfterChange
+    } else {
+        Phase::BeforeChange
+    }
+}
+
+/// A report read into a [`TestOutcome`], with its measurement's standard deviations, its
+/// `phase` and whether the fault was present.
+fn read_report(
+    r: &Report,
+    estimator: &Arc<Estimator>,
+    phase: Phase,
+    fault_present: bool,
+) -> TestOutcome {
+    let mut t = outcome_of(r);
+    if let Some(c) = helmwatch_core::fdi::raw::measurement_cov(
+        r.method,
+        &r.features,
+        estimator,
+        &mut estimator.scratch(),
+        t.displacement_nominal_t,
+    ) {
+        t.meas_sd = c.variances().map(f64::sqrt);
+    }
+    t.fault_present = fault_present;
+    t.phase = phase;
+    t
 }

@@ -1,13 +1,8 @@
-//! The suite's scenarios and the draw of one run: the ship's operating point, its faults and,
-//! for the envelope and commissioning scenarios, the change of operating point and the
-//! fault's onset.
+//! The suite's scenarios: the classic, the family's, the envelope's and the commissioning's,
+//! each with its fault, its ranges of (u, D), its change of operating point and its onset
+//! (their draw for one run is `draw`'s).
 
-use crate::config::Config;
-use helmwatch_core::model::SeaState;
-use helmwatch_core::sim::{Fault, Scenario};
 use helmwatch_core::wire::Cause;
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 
 /// Which part of the suite a scenario belongs to (`--scenarios`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -257,8 +252,24 @@ const LOADING: [f64; 2] = [-0.3, 0.2];
 /// then the same for a sea that rises a state, then for one that falls. A row's seeds follow
 /// its place in the list: new rows go at its end.
 pub fn envelope_scenarios() -> Vec<FdiScenario> {
-    let disp = Some(Cause::DisplacementOrRudderEffectiveness);
-    let e = |name, fault, expected, displacement_t, change, onset, window_tests| FdiScenario {
+    let mut rows = envelope_healthy();
+    rows.extend(envelope_speed_faults());
+    // Last: each row's seeds follow its place in this list.
+    rows.extend(envelope_sea());
+    rows
+}
+
+/// An envelope scenario: the change when commissioning ends, the fault (if any) at `onset`.
+fn envelope(
+    name: &'static str,
+    fault: Option<&'static str>,
+    expected: Option<Cause>,
+    displacement_t: Option<[f64; 2]>,
+    change: Change,
+    onset: Onset,
+    window_tests: Option<usize>,
+) -> FdiScenario {
+    FdiScenario {
         name,
         fault,
         drift: false,
@@ -269,34 +280,39 @@ pub fn envelope_scenarios() -> Vec<FdiScenario> {
         change: Some(change),
         onset,
         window_tests,
-    };
-    let speed = |speed_mps| Change {
+    }
+}
+
+/// A change of speed only, its magnitude one of `speed_mps`.
+fn speed_change(speed_mps: &'static [f64]) -> Change {
+    Change {
         speed_mps,
         loading: None,
         sea: SeaChange::Stays,
-    };
-    let sea = Change {
-        speed_mps: &[],
-        loading: None,
-        sea: SeaChange::Rises,
-    };
-    let calmer = Change {
-        sea: SeaChange::Falls,
-        ..sea
-    };
+    }
+}
+
+/// The range of D for a displacement fault of +-10 %: D (1 +- 0.1) stays in the family's
+/// 4000..10000 t (on another class's box, mapped linearly by `on_box`, within a few per cent
+/// of it).
+fn d_pm10() -> Option<[f64; 2]> {
+    Some([4000.0 / 0.9, 10000.0 / 1.1])
+}
+
+/// The healthy envelope: the speed, the declared loading, or both change.
+fn envelope_healthy() -> Vec<FdiScenario> {
+    let e = envelope;
     let after = Onset::AfterCommissioning;
-    // D (1 + x) stays in the family's 4000..10000 t for every x drawn or faulted (on another
-    // class's box, mapped linearly by `on_box`, within a few per cent of it).
+    // D (1 + x) stays in the family's 4000..10000 t for every x drawn (on another class's
+    // box, mapped linearly by `on_box`, within a few per cent of it).
     let loaded = Some([4000.0 / (1.0 + LOADING[0]), 10000.0 / (1.0 + LOADING[1])]);
-    let d_pm10 = Some([4000.0 / 0.9, 10000.0 / 1.1]);
-    let d_pm25 = Some([4000.0 / 0.75, 10000.0 / 1.25]);
     vec![
         e(
             "envelope: speed +-0.5..2 m/s",
             None,
             None,
             None,
-            speed(ENVELOPE_SPEEDS_MPS),
+            speed_change(ENVELOPE_SPEEDS_MPS),
             after,
             None,
         ),
@@ -326,12 +342,21 @@ pub fn envelope_scenarios() -> Vec<FdiScenario> {
             after,
             None,
         ),
+    ]
+}
+
+/// Displacement faults after a speed change of 1.5 m/s: +-10 % 4 tests later, +-25 % with it.
+fn envelope_speed_faults() -> Vec<FdiScenario> {
+    let e = envelope;
+    let disp = Some(Cause::DisplacementOrRudderEffectiveness);
+    let d_pm25 = Some([4000.0 / 0.75, 10000.0 / 1.25]);
+    vec![
         e(
             "envelope: speed 1.5 m/s, D +10 % 4 tests later",
             Some("displacement_pct:10@0"),
             disp,
-            d_pm10,
-            speed(FAULT_SPEED_MPS),
+            d_pm10(),
+            speed_change(FAULT_SPEED_MPS),
             Onset::AfterChange(4),
             Some(3),
         ),
@@ -339,8 +364,8 @@ pub fn envelope_scenarios() -> Vec<FdiScenario> {
             "envelope: speed 1.5 m/s, D -10 % 4 tests later",
             Some("displacement_pct:-10@0"),
             disp,
-            d_pm10,
-            speed(FAULT_SPEED_MPS),
+            d_pm10(),
+            speed_change(FAULT_SPEED_MPS),
             Onset::AfterChange(4),
             Some(3),
         ),
@@ -349,8 +374,8 @@ pub fn envelope_scenarios() -> Vec<FdiScenario> {
             Some("displacement_pct:25@0"),
             disp,
             d_pm25,
-            speed(FAULT_SPEED_MPS),
-            after,
+            speed_change(FAULT_SPEED_MPS),
+            Onset::AfterCommissioning,
             Some(2),
         ),
         e(
@@ -358,17 +383,35 @@ pub fn envelope_scenarios() -> Vec<FdiScenario> {
             Some("displacement_pct:-25@0"),
             disp,
             d_pm25,
-            speed(FAULT_SPEED_MPS),
-            after,
+            speed_change(FAULT_SPEED_MPS),
+            Onset::AfterCommissioning,
             Some(2),
         ),
-        // Last: each row's seeds follow its place in this list.
+    ]
+}
+
+/// The sea rises a state (healthy, then D +-10 % 4 tests later), then falls a state (healthy,
+/// then D +10 % 4 tests later).
+fn envelope_sea() -> Vec<FdiScenario> {
+    let e = envelope;
+    let disp = Some(Cause::DisplacementOrRudderEffectiveness);
+    let rises = Change {
+        speed_mps: &[],
+        loading: None,
+        sea: SeaChange::Rises,
+    };
+    let falls = Change {
+        sea: SeaChange::Falls,
+        ..rises
+    };
+    let after = Onset::AfterCommissioning;
+    vec![
         e(
             "envelope: the sea rises a state",
             None,
             None,
             None,
-            sea,
+            rises,
             after,
             None,
         ),
@@ -376,8 +419,8 @@ pub fn envelope_scenarios() -> Vec<FdiScenario> {
             "envelope: the sea rises, D +10 % 4 tests later",
             Some("displacement_pct:10@0"),
             disp,
-            d_pm10,
-            sea,
+            d_pm10(),
+            rises,
             Onset::AfterChange(4),
             Some(3),
         ),
@@ -385,8 +428,8 @@ pub fn envelope_scenarios() -> Vec<FdiScenario> {
             "envelope: the sea rises, D -10 % 4 tests later",
             Some("displacement_pct:-10@0"),
             disp,
-            d_pm10,
-            sea,
+            d_pm10(),
+            rises,
             Onset::AfterChange(4),
             Some(3),
         ),
@@ -395,7 +438,7 @@ pub fn envelope_scenarios() -> Vec<FdiScenario> {
             None,
             None,
             None,
-            calmer,
+            falls,
             after,
             None,
         ),
@@ -403,8 +446,8 @@ pub fn envelope_scenarios() -> Vec<FdiScenario> {
             "envelope: the sea falls, D +10 % 4 tests later",
             Some("displacement_pct:10@0"),
             disp,
-            d_pm10,
-            calmer,
+            d_pm10(),
+            falls,
             Onset::AfterChange(4),
             Some(3),
         ),
@@ -488,174 +531,4 @@ pub fn commissioning_scenarios() -> Vec<FdiScenario> {
             SeaChange::Falls,
         ),
     ]
-}
-
-/// The drawn change of operating point.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct DrawnChange {
-    /// The new speed [m/s] (`None`: unchanged).
-    pub speed_mps: Option<f64>,
-    /// The new, declared displacement [t] (`None`: unchanged, nothing declared).
-    pub displacement_t: Option<f64>,
-    /// The new sea state (`None`: unchanged).
-    pub sea: Option<SeaState>,
-}
-
-/// One run as drawn.
-#[derive(Debug, Clone)]
-pub struct Drawn {
-    /// The simulated ship.
-    pub scenario: Scenario,
-    /// The configuration (its nominal displacement the drawn D, its scheduler off).
-    pub cfg: Config,
-    /// Faults that arise during the run (at the onset).
-    pub late: Vec<Fault>,
-    /// The change at commissioning's end.
-    pub change: Option<DrawnChange>,
-    /// Commissioning scenarios: the onset's test of the ship (1 is the first).
-    pub onset_test: Option<usize>,
-}
-
-/// A scenario's range, stated on the family's box (4..10 m/s, 4000..10000 t: the default
-/// `ship.*-range`, docs/architecture.md "The model and its units"), mapped linearly onto the
-/// configured box (a vessel of another class, `train --vessel`); the same numbers when the
-/// configured box is the family's.
-fn on_box(range: [f64; 2], family: [f64; 2], configured: [f64; 2]) -> [f64; 2] {
-    if configured == family {
-        return range;
-    }
-    let k = (configured[1] - configured[0]) / (family[1] - family[0]);
-    range.map(|x| configured[0] + (x - family[0]) * k)
-}
-
-/// Draws the run's ship and fault list. With `corner = Some(k)` the ship sits at corner
-/// `k % 4` of the scenario's (u, D) box (low/high speed, low/high displacement) instead of a
-/// random point. The classic draws (u, D, drift, the ship's seed) come first, so the classic
-/// runs are the same whatever else a scenario draws after them.
-pub fn draw(
-    cfg: &Config,
-    sc: &FdiScenario,
-    sea: SeaState,
-    seed: u64,
-    corner: Option<usize>,
-) -> Result<Drawn, String> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let family = helmwatch_core::model::ShipConfig::default();
-    let [u_lo, u_hi] = sc.speed_mps.map_or(cfg.ship.speed_range_mps, |r| {
-        on_box(r, family.speed_range_mps, cfg.ship.speed_range_mps)
-    });
-    let [d_lo, d_hi] = sc
-        .displacement_t
-        .map_or(cfg.ship.displacement_range_t, |r| {
-            on_box(
-                r,
-                family.displacement_range_t,
-                cfg.ship.displacement_range_t,
-            )
-        });
-    let mut u = rng.gen_range(u_lo..=u_hi);
-    let mut d = rng.gen_range(d_lo..=d_hi);
-    if let Some(k) = corner {
-        u = if k % 2 == 0 { u_lo } else { u_hi };
-        d = if (k / 2) % 2 == 0 { d_lo } else { d_hi };
-    }
-    let mut faults = Vec::new();
-    let mut late = Vec::new();
-    if let Some(f) = sc.fault {
-        let f = f.parse::<Fault>().map_err(|e| e.to_string())?;
-        // With commissioning, the fault appears once the vessel is commissioned; the other
-        // sets place it themselves.
-        if cfg.fdi.commissioning_tests > 0 || sc.group != ScenarioSet::Classic {
-            late.push(f);
-        } else {
-            faults.push(f);
-        }
-    }
-    if sc.drift {
-        let v = rng.gen_range(0.25..=1.0) * if rng.gen_bool(0.5) { 1.0 } else { -1.0 };
-        let spec = format!("heading_drift_deg_per_min:{v}@0");
-        faults.push(spec.parse::<Fault>().map_err(|e| e.to_string())?);
-    }
-    let mut cfg = cfg.clone();
-    cfg.ship.nominal_displacement_t = d;
-    cfg.scheduler.enabled = false;
-    let scenario = Scenario {
-        speed_mps: u,
-        displacement_t: d,
-        sea,
-        faults,
-        seed: rng.gen(),
-    };
-    let change = match sc.change {
-        Some(c) => Some(draw_change(
-            &mut rng,
-            &c,
-            u,
-            d,
-            cfg.ship.speed_range_mps,
-            sea,
-        )?),
-        None => None,
-    };
-    let onset_test = match sc.onset {
-        Onset::InCommissioning([lo, hi]) => Some(rng.gen_range(lo..=hi)),
-        _ => None,
-    };
-    Ok(Drawn {
-        scenario,
-        cfg,
-        late,
-        change,
-        onset_test,
-    })
-}
-
-/// Draws a change from (u [m/s], D [t]): a magnitude of `c.speed_mps`, its sign among those
-/// that keep the speed in `range`, a loading fraction in `c.loading`, and the sea one state
-/// above or below `sea` when it rises or falls (no draw).
-fn draw_change(
-    rng: &mut ChaCha8Rng,
-    c: &Change,
-    u: f64,
-    d: f64,
-    [lo, hi]: [f64; 2],
-    sea: SeaState,
-) -> Result<DrawnChange, String> {
-    let speed_mps = match c.speed_mps {
-        [] => None,
-        sizes => {
-            let m = sizes[rng.gen_range(0..sizes.len())];
-            let (up, down) = (u + m <= hi + 1e-9, u - m >= lo - 1e-9);
-            let sign = match (up, down) {
-                (true, true) => {
-                    if rng.gen_bool(0.5) {
-                        1.0
-                    } else {
-                        -1.0
-                    }
-                }
-                (true, false) => 1.0,
-                (false, true) => -1.0,
-                (false, false) => {
-                    return Err(format!(
-                        "a speed change of {m} m/s from {u:.2} m/s leaves {lo}..{hi} m/s"
-                    ))
-                }
-            };
-            Some(u + sign * m)
-        }
-    };
-    let displacement_t = c.loading.map(|[a, b]| d * (1.0 + rng.gen_range(a..=b)));
-    let sea = match (c.sea, sea) {
-        (SeaChange::Stays, _) => None,
-        (SeaChange::Rises, SeaState::Calm) => Some(SeaState::Moderate),
-        (SeaChange::Rises, SeaState::Moderate | SeaState::Rough) => Some(SeaState::Rough),
-        (SeaChange::Falls, SeaState::Calm | SeaState::Moderate) => Some(SeaState::Calm),
-        (SeaChange::Falls, SeaState::Rough) => Some(SeaState::Moderate),
-    };
-    Ok(DrawnChange {
-        speed_mps,
-        displacement_t,
-        sea,
-    })
 }

@@ -3,7 +3,9 @@
 
 use super::outcomes::write_outcomes;
 use super::run::{run_one, RunOutcome};
-use super::score::{operating_point, pct, quantiles, score, score_commissioning, score_envelope};
+use super::score::{
+    operating_point, pct, quantiles, score, score_commissioning, score_envelope, Cell,
+};
 use super::RowFigures;
 use super::{FdiEvalOptions, Row};
 use crate::tools::training::database::par_map;
@@ -90,51 +92,9 @@ pub(super) fn classic_table(
         if let Some(w) = outcomes.as_mut() {
             write_outcomes(w, &row.label, sea, &runs);
         }
-        {
-            let all = || runs.iter().flat_map(|r| r.tests.iter());
-            let zs: Vec<[f64; 3]> = all().map(|t| t.z).filter(|z| z[0].is_finite()).collect();
-            if !zs.is_empty() {
-                let n = zs.len() as f64;
-                let m = |i: usize| zs.iter().map(|z| z[i]).sum::<f64>() / n;
-                let sd = |i: usize| {
-                    let mi = m(i);
-                    (zs.iter().map(|z| (z[i] - mi).powi(2)).sum::<f64>() / n).sqrt()
-                };
-                let (m0, m1) = (m(0), m(1));
-                let cov = zs.iter().map(|z| (z[0] - m0) * (z[1] - m1)).sum::<f64>() / n;
-                notes.push(format!(
-                    "{}: z_speed mean {:+.2} sd {:.2}, z_displacement mean {:+.2} sd {:.2}, correlation {:+.2}",
-                    row.label,
-                    m0,
-                    sd(0),
-                    m1,
-                    sd(1),
-                    cov / (sd(0) * sd(1))
-                ));
-            }
-        }
+        notes.extend(z_note(&row.label, &runs));
         if sc.expected.is_none() {
-            let all = || runs.iter().flat_map(|r| r.tests.iter());
-            for (what, v) in [
-                ("chi2", all().map(|t| t.q_param).collect::<Vec<_>>()),
-                (
-                    "commissioning chi2",
-                    runs.iter()
-                        .flat_map(|r| r.commissioning.iter())
-                        .map(|t| t.q_param)
-                        .collect(),
-                ),
-                ("servo-check chi2", all().map(|t| t.q_actuator).collect()),
-                ("model-fit chi2", all().map(|t| t.fit_chi2).collect()),
-                ("sea index", all().map(|t| t.sea_index).collect()),
-            ] {
-                if let Some((m, p99, mx)) = quantiles(v) {
-                    notes.push(format!(
-                        "{}: {what} median {m:.4}, 99th percentile {p99:.4}, max {mx:.4}",
-                        row.label
-                    ));
-                }
-            }
+            healthy_notes(&row.label, &runs, &mut notes);
         }
         // The baseline's rows only when its estimate exists (features.baseline).
         let has_baseline = runs
@@ -150,77 +110,148 @@ pub(super) fn classic_table(
             &[("ours", false)]
         };
         for &(who, baseline) in whos {
-            let c2 = score(&runs, sc.expected, 2 * turns, baseline);
-            let c3 = score(&runs, sc.expected, 3 * turns, baseline);
-            let c4 = score(&runs, sc.expected, 4 * turns, baseline);
-            let nominal = sc.expected.is_none();
-            if !baseline {
-                figures.push(RowFigures {
-                    set: "classic".into(),
-                    sea: sea.name().into(),
-                    scenario: row.label.clone(),
-                    runs: c3.runs,
-                    healthy: nominal,
-                    tests: c3.tests,
-                    false_alarm_tests: if nominal { c3.fault_tests } else { 0 },
-                    detected: c3.detected,
-                    named: Some(c3.isolated_within),
-                    alerts: if nominal {
-                        super::alerts(&runs)
-                    } else {
-                        [0, 0]
-                    },
-                    inconsistent: None,
-                });
-            }
-            let fa = if nominal {
-                format!(
-                    "{} / {} ({})",
-                    c2.fault_tests,
-                    c2.fault_runs,
-                    pct(c2.fault_tests, c2.tests)
-                )
-            } else {
-                "-".into()
-            };
-            let dash = || -> [String; 8] { std::array::from_fn(|_| "-".to_string()) };
-            let [det2, det3, delay, det4, iso, iso2, iso3, iso4] = if nominal {
-                dash()
-            } else {
-                [
-                    pct(c2.detected, c2.runs),
-                    pct(c3.detected, c3.runs),
-                    if c4.detected > 0 {
-                        format!("{:.2}", c4.delay_sum as f64 / c4.detected as f64)
-                    } else {
-                        "-".into()
-                    },
-                    pct(c4.detected, c4.runs),
-                    pct(c4.isolated, c4.runs),
-                    pct(c2.isolated_within, c2.runs),
-                    pct(c3.isolated_within, c3.runs),
-                    pct(c4.isolated_within, c4.runs),
-                ]
-            };
-            let _ = writeln!(
-        out,
-
-                "| {} | {who} | {} | {} | {fa} | {det2} | {det3} | {delay} | {det4} | {iso} | {iso2} | {iso3} | {iso4} | {}{} |",
-                row.label,
-                c2.runs,
-                c2.tests,
-                c2.aborted,
-                if c2.broken > 0 {
-                    format!(" ({} runs broken)", c2.broken)
-                } else {
-                    String::new()
-                }
-            );
+            classic_row(row, who, baseline, &runs, sea, turns, out, figures);
         }
     }
     out.push('\n');
     for n in notes {
         let _ = writeln!(out, "- {n}");
+    }
+}
+
+/// The note on a row's normalised speed and displacement residuals over its tests after
+/// commissioning: their means, standard deviations and correlation (none without residuals).
+fn z_note(label: &str, runs: &[RunOutcome]) -> Option<String> {
+    let all = || runs.iter().flat_map(|r| r.tests.iter());
+    let zs: Vec<[f64; 3]> = all().map(|t| t.z).filter(|z| z[0].is_finite()).collect();
+    if zs.is_empty() {
+        return None;
+    }
+    let n = zs.len() as f64;
+    let m = |i: usize| zs.iter().map(|z| z[i]).sum::<f64>() / n;
+    let sd = |i: usize| {
+        let mi = m(i);
+        (zs.iter().map(|z| (z[i] - mi).powi(2)).sum::<f64>() / n).sqrt()
+    };
+    let (m0, m1) = (m(0), m(1));
+    let cov = zs.iter().map(|z| (z[0] - m0) * (z[1] - m1)).sum::<f64>() / n;
+    Some(format!(
+        "{}: z_speed mean {:+.2} sd {:.2}, z_displacement mean {:+.2} sd {:.2}, correlation {:+.2}",
+        label,
+        m0,
+        sd(0),
+        m1,
+        sd(1),
+        cov / (sd(0) * sd(1))
+    ))
+}
+
+/// A healthy row's notes: the median, 99th percentile and largest of its chi-squares (the
+/// parameters', the commissioning's, the servo check's, the model fit's) and sea index.
+fn healthy_notes(label: &str, runs: &[RunOutcome], notes: &mut Vec<String>) {
+    let all = || runs.iter().flat_map(|r| r.tests.iter());
+    for (what, v) in [
+        ("chi2", all().map(|t| t.q_param).collect::<Vec<_>>()),
+        (
+            "commissioning chi2",
+            runs.iter()
+                .flat_map(|r| r.commissioning.iter())
+                .map(|t| t.q_param)
+                .collect(),
+        ),
+        ("servo-check chi2", all().map(|t| t.q_actuator).collect()),
+        ("model-fit chi2", all().map(|t| t.fit_chi2).collect()),
+        ("sea index", all().map(|t| t.sea_index).collect()),
+    ] {
+        if let Some((m, p99, mx)) = quantiles(v) {
+            notes.push(format!(
+                "{}: {what} median {m:.4}, 99th percentile {p99:.4}, max {mx:.4}",
+                label
+            ));
+        }
+    }
+}
+
+/// One line of the classic table: the row's runs as `who` scores them (ours, or the
+/// baseline's), its figures kept (ours only).
+#[allow(clippy::too_many_arguments)]
+fn classic_row(
+    row: &Row,
+    who: &str,
+    baseline: bool,
+    runs: &[RunOutcome],
+    sea: SeaState,
+    turns: usize,
+    out: &mut String,
+    figures: &mut Vec<RowFigures>,
+) {
+    let sc = row.scenario;
+    let c2 = score(runs, sc.expected, 2 * turns, baseline);
+    let c3 = score(runs, sc.expected, 3 * turns, baseline);
+    let c4 = score(runs, sc.expected, 4 * turns, baseline);
+    let nominal = sc.expected.is_none();
+    if !baseline {
+        figures.push(RowFigures {
+            set: "classic".into(),
+            sea: sea.name().into(),
+            scenario: row.label.clone(),
+            runs: c3.runs,
+            healthy: nominal,
+            tests: c3.tests,
+            false_alarm_tests: if nominal { c3.fault_tests } else { 0 },
+            detected: c3.detected,
+            named: Some(c3.isolated_within),
+            alerts: if nominal { super::alerts(runs) } else { [0, 0] },
+            inconsistent: None,
+        });
+    }
+    let fa = if nominal {
+        format!(
+            "{} / {} ({})",
+            c2.fault_tests,
+            c2.fault_runs,
+            pct(c2.fault_tests, c2.tests)
+        )
+    } else {
+        "-".into()
+    };
+    let [det2, det3, delay, det4, iso, iso2, iso3, iso4] =
+        detection_cells(nominal, [&c2, &c3, &c4]);
+    let _ = writeln!(
+        out,
+        "| {} | {who} | {} | {} | {fa} | {det2} | {det3} | {delay} | {det4} | {iso} | {iso2} | {iso3} | {iso4} | {}{} |",
+        row.label,
+        c2.runs,
+        c2.tests,
+        c2.aborted,
+        if c2.broken > 0 {
+            format!(" ({} runs broken)", c2.broken)
+        } else {
+            String::new()
+        }
+    );
+}
+
+/// A faulty row's detection and isolation cells, from its figures within 2, 3 and 4 tests of
+/// each method (dashes for a healthy row).
+fn detection_cells(nominal: bool, [c2, c3, c4]: [&Cell; 3]) -> [String; 8] {
+    if nominal {
+        std::array::from_fn(|_| "-".to_string())
+    } else {
+        [
+            pct(c2.detected, c2.runs),
+            pct(c3.detected, c3.runs),
+            if c4.detected > 0 {
+                format!("{:.2}", c4.delay_sum as f64 / c4.detected as f64)
+            } else {
+                "-".into()
+            },
+            pct(c4.detected, c4.runs),
+            pct(c4.isolated, c4.runs),
+            pct(c2.isolated_within, c2.runs),
+            pct(c3.isolated_within, c3.runs),
+            pct(c4.isolated_within, c4.runs),
+        ]
     }
 }
 

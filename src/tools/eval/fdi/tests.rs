@@ -163,7 +163,7 @@ fn envelope_draws_stay_in_the_envelope() {
     let sc = by_name(envelope_scenarios(), "envelope: speed and loading");
     for seed in 0..200 {
         let corner = (seed % 2 == 0).then_some(seed as usize / 2);
-        let d = scenarios::draw(&cfg, &sc, SeaState::Calm, seed, corner).unwrap();
+        let d = draw::draw(&cfg, &sc, SeaState::Calm, seed, corner).unwrap();
         let c = d.change.unwrap();
         let (u0, d0) = (d.scenario.speed_mps, d.scenario.displacement_t);
         let u1 = c.speed_mps.unwrap();
@@ -182,7 +182,7 @@ fn envelope_draws_stay_in_the_envelope() {
             (4000.0 - 1e-6..=10000.0 + 1e-6).contains(&d1),
             "{d0} -> {d1}"
         );
-        let again = scenarios::draw(&cfg, &sc, SeaState::Calm, seed, corner).unwrap();
+        let again = draw::draw(&cfg, &sc, SeaState::Calm, seed, corner).unwrap();
         assert_eq!(again.change, d.change);
         assert_eq!(again.scenario, d.scenario);
     }
@@ -204,7 +204,7 @@ fn another_class_draws_inside_its_own_box() {
     for sc in &all {
         for seed in 0..8 {
             let corner = (seed % 2 == 0).then_some(seed as usize / 2);
-            let d = scenarios::draw(&cfg, sc, SeaState::Calm, seed, corner)
+            let d = draw::draw(&cfg, sc, SeaState::Calm, seed, corner)
                 .unwrap_or_else(|e| panic!("{}: {e}", sc.name));
             let (u, dt) = (d.scenario.speed_mps, d.scenario.displacement_t);
             assert!((6.0..=12.0).contains(&u), "{}: {u}", sc.name);
@@ -212,10 +212,10 @@ fn another_class_draws_inside_its_own_box() {
         }
     }
     let sc = by_name(scenarios(), "displacement +10 %");
-    let lo = scenarios::draw(&cfg, &sc, SeaState::Calm, 0, Some(0)).unwrap();
+    let lo = draw::draw(&cfg, &sc, SeaState::Calm, 0, Some(0)).unwrap();
     // The family's 5000 t (1000 t over its 4000) maps to 18 000 + 1000 x 14 000 / 6000.
     assert!((lo.scenario.displacement_t - (18000.0 + 1000.0 * 14.0 / 6.0)).abs() < 1e-6);
-    let family = scenarios::draw(&Config::default(), &sc, SeaState::Calm, 0, Some(0)).unwrap();
+    let family = draw::draw(&Config::default(), &sc, SeaState::Calm, 0, Some(0)).unwrap();
     assert_eq!(family.scenario.displacement_t, 5000.0);
 }
 
@@ -384,10 +384,7 @@ fn check_sea_change(
     let cfg = Config::default();
     let sc = by_name(envelope_scenarios(), row);
     for (a, b) in steps {
-        let c = scenarios::draw(&cfg, &sc, a, 3, None)
-            .unwrap()
-            .change
-            .unwrap();
+        let c = draw::draw(&cfg, &sc, a, 3, None).unwrap().change.unwrap();
         assert_eq!(
             (c.sea, c.speed_mps, c.displacement_t),
             (Some(b), None, None)
@@ -444,7 +441,7 @@ fn displacement_during_commissioning(
 ) -> (usize, RunOutcome) {
     let sc = by_name(commissioning_scenarios(), "commissioning: D +12 %");
     let seed = 5;
-    let k = scenarios::draw(cfg, &sc, SeaState::Calm, seed, None)
+    let k = draw::draw(cfg, &sc, SeaState::Calm, seed, None)
         .unwrap()
         .onset_test
         .unwrap();

@@ -4,12 +4,14 @@
 //! docs/results/ with `--results`).
 //!
 //! One *run* is one seeded ship at its nominal speed and displacement in the chosen sea,
-//! driven by [`Lockstep`] (the simulated ship and the same monitor core as the daemon, in
-//! virtual time) with the scheduler on as configured (`[scheduler]`, its `interval-s` set to
-//! the interval under study) and the configured `[fdi]` and estimator:
+//! driven by [`Lockstep`](helmwatch_core::drivers::probe::Lockstep) (the simulated ship and
+//! the same monitor core as the daemon, in virtual time) with the scheduler on as configured
+//! (`[scheduler]`, its `interval-s` set to the interval under study) and the configured
+//! `[fdi]` and estimator:
 //!
 //! 1. *Commissioning*: the healthy ship runs until both methods are commissioned
-//!    (`fdi.commissioning-tests` completed tests each, [`Monitor::commissioned`]); the
+//!    (`fdi.commissioning-tests` completed tests each,
+//!    [`Monitor::commissioned`](helmwatch_core::monitor::Monitor::commissioned)); the
 //!    report that completes it ends at the *onset* `t_0`.
 //! 2. *Faults*: the run is cloned at `t_0` once per fault, the fault injected from `t_0`
 //!    ([`helmwatch_core::sim::Ship::inject`]), and each clone runs until the first notification in
@@ -31,19 +33,20 @@
 //!
 //! Deterministic: the same options give the same table (each run seeded, [`par_map`] keeps
 //! the order).
+//!
+//! Files: this one (the faults, the options, the figures of a run, all runs, the tables) and
+//! `seed_run` (one seeded run).
+
+pub mod seed_run;
 
 use crate::config::Config;
 use crate::tools::eval::fdi::{quantiles, scenarios};
 use crate::tools::training::database::par_map;
-use helmwatch_core::drivers::probe::Lockstep;
-use helmwatch_core::dsp::multisine::Multisine;
-use helmwatch_core::estimator::Estimator;
 use helmwatch_core::model::SeaState;
-use helmwatch_core::monitor::{Monitor, Output};
-use helmwatch_core::sim::{Fault, FaultKind, Scenario, SimError};
-use helmwatch_core::wire::{AlarmState, Cause, Outcome};
+use helmwatch_core::sim::{Fault, FaultKind, SimError};
+use helmwatch_core::wire::Cause;
+use seed_run::{run_seed, Parts};
 use std::io::Write;
-use std::sync::Arc;
 
 /// A fault of the bench: what is injected at the onset and which cause must be named.
 #[derive(Debug, Clone, PartialEq)]
@@ -191,184 +194,6 @@ pub enum TimeToAlarmError {
     /// Anything else.
     #[error("{0}")]
     Other(String),
-}
-
-/// Sums the absolute increments of the true rudder angle, tick by tick [rad].
-#[derive(Debug, Clone, Copy, Default)]
-struct TravelMeter {
-    last_rad: Option<f64>,
-    total_rad: f64,
-}
-
-impl TravelMeter {
-    fn sample(&mut self, ls: &Lockstep) {
-        let d = ls.ship.truth().delta_rad;
-        if let Some(l) = self.last_rad {
-            self.total_rad += (d - l).abs();
-        }
-        self.last_rad = Some(d);
-    }
-}
-
-/// Ship time cap of commissioning [s]: three times the tests it needs, each a whole cycle.
-fn commissioning_cap_s(cfg: &Config) -> f64 {
-    let tests = 2.0 * f64::from(cfg.fdi.commissioning_tests.max(1));
-    let cycle =
-        cfg.scheduler.interval_s + cfg.scheduler.steady_time_s + cfg.safety.max_test_duration_s;
-    3.0 * tests * cycle + cycle
-}
-
-/// The parts every run of one configuration shares: the estimator and the multisine.
-#[derive(Debug, Clone)]
-pub struct Parts {
-    estimator: Option<Arc<Estimator>>,
-    multisine: Option<Multisine>,
-}
-
-impl Parts {
-    /// The configured estimator (as the daemon loads it) and the designed multisine.
-    pub fn new(cfg: &Config) -> Result<Self, TimeToAlarmError> {
-        let core = cfg.core();
-        Ok(Self {
-            estimator: Estimator::from_config(&core)
-                .map_err(|e| TimeToAlarmError::Estimator(e.to_string()))?,
-            multisine: Monitor::design_multisine(&core).ok(),
-        })
-    }
-}
-
-/// One run at `cfg`'s scheduler: commissioning, its rudder travel against the autopilot
-/// alone, then each of `faults` from the onset for up to `cap_s` (see the module
-/// documentation).
-pub fn run_seed(
-    cfg: &Config,
-    parts: &Parts,
-    faults: &[BenchFault],
-    sea: SeaState,
-    seed: u64,
-    cap_s: f64,
-) -> Result<SeedRun, TimeToAlarmError> {
-    let mut scenario = Scenario::nominal(&cfg.sim(), seed);
-    scenario.sea = sea;
-    let build = |cfg: &Config| {
-        Lockstep::with_parts(
-            &cfg.core(),
-            &cfg.sim(),
-            &scenario,
-            parts.multisine.clone(),
-            parts.estimator.clone(),
-        )
-    };
-    let mut ls = build(cfg)?;
-    let t_start = ls.time_s();
-    let t_cap = t_start + commissioning_cap_s(cfg);
-    let mut meter = TravelMeter::default();
-    meter.sample(&ls);
-    let mut out = Vec::new();
-    let (mut reports, mut alarms) = (0usize, 0usize);
-    // Window start: the first report's end, and the meter's reading there.
-    let mut window_start: Option<(f64, f64)> = None;
-    let mut onset_s = None;
-    while onset_s.is_none() && ls.time_s() < t_cap {
-        ls.tick(&mut out, false);
-        meter.sample(&ls);
-        for o in out.drain(..) {
-            match o {
-                Output::Report(_) => {
-                    reports += 1;
-                    if window_start.is_none() {
-                        window_start = Some((ls.time_s(), meter.total_rad));
-                    }
-                    if ls.monitor.commissioned() && onset_s.is_none() {
-                        onset_s = Some(ls.time_s());
-                    }
-                }
-                Output::Notification(n) if n.state == AlarmState::Alarm => alarms += 1,
-                _ => {}
-            }
-        }
-    }
-    let t_end = ls.time_s();
-    let (t_a, travel_a) = window_start.unwrap_or((t_start, 0.0));
-    let with_tests_deg = (meter.total_rad - travel_a).to_degrees();
-    // The autopilot alone: the same ship, the scheduler off, over the same window.
-    let mut off_cfg = cfg.clone();
-    off_cfg.scheduler.enabled = false;
-    let mut off = build(&off_cfg)?;
-    let mut off_meter = TravelMeter::default();
-    off_meter.sample(&off);
-    let mut off_at_a = 0.0;
-    while off.time_s() < t_end {
-        if off.time_s() <= t_a {
-            off_at_a = off_meter.total_rad;
-        }
-        off.tick(&mut out, false);
-        off_meter.sample(&off);
-        out.clear();
-    }
-    let travel = Travel {
-        hours: (t_end - t_a) / 3600.0,
-        with_tests_deg,
-        autopilot_deg: (off_meter.total_rad - off_at_a).to_degrees(),
-        tests: reports.saturating_sub(1),
-    };
-    let mut run = SeedRun {
-        seed,
-        onset_s,
-        commissioning_reports: reports,
-        alarms_before_onset: alarms,
-        travel,
-        faults: Vec::new(),
-    };
-    if let Some(t0) = onset_s {
-        run.faults = faults
-            .iter()
-            .map(|f| run_fault(ls.clone(), f.fault, t0, cap_s))
-            .collect();
-    }
-    Ok(run)
-}
-
-/// Injects `fault` into the commissioned run `ls` at `t0` and runs to the first alarm or
-/// `t0 + cap_s`.
-fn run_fault(mut ls: Lockstep, fault: Fault, t0: f64, cap_s: f64) -> FaultRun {
-    ls.ship.inject(fault);
-    let mut out = Vec::new();
-    let mut run = FaultRun {
-        alarm: None,
-        tests: 0,
-        aborted: 0,
-    };
-    let mut last_isolation = Vec::new();
-    let mut last_end = t0;
-    while ls.time_s() < t0 + cap_s {
-        ls.tick(&mut out, false);
-        // A tick's report before its notification, whatever their order in the queue.
-        for o in &out {
-            if let Output::Report(r) = o {
-                if r.outcome == Outcome::Completed {
-                    run.tests += 1;
-                    last_isolation.clone_from(&r.isolation);
-                    last_end = r.t_end;
-                } else {
-                    run.aborted += 1;
-                }
-            }
-        }
-        let alarmed = out
-            .iter()
-            .any(|o| matches!(o, Output::Notification(n) if n.state == AlarmState::Alarm));
-        out.clear();
-        if alarmed {
-            run.alarm = Some(Alarm {
-                tests: run.tests,
-                hours: (last_end - t0) / 3600.0,
-                isolation: last_isolation,
-            });
-            break;
-        }
-    }
-    run
 }
 
 /// The bench's runs: per interval (outer, in order), `o.runs` seeded runs.
@@ -527,85 +352,4 @@ pub fn print(
         }
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A short schedule: five commissioning tests per method (the fewest the K-sample
-    /// factor allows), a minute between tests.
-    fn short() -> Config {
-        let mut cfg = Config::default();
-        cfg.fdi.commissioning_tests = 5;
-        cfg.scheduler.interval_s = 60.0;
-        cfg
-    }
-
-    fn gross() -> BenchFault {
-        BenchFault {
-            name: "displacement +50 %".into(),
-            fault: Fault::new(FaultKind::DisplacementPct, 50.0, 0.0).unwrap(),
-            expected: Some(Cause::DisplacementOrRudderEffectiveness),
-        }
-    }
-
-    /// A gross fault is over the sequential test's single-test limit: the alarm comes at
-    /// the first test after the onset, whichever method runs it. The test starts at least
-    /// `interval-s` after the previous end (the end of commissioning) and ends within
-    /// `steady-time-s` + `max-test-duration-s` of that.
-    #[test]
-    fn a_gross_fault_alarms_at_the_first_test_after_the_onset() {
-        {
-            let cfg = short();
-            let parts = Parts::new(&cfg).unwrap();
-            let run = run_seed(&cfg, &parts, &[gross()], SeaState::Calm, 7, 12.0 * 3600.0).unwrap();
-            assert!(run.onset_s.is_some(), "not commissioned");
-            assert_eq!(run.alarms_before_onset, 0);
-            let fr = &run.faults[0];
-            let alarm = fr.alarm.as_ref().expect("no alarm");
-            let k = 1usize;
-            assert_eq!(alarm.tests, k);
-            assert_eq!(fr.tests, k);
-            let lo = k as f64 * cfg.scheduler.interval_s / 3600.0;
-            let hi = k as f64
-                * (cfg.scheduler.interval_s
-                    + cfg.scheduler.steady_time_s
-                    + cfg.safety.max_test_duration_s)
-                / 3600.0;
-            assert!(
-                alarm.hours > lo && alarm.hours < hi,
-                "{} h outside ({lo}, {hi})",
-                alarm.hours
-            );
-            assert_eq!(
-                alarm.isolation,
-                vec![Cause::DisplacementOrRudderEffectiveness]
-            );
-        }
-    }
-
-    /// With the scheduler off the run and the autopilot-alone run are the same ship: the
-    /// tests add exactly nothing (and no commissioning, so no fault runs). With it on they
-    /// add travel in a calm sea, where the autopilot alone barely moves the rudder.
-    #[test]
-    fn travel_added_is_zero_without_tests_and_positive_with_them() {
-        let mut off = short();
-        off.scheduler.enabled = false;
-        let parts = Parts::new(&off).unwrap();
-        let run = run_seed(&off, &parts, &[gross()], SeaState::Calm, 7, 3600.0).unwrap();
-        assert_eq!(run.onset_s, None);
-        assert_eq!(run.commissioning_reports, 0);
-        assert!(run.faults.is_empty());
-        assert!(run.travel.hours > 1.0);
-        assert!(run.travel.autopilot_deg > 0.0);
-        assert_eq!(run.travel.with_tests_deg, run.travel.autopilot_deg);
-        assert_eq!(run.travel.added_deg_per_h(), 0.0);
-
-        let on = short();
-        let run = run_seed(&on, &parts, &[], SeaState::Calm, 7, 3600.0).unwrap();
-        assert!(run.onset_s.is_some());
-        assert_eq!(run.travel.tests, run.commissioning_reports - 1);
-        assert!(run.travel.added_deg_per_h() > 0.0, "{:?}", run.travel);
-    }
 }
