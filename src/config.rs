@@ -33,7 +33,7 @@ use crate::shells::daemon::config::DaemonConfig;
 use crate::shells::net::ZenohConfig;
 use crate::shells::shipnode::ShipPeerConfig;
 use helmwatch_core::baseline::config::BaselineConfig;
-pub use helmwatch_core::config::ConfigError;
+use helmwatch_core::config::ConfigError;
 use helmwatch_core::design::{ClfrtConfig, HbtConfig};
 use helmwatch_core::estimator::config::EstimatorConfig;
 use helmwatch_core::fdi::config::{FdiConfig, ReferenceConfig};

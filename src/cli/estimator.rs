@@ -16,8 +16,8 @@ use crate::tools::training::build::{build_models, BuildSettings};
 use crate::tools::training::database::{
     default_threads, design, simulate, Database, DatabaseSpec, Purpose,
 };
-use crate::tools::training::train::{CgfOptions, LmOptions, Trainer};
 use helmwatch_core::estimator::model::{Model, Target};
+use helmwatch_core::estimator::trainer::{CgfOptions, LmOptions, Trainer};
 use helmwatch_core::estimator::{Estimator, SLOTS};
 use helmwatch_core::model::SeaState;
 use helmwatch_core::sim::Fault;

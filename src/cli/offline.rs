@@ -114,7 +114,7 @@ pub(crate) fn replay(cfg: &Config, a: ReplayArgs) -> Result<(), Failure> {
         .vessel
         .keys()
         .map(|v| Ok((v.clone(), cfg.for_vessel(v)?.core())))
-        .collect::<Result<Vec<_>, crate::config::ConfigError>>()?;
+        .collect::<Result<Vec<_>, helmwatch_core::config::ConfigError>>()?;
     let on_output = |vessel: &str, out: &Output| {
         if let Output::Report(r) = out {
             if json {

@@ -32,7 +32,7 @@
 //! | [`baseline`] | equation-error least squares of the Nomoto a and b |
 //! | [`estimator`] | the neural estimator's inference and model files |
 //! | [`fdi`] | parity-space residuals, decision rule, alarm state, isolation |
-//! | [`monitor`] | the monitor: a state machine fed timestamped samples; [`CoreConfig`] |
+//! | [`monitor`] | the monitor: a state machine fed timestamped samples; [`monitor::config::CoreConfig`] |
 //! | [`ownership`] | which daemon drives a vessel: candidates, holder, takeover (a state machine fed liveliness events) |
 //! | [`sim`] | the simulated ship: Nomoto hull, servo, autopilot, sea, sensors, faults |
 //! | [`drivers`] | the core in virtual time beside the simulator (`probe`, lockstep) and over a recording (`replay`) |
@@ -53,6 +53,3 @@ pub mod sim;
 #[cfg(any(test, feature = "test-support"))]
 pub mod testing;
 pub mod wire;
-
-pub use monitor::config::CoreConfig;
-pub use monitor::{Monitor, Output};

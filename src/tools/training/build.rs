@@ -14,13 +14,14 @@
 //! three parts on the [-1, 1] scale.
 
 use super::database::{par_map, Database};
-use super::train::{best_of, train_restart, Dataset, TrainError, Trainer};
+use super::train::{best_of, train_restart, Dataset, TrainError};
 use crate::config::Config;
 use helmwatch_core::estimator::features::{self, Feature};
 use helmwatch_core::estimator::model::{
     Design, Metadata, Model, ModelError, SeaSpread, Split, Target, TrainingRecord, Uncertainty,
 };
 use helmwatch_core::estimator::nn::{Mlp, Scaling, Scratch};
+use helmwatch_core::estimator::trainer::Trainer;
 use helmwatch_core::estimator::SLOTS;
 use helmwatch_core::model::SeaState;
 use helmwatch_core::wire::Method;

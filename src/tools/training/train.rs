@@ -29,6 +29,7 @@
 use super::cg::conjugate_gradient_fr;
 use super::lm::levenberg_marquardt;
 use helmwatch_core::estimator::nn::{n_params, Mlp, Scratch, HIDDEN};
+use helmwatch_core::estimator::trainer::{StopReason, Trainer};
 use nalgebra::{DMatrix, DVector};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -203,8 +204,6 @@ impl LeastSquares for NetProblem<'_> {
         }
     }
 }
-
-pub use helmwatch_core::estimator::trainer::{CgfOptions, LmOptions, StopReason, Trainer};
 
 /// What one optimisation produced.
 #[derive(Debug, Clone, PartialEq)]

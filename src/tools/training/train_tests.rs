@@ -6,6 +6,7 @@ use super::*;
 use crate::tools::training::cg::conjugate_gradient_fr;
 use crate::tools::training::line_search::line_search;
 use crate::tools::training::lm::levenberg_marquardt;
+use helmwatch_core::estimator::trainer::{CgfOptions, LmOptions};
 use nalgebra::DMatrix;
 
 /// Linear least squares: e = A theta - y.
