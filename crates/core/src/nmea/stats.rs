@@ -5,7 +5,7 @@ use crate::wire::Stream;
 /// Why a line gave no sample.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Reject {
-    /// Longer than [`MAX_LINE_BYTES`] (or than the `nmea` crate's 102-character sentence).
+    /// Longer than [`super::MAX_LINE_BYTES`] (or than the `nmea` crate's 102-character sentence).
     TooLong,
     /// Not `$TTSSS,...*hh` of printable ASCII: truncated, no checksum, garbage.
     Framing,
