@@ -25,6 +25,7 @@
 //! of `|r|`; [`Multisine::max_rate_rad_s`] is `sum A omega_i >= |dr/dt|`.
 
 use super::{check_positive, DspError};
+use crate::angle::wrap_2pi;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::PI;
@@ -142,15 +143,6 @@ fn check_harmonics(harmonics: &[u32]) -> Result<(), DspError> {
         }
     }
     Ok(())
-}
-
-fn wrap_2pi(x: f64) -> f64 {
-    let y = x.rem_euclid(2.0 * PI);
-    if y >= 2.0 * PI {
-        0.0
-    } else {
-        y
-    }
 }
 
 /// Compass search on the grid peak from `start`; returns (peak, phases).

@@ -248,6 +248,33 @@ pub fn analyse_tones(
     window_samples: usize,
     harmonics: &[u32],
 ) -> Result<Vec<ToneEstimate>, DspError> {
+    check_record(heading, rudder, reference, dt_s, window_samples, harmonics)?;
+    let n = heading.len();
+    an.set_tone_bins(harmonics, window_samples, n)?;
+
+    an.transform(heading, true, Which::Psi)?;
+    an.transform(rudder, true, Which::Delta)?;
+    an.transform(reference, false, Which::Reference)?;
+    let ref_energy: f64 = reference.iter().map(|v| v * v).sum::<f64>() * n as f64;
+
+    let record_s = n as f64 * dt_s;
+    let mut out = Vec::with_capacity(harmonics.len());
+    for i in 0..harmonics.len() {
+        let b = an.tone_bins[i];
+        out.push(an.tone(b, n, ref_energy, record_s)?);
+    }
+    Ok(out)
+}
+
+/// The input checks of [`analyse_tones`] on the records, the step and the harmonics given.
+fn check_record(
+    heading: &[f64],
+    rudder: &[f64],
+    reference: &[f64],
+    dt_s: f64,
+    window_samples: usize,
+    harmonics: &[u32],
+) -> Result<(), DspError> {
     check_positive("dt_s", dt_s)?;
     let n = heading.len();
     if window_samples < 4 {
@@ -290,65 +317,67 @@ pub fn analyse_tones(
             need: 1,
         });
     }
-    let m = n / window_samples;
-    an.tone_bins.clear();
-    for (i, &k) in harmonics.iter().enumerate() {
-        let k = k as usize;
-        if k == 0 || 2 * k >= window_samples || harmonics[..i].contains(&harmonics[i]) {
-            return Err(DspError::InvalidParameter {
-                name: "harmonics",
-                value: k as f64,
-                reason: "distinct, each in [1, window Nyquist bin)",
-            });
+    Ok(())
+}
+
+/// The local linear fit over a tone's neighbours (abscissa `j - b`): its degree, the
+/// abscissa's mean and spread, and the leverage (the prediction weights, in
+/// `ToneAnalyser::weights`, squared and summed).
+struct LocalFit {
+    degree: usize,
+    rbar: f64,
+    srr: f64,
+    leverage: f64,
+}
+
+impl ToneAnalyser {
+    /// Sets the tone bins `k_i M` of a record of `n` samples in windows of `window_samples`,
+    /// refusing a zero, repeated or too high harmonic.
+    fn set_tone_bins(
+        &mut self,
+        harmonics: &[u32],
+        window_samples: usize,
+        n: usize,
+    ) -> Result<(), DspError> {
+        let m = n / window_samples;
+        self.tone_bins.clear();
+        for (i, &k) in harmonics.iter().enumerate() {
+            let k = k as usize;
+            if k == 0 || 2 * k >= window_samples || harmonics[..i].contains(&harmonics[i]) {
+                return Err(DspError::InvalidParameter {
+                    name: "harmonics",
+                    value: k as f64,
+                    reason: "distinct, each in [1, window Nyquist bin)",
+                });
+            }
+            self.tone_bins.push(k * m);
         }
-        an.tone_bins.push(k * m);
+        Ok(())
     }
 
-    an.transform(heading, true, Which::Psi)?;
-    an.transform(rudder, true, Which::Delta)?;
-    an.transform(reference, false, Which::Reference)?;
-    let ref_energy: f64 = reference.iter().map(|v| v * v).sum::<f64>() * n as f64;
-
-    let record_s = n as f64 * dt_s;
-    let mut out = Vec::with_capacity(harmonics.len());
-    for i in 0..harmonics.len() {
-        let b = an.tone_bins[i];
-        let r = an.reference[b];
+    /// The estimate at the tone on bin `b` of the transformed records (module
+    /// documentation: neighbours, transient removal, noise).
+    fn tone(
+        &mut self,
+        b: usize,
+        n: usize,
+        ref_energy: f64,
+        record_s: f64,
+    ) -> Result<ToneEstimate, DspError> {
+        let r = self.reference[b];
         if !above(r.norm_sqr(), 1e-9 * ref_energy) {
             return Err(DspError::Degenerate("reference has no power at a tone"));
         }
-        an.select_neighbours(b, n);
-        let l = an.neighbours.len();
-        // Local linear fit over the neighbours (abscissa r = j - b): prediction weights at
-        // r = 0 and its leverage sum w^2. Degree 1 with >= 3 bins, else degree 0.
-        let degree = if l >= 3 { 1 } else { 0 };
-        if l < degree + 2 {
-            return Err(DspError::Degenerate(
-                "too few unexcited bins next to a tone",
-            ));
-        }
-        let rs = |j: usize| j as f64 - b as f64;
-        let lf = l as f64;
-        let rbar = an.neighbours.iter().map(|&j| rs(j)).sum::<f64>() / lf;
-        let srr: f64 = an.neighbours.iter().map(|&j| (rs(j) - rbar).powi(2)).sum();
-        an.weights.clear();
-        for &j in &an.neighbours {
-            let w = if degree == 1 && srr > 0.0 {
-                1.0 / lf - rbar * (rs(j) - rbar) / srr
-            } else {
-                1.0 / lf
-            };
-            an.weights.push(w);
-        }
-        let leverage: f64 = an.weights.iter().map(|w| w * w).sum();
+        self.select_neighbours(b, n);
+        let fit = self.local_fit(b)?;
         // Transient / leakage at the tone bin, interpolated from the neighbours, removed.
         let mut tp = Complex64::new(0.0, 0.0);
         let mut td = Complex64::new(0.0, 0.0);
-        for (&j, &w) in an.neighbours.iter().zip(&an.weights) {
-            tp += an.psi[j] * w;
-            td += an.delta[j] * w;
+        for (&j, &w) in self.neighbours.iter().zip(&self.weights) {
+            tp += self.psi[j] * w;
+            td += self.delta[j] * w;
         }
-        let (psi_b, delta_b) = (an.psi[b] - tp, an.delta[b] - td);
+        let (psi_b, delta_b) = (self.psi[b] - tp, self.delta[b] - td);
         let s_psi_r = psi_b * r.conj();
         let s_delta_r = delta_b * r.conj();
         if !above(s_delta_r.norm(), 0.0) {
@@ -362,31 +391,9 @@ pub fn analyse_tones(
         if !above(signal, 0.0) {
             return Err(DspError::Degenerate("heading has no power at a tone"));
         }
-        // Output-error residuals e(j) = Psi(j) - G Delta(j), minus their local fit.
-        an.residuals.clear();
-        for &j in &an.neighbours {
-            an.residuals.push(an.psi[j] - g * an.delta[j]);
-        }
-        let dof = {
-            let ebar = an.residuals.iter().sum::<Complex64>() / lf;
-            let slope = if degree == 1 && srr > 0.0 {
-                an.neighbours
-                    .iter()
-                    .zip(&an.residuals)
-                    .map(|(&j, e)| (e - ebar) * (rs(j) - rbar))
-                    .sum::<Complex64>()
-                    / srr
-            } else {
-                Complex64::new(0.0, 0.0)
-            };
-            for (&j, e) in an.neighbours.iter().zip(an.residuals.iter_mut()) {
-                *e -= ebar + slope * (rs(j) - rbar);
-            }
-            l - degree - 1
-        };
-        // Noise power per bin, then the variance of each component of eps at the tone.
-        let noise = an.residuals.iter().map(|e| e.norm_sqr()).sum::<f64>() / dof as f64;
-        let var_component = noise * (1.0 + leverage) / (2.0 * signal);
+        let (noise, dof) = self.noise_power(b, g, &fit);
+        // The variance of each component of eps at the tone.
+        let var_component = noise * (1.0 + fit.leverage) / (2.0 * signal);
         let t90 = student_t_quantile(0.95, 2 * dof as u32);
         let snr = if noise > 0.0 {
             signal / noise - 1.0
@@ -398,7 +405,7 @@ pub fn analyse_tones(
         if phase > 0.0 {
             phase -= 2.0 * PI;
         }
-        out.push(ToneEstimate {
+        Ok(ToneEstimate {
             omega_rad_s: 2.0 * PI * b as f64 / record_s,
             gain: g.norm(),
             phase_rad: phase,
@@ -410,9 +417,78 @@ pub fn analyse_tones(
             snr_db: 10.0 * snr.clamp(1e-12, 1e30).log10(),
             gain_ci90_rel: t90 * var_component.sqrt(),
             phase_ci90_rad: (t90 * var_component.sqrt()).min(PI),
-        });
+        })
     }
-    Ok(out)
+
+    /// The local fit over the neighbours of the tone on bin `b`; fills `self.weights`.
+    fn local_fit(&mut self, b: usize) -> Result<LocalFit, DspError> {
+        let l = self.neighbours.len();
+        // Local linear fit over the neighbours (abscissa r = j - b): prediction weights at
+        // r = 0 and its leverage sum w^2. Degree 1 with >= 3 bins, else degree 0.
+        let degree = if l >= 3 { 1 } else { 0 };
+        if l < degree + 2 {
+            return Err(DspError::Degenerate(
+                "too few unexcited bins next to a tone",
+            ));
+        }
+        let rs = |j: usize| j as f64 - b as f64;
+        let lf = l as f64;
+        let rbar = self.neighbours.iter().map(|&j| rs(j)).sum::<f64>() / lf;
+        let srr: f64 = self
+            .neighbours
+            .iter()
+            .map(|&j| (rs(j) - rbar).powi(2))
+            .sum();
+        self.weights.clear();
+        for &j in &self.neighbours {
+            let w = if degree == 1 && srr > 0.0 {
+                1.0 / lf - rbar * (rs(j) - rbar) / srr
+            } else {
+                1.0 / lf
+            };
+            self.weights.push(w);
+        }
+        let leverage: f64 = self.weights.iter().map(|w| w * w).sum();
+        Ok(LocalFit {
+            degree,
+            rbar,
+            srr,
+            leverage,
+        })
+    }
+
+    /// Noise power per bin at the tone on bin `b` and its degrees of freedom: the
+    /// output-error residuals `e(j) = Psi(j) - G Delta(j)` at the neighbours, minus their
+    /// local fit (left in `self.residuals`).
+    fn noise_power(&mut self, b: usize, g: Complex64, fit: &LocalFit) -> (f64, usize) {
+        let (degree, rbar, srr) = (fit.degree, fit.rbar, fit.srr);
+        let rs = |j: usize| j as f64 - b as f64;
+        let l = self.neighbours.len();
+        let lf = l as f64;
+        self.residuals.clear();
+        for &j in &self.neighbours {
+            self.residuals.push(self.psi[j] - g * self.delta[j]);
+        }
+        let dof = {
+            let ebar = self.residuals.iter().sum::<Complex64>() / lf;
+            let slope = if degree == 1 && srr > 0.0 {
+                self.neighbours
+                    .iter()
+                    .zip(&self.residuals)
+                    .map(|(&j, e)| (e - ebar) * (rs(j) - rbar))
+                    .sum::<Complex64>()
+                    / srr
+            } else {
+                Complex64::new(0.0, 0.0)
+            };
+            for (&j, e) in self.neighbours.iter().zip(self.residuals.iter_mut()) {
+                *e -= ebar + slope * (rs(j) - rbar);
+            }
+            l - degree - 1
+        };
+        let noise = self.residuals.iter().map(|e| e.norm_sqr()).sum::<f64>() / dof as f64;
+        (noise, dof)
+    }
 }
 
 /// `a > b`, false when either is NaN.

@@ -29,13 +29,19 @@
 
 use super::features::{self, Feature, FeatureError};
 use super::nn::{Mlp, NnError, Scaling, Scratch, HIDDEN};
-use super::trainer::{StopReason, Trainer};
-use crate::model::{SeaState, ServoConfig, ShipConfig};
+use crate::model::ShipConfig;
 use crate::monitor::config::CoreConfig;
 use crate::wire::Features;
 use crate::wire::Method;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
+
+#[path = "model_file.rs"]
+mod file;
+pub use file::{
+    Architecture, ClfrtDesign, Design, HbtDesign, Metadata, ModelFile, ScalingFile, SeaSpread,
+    Split, TrainingRecord, Uncertainty, Weights,
+};
 
 /// The `format` string of a model file.
 pub const FORMAT: &str = "helmwatch-estimator-model";
@@ -131,244 +137,6 @@ pub enum ModelError {
     },
 }
 
-/// `architecture` of a model file.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Architecture {
-    /// Layer sizes `[n_in, 10, 10, 1]`.
-    pub layers: Vec<usize>,
-    /// Activations of the three layers: `["tanh", "tanh", "linear"]`.
-    pub activations: Vec<String>,
-}
-
-impl Architecture {
-    /// The paper's architecture for `n_in` inputs.
-    pub fn paper(n_in: usize) -> Self {
-        Self {
-            layers: vec![n_in, HIDDEN, HIDDEN, 1],
-            activations: vec!["tanh".into(), "tanh".into(), "linear".into()],
-        }
-    }
-}
-
-/// `scaling` of a model file: min-max maps to [-1, 1].
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ScalingFile {
-    /// Raw value of each input mapped to -1.
-    pub input_min: Vec<f64>,
-    /// Raw value of each input mapped to +1.
-    pub input_max: Vec<f64>,
-    /// Target value mapped to -1 [unit].
-    pub output_min: f64,
-    /// Target value mapped to +1 [unit].
-    pub output_max: f64,
-}
-
-/// `weights` of a model file (rows are units, columns their inputs).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Weights {
-    /// First layer, 10 rows of n_in.
-    pub w1: Vec<Vec<f64>>,
-    /// First layer biases (10).
-    pub b1: Vec<f64>,
-    /// Second layer, 10 rows of 10.
-    pub w2: Vec<Vec<f64>>,
-    /// Second layer biases (10).
-    pub b2: Vec<f64>,
-    /// Output weights (10).
-    pub w3: Vec<f64>,
-    /// Output bias.
-    pub b3: f64,
-}
-
-/// CLFRT design a model was trained for.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ClfrtDesign {
-    /// Window T_w [s].
-    pub window_s: f64,
-    /// Tone harmonics of the window.
-    pub harmonics: Vec<u32>,
-    /// Tone amplitude [deg].
-    pub amplitude_deg: f64,
-}
-
-/// HBT design a model was trained for.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct HbtDesign {
-    /// Relay height [deg].
-    pub relay_height_deg: f64,
-    /// Hysteresis [deg].
-    pub hysteresis_deg: f64,
-}
-
-/// The ship, servo and test design behind the features: a network only maps features to
-/// parameters for these. Measurement lengths (windows, periods) are not part of it: they
-/// change the noise of the features, not their expected values.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Design {
-    /// The ship model (and the parameter ranges of the training database).
-    pub ship: ShipConfig,
-    /// The rudder servo.
-    pub servo: ServoConfig,
-    /// The CLFRT design (CLFRT models).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub clfrt: Option<ClfrtDesign>,
-    /// The HBT design (HBT models).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub hbt: Option<HbtDesign>,
-}
-
-impl Design {
-    /// The design of `method` in `cfg`.
-    pub fn from_config(cfg: &CoreConfig, method: Method) -> Self {
-        Self {
-            ship: cfg.ship.clone(),
-            servo: cfg.servo.clone(),
-            clfrt: (method == Method::Clfrt).then(|| ClfrtDesign {
-                window_s: cfg.clfrt.window_s,
-                harmonics: cfg.clfrt.harmonics.clone(),
-                amplitude_deg: cfg.clfrt.amplitude_deg,
-            }),
-            hbt: (method == Method::Hbt).then_some(HbtDesign {
-                relay_height_deg: cfg.hbt.relay_height_deg,
-                hysteresis_deg: cfg.hbt.hysteresis_deg,
-            }),
-        }
-    }
-}
-
-/// Residual spread of one sea state on the validation set.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SeaSpread {
-    /// Sea state.
-    pub sea: SeaState,
-    /// Validation samples of this sea state.
-    pub n: usize,
-    /// Mean of (estimate - truth) [unit].
-    pub residual_mean: f64,
-    /// Standard deviation of (estimate - truth) [unit].
-    pub residual_std: f64,
-    /// Mean of (estimate - truth) / truth (absent in older files).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub relative_mean: Option<f64>,
-    /// Standard deviation of (estimate - truth) / truth (absent in older files).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub relative_std: Option<f64>,
-}
-
-/// `uncertainty`: the spread of the estimator's residuals on the validation set.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Uncertainty {
-    /// Mean of (estimate - truth) over the validation set [unit].
-    pub residual_mean: f64,
-    /// Standard deviation of (estimate - truth) over the validation set [unit].
-    pub residual_std: f64,
-    /// The same per sea state.
-    pub by_sea: Vec<SeaSpread>,
-}
-
-/// Sizes of the three parts of the database.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Split {
-    /// Training samples.
-    pub train: usize,
-    /// Validation samples (early stopping, restart choice, uncertainty).
-    pub validation: usize,
-    /// Test samples (never seen by training).
-    pub test: usize,
-}
-
-/// `training`: how the network was obtained.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct TrainingRecord {
-    /// Seed of the database (design, probe seeds, split) and of the restarts.
-    pub database_seed: u64,
-    /// Design points (u, D) per sea state (Latin hypercube).
-    pub design_points_per_sea: usize,
-    /// Sea states of the database.
-    pub sea_states: Vec<SeaState>,
-    /// Each point's ship was drawn from the family of real ships (`train --family`); absent
-    /// in files trained on the configured ship alone.
-    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
-    pub family: bool,
-    /// Completed tests in the database for this method.
-    pub database_size: usize,
-    /// Tests of this method that did not complete (excluded).
-    pub database_failed: usize,
-    /// How the completed tests were split.
-    pub split: Split,
-    /// Trainer and its settings.
-    pub trainer: Trainer,
-    /// Seeded restarts run.
-    pub restarts: usize,
-    /// The restart kept (lowest validation MSE).
-    pub best_restart: usize,
-    /// Epochs run by the kept restart.
-    pub epochs: usize,
-    /// Epoch of the kept weights.
-    pub best_epoch: usize,
-    /// Why the kept restart stopped.
-    pub stop: StopReason,
-    /// Training MSE on the [-1, 1] scale.
-    pub mse_train: f64,
-    /// Validation MSE on the [-1, 1] scale.
-    pub mse_validation: f64,
-    /// Test MSE on the [-1, 1] scale.
-    pub mse_test: f64,
-    /// Test RMSE in the target's unit.
-    pub rmse_test: f64,
-}
-
-/// What a model file records besides the network: design, uncertainty, training record.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Metadata {
-    /// Ship, servo and test design.
-    pub design: Design,
-    /// Validation residual spread.
-    pub uncertainty: Uncertainty,
-    /// Training record.
-    pub training: TrainingRecord,
-}
-
-/// A model file, as written on disk.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ModelFile {
-    /// Always [`FORMAT`].
-    pub format: String,
-    /// Always [`VERSION`].
-    pub version: u32,
-    /// The test method whose features the network reads.
-    pub method: Method,
-    /// What it estimates.
-    pub target: Target,
-    /// Unit of the estimate.
-    pub unit: String,
-    /// Feature names, in input order.
-    pub inputs: Vec<String>,
-    /// Layer sizes and activations.
-    pub architecture: Architecture,
-    /// Input and output scaling.
-    pub scaling: ScalingFile,
-    /// The weights.
-    pub weights: Weights,
-    /// Ship, servo and test design the network was trained for.
-    pub design: Design,
-    /// Validation residual spread.
-    pub uncertainty: Uncertainty,
-    /// Training record.
-    pub training: TrainingRecord,
-}
-
 /// A validated model, ready for inference.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Model {
@@ -394,6 +162,149 @@ fn feature_invalid(path: &str) -> impl Fn(FeatureError) -> ModelError + '_ {
         path: path.to_string(),
         message: e.to_string(),
     }
+}
+
+fn invalid(path: &str) -> impl Fn(String) -> ModelError + '_ {
+    move |message| ModelError::Invalid {
+        path: path.to_string(),
+        message,
+    }
+}
+
+/// The file's format, version and unit are this build's.
+fn check_header(file: &ModelFile, path: &str) -> Result<(), ModelError> {
+    let invalid = invalid(path);
+    if file.format != FORMAT {
+        return Err(invalid(format!(
+            "format `{}`, expected `{FORMAT}`",
+            file.format
+        )));
+    }
+    if file.version != VERSION {
+        return Err(invalid(format!(
+            "version {}, this build reads version {VERSION}",
+            file.version
+        )));
+    }
+    if file.unit != file.target.unit() {
+        return Err(invalid(format!(
+            "unit `{}` for target {}, expected `{}`",
+            file.unit,
+            file.target.name(),
+            file.target.unit()
+        )));
+    }
+    Ok(())
+}
+
+/// The file's inputs, parsed: known names of its method, at least one, none twice, and the
+/// speed log read by the displacement network only.
+fn check_inputs(file: &ModelFile, path: &str) -> Result<Vec<Feature>, ModelError> {
+    let invalid = invalid(path);
+    let inputs = features::parse_names(file.method, &file.inputs).map_err(feature_invalid(path))?;
+    let n_in = inputs.len();
+    if n_in == 0 {
+        return Err(invalid("no inputs".into()));
+    }
+    let mut seen = std::collections::HashSet::new();
+    if let Some(dup) = inputs.iter().find(|f| !seen.insert(**f)) {
+        return Err(invalid(format!("input `{dup}` appears twice")));
+    }
+    let has_log = inputs.contains(&Feature::SpeedLog);
+    if file.target == Target::Speed && has_log {
+        return Err(invalid(
+            "the speed network must not read the speed log (it estimates what the log measures)"
+                .into(),
+        ));
+    }
+    if file.target == Target::Displacement && !has_log {
+        return Err(invalid(
+            "the displacement network must read the speed log (`speed_log_mps`)".into(),
+        ));
+    }
+    Ok(inputs)
+}
+
+/// The file's scaling for `n_in` inputs.
+fn scaling_of(s: &ScalingFile, n_in: usize, path: &str) -> Result<Scaling, ModelError> {
+    if s.input_min.len() != n_in || s.input_max.len() != n_in {
+        return Err(invalid(path)(format!(
+            "scaling has {} / {} input ranges for {n_in} inputs",
+            s.input_min.len(),
+            s.input_max.len()
+        )));
+    }
+    Scaling::new(
+        s.input_min.clone(),
+        s.input_max.clone(),
+        s.output_min,
+        s.output_max,
+    )
+    .map_err(nn_invalid(path))
+}
+
+/// The network of the file's weights for `n_in` inputs: the paper's shapes, finite values.
+fn net_of(w: &Weights, n_in: usize, path: &str) -> Result<Mlp, ModelError> {
+    let invalid = invalid(path);
+    let matrix = |name: &str, rows: &Vec<Vec<f64>>, ncols: usize| {
+        if rows.len() != HIDDEN || rows.iter().any(|r| r.len() != ncols) {
+            return Err(invalid(format!(
+                "weights.{name} must be {HIDDEN} rows of {ncols}"
+            )));
+        }
+        let m = DMatrix::from_fn(HIDDEN, ncols, |j, i| rows[j][i]);
+        if m.iter().all(|v| v.is_finite()) {
+            Ok(m)
+        } else {
+            Err(invalid(format!("weights.{name} holds a non-finite value")))
+        }
+    };
+    let vector = |name: &str, v: &Vec<f64>| {
+        if v.len() != HIDDEN {
+            return Err(invalid(format!(
+                "weights.{name} must have {HIDDEN} values, has {}",
+                v.len()
+            )));
+        }
+        if v.iter().all(|x| x.is_finite()) {
+            Ok(DVector::from_column_slice(v))
+        } else {
+            Err(invalid(format!("weights.{name} holds a non-finite value")))
+        }
+    };
+    Ok(Mlp {
+        w1: matrix("w1", &w.w1, n_in)?,
+        b1: vector("b1", &w.b1)?,
+        w2: matrix("w2", &w.w2, HIDDEN)?,
+        b2: vector("b2", &w.b2)?,
+        w3: vector("w3", &w.w3)?,
+        b3: if w.b3.is_finite() {
+            w.b3
+        } else {
+            return Err(invalid("weights.b3 is not finite".into()));
+        },
+    })
+}
+
+/// The residual means are finite and the spreads finite and positive (the relative ones
+/// given both or neither).
+fn check_uncertainty(u: &Uncertainty, path: &str) -> Result<(), ModelError> {
+    let spread_ok = |m: f64, s: f64| m.is_finite() && s.is_finite() && s > 0.0;
+    if !spread_ok(u.residual_mean, u.residual_std)
+        || !u.by_sea.iter().all(|x| {
+            spread_ok(x.residual_mean, x.residual_std)
+                && match (x.relative_mean, x.relative_std) {
+                    (None, None) => true,
+                    (Some(m), Some(s)) => spread_ok(m, s),
+                    _ => false,
+                }
+        })
+    {
+        return Err(invalid(path)(
+            "uncertainty: residual means must be finite and spreads finite and > 0 (relative ones given both or neither)".into(),
+        ));
+    }
+    Ok(())
 }
 
 impl Model {
@@ -524,54 +435,11 @@ impl Model {
 
     /// Validates a parsed file. See the module documentation for the rules.
     pub fn from_file(file: ModelFile, path: &str) -> Result<Self, ModelError> {
-        let invalid = |message: String| ModelError::Invalid {
-            path: path.to_string(),
-            message,
-        };
-        if file.format != FORMAT {
-            return Err(invalid(format!(
-                "format `{}`, expected `{FORMAT}`",
-                file.format
-            )));
-        }
-        if file.version != VERSION {
-            return Err(invalid(format!(
-                "version {}, this build reads version {VERSION}",
-                file.version
-            )));
-        }
-        if file.unit != file.target.unit() {
-            return Err(invalid(format!(
-                "unit `{}` for target {}, expected `{}`",
-                file.unit,
-                file.target.name(),
-                file.target.unit()
-            )));
-        }
-        let inputs =
-            features::parse_names(file.method, &file.inputs).map_err(feature_invalid(path))?;
+        check_header(&file, path)?;
+        let inputs = check_inputs(&file, path)?;
         let n_in = inputs.len();
-        if n_in == 0 {
-            return Err(invalid("no inputs".into()));
-        }
-        let mut seen = std::collections::HashSet::new();
-        if let Some(dup) = inputs.iter().find(|f| !seen.insert(**f)) {
-            return Err(invalid(format!("input `{dup}` appears twice")));
-        }
-        let has_log = inputs.contains(&Feature::SpeedLog);
-        if file.target == Target::Speed && has_log {
-            return Err(invalid(
-                "the speed network must not read the speed log (it estimates what the log measures)"
-                    .into(),
-            ));
-        }
-        if file.target == Target::Displacement && !has_log {
-            return Err(invalid(
-                "the displacement network must read the speed log (`speed_log_mps`)".into(),
-            ));
-        }
         if file.architecture != Architecture::paper(n_in) {
-            return Err(invalid(format!(
+            return Err(invalid(path)(format!(
                 "architecture {:?} {:?}, expected {:?} {:?}",
                 file.architecture.layers,
                 file.architecture.activations,
@@ -579,76 +447,9 @@ impl Model {
                 Architecture::paper(n_in).activations
             )));
         }
-        let s = &file.scaling;
-        if s.input_min.len() != n_in || s.input_max.len() != n_in {
-            return Err(invalid(format!(
-                "scaling has {} / {} input ranges for {n_in} inputs",
-                s.input_min.len(),
-                s.input_max.len()
-            )));
-        }
-        let scaling = Scaling::new(
-            s.input_min.clone(),
-            s.input_max.clone(),
-            s.output_min,
-            s.output_max,
-        )
-        .map_err(nn_invalid(path))?;
-        let w = &file.weights;
-        let matrix = |name: &str, rows: &Vec<Vec<f64>>, ncols: usize| {
-            if rows.len() != HIDDEN || rows.iter().any(|r| r.len() != ncols) {
-                return Err(invalid(format!(
-                    "weights.{name} must be {HIDDEN} rows of {ncols}"
-                )));
-            }
-            let m = DMatrix::from_fn(HIDDEN, ncols, |j, i| rows[j][i]);
-            if m.iter().all(|v| v.is_finite()) {
-                Ok(m)
-            } else {
-                Err(invalid(format!("weights.{name} holds a non-finite value")))
-            }
-        };
-        let vector = |name: &str, v: &Vec<f64>| {
-            if v.len() != HIDDEN {
-                return Err(invalid(format!(
-                    "weights.{name} must have {HIDDEN} values, has {}",
-                    v.len()
-                )));
-            }
-            if v.iter().all(|x| x.is_finite()) {
-                Ok(DVector::from_column_slice(v))
-            } else {
-                Err(invalid(format!("weights.{name} holds a non-finite value")))
-            }
-        };
-        let net = Mlp {
-            w1: matrix("w1", &w.w1, n_in)?,
-            b1: vector("b1", &w.b1)?,
-            w2: matrix("w2", &w.w2, HIDDEN)?,
-            b2: vector("b2", &w.b2)?,
-            w3: vector("w3", &w.w3)?,
-            b3: if w.b3.is_finite() {
-                w.b3
-            } else {
-                return Err(invalid("weights.b3 is not finite".into()));
-            },
-        };
-        let u = &file.uncertainty;
-        let spread_ok = |m: f64, s: f64| m.is_finite() && s.is_finite() && s > 0.0;
-        if !spread_ok(u.residual_mean, u.residual_std)
-            || !u.by_sea.iter().all(|x| {
-                spread_ok(x.residual_mean, x.residual_std)
-                    && match (x.relative_mean, x.relative_std) {
-                        (None, None) => true,
-                        (Some(m), Some(s)) => spread_ok(m, s),
-                        _ => false,
-                    }
-            })
-        {
-            return Err(invalid(
-                "uncertainty: residual means must be finite and spreads finite and > 0 (relative ones given both or neither)".into(),
-            ));
-        }
+        let scaling = scaling_of(&file.scaling, n_in, path)?;
+        let net = net_of(&file.weights, n_in, path)?;
+        check_uncertainty(&file.uncertainty, path)?;
         Ok(Self {
             file,
             inputs,

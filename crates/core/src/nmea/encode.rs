@@ -1,7 +1,8 @@
 //! Sentences out: what the simulated ship's instruments send (and the tests use), written
 //! with the checksum and framing the decoder in the parent module checks.
 
-use super::{xor, KMH_MPS, KNOT_MPS, UDPBC};
+use super::framing::xor;
+use super::{KMH_MPS, KNOT_MPS, UDPBC};
 use crate::wire::Input;
 
 /// `$<talker><id>,<fields>*hh` (no line ending).

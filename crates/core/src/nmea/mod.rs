@@ -31,15 +31,21 @@
 //! more than [`MAX_LINE_BYTES`] bytes; every line is counted exactly once: as a sample
 //! source (`used`), `ignored` (a sentence the bridge does not use), or rejected by reason.
 
-use crate::angle::{deg, wrap_2pi};
-use crate::config::{check_range_open_low, fail, ConfigError};
-use crate::wire::{Input, Scalar, StateValue, Stream};
-use serde::{Deserialize, Serialize};
+use crate::angle::deg;
+use crate::wire::Input;
 
 mod encode;
+mod fields;
+mod framing;
 mod lines;
+mod options;
+mod stats;
 pub use encode::{datagram, sentence, tag_block, tag_time_ms, tick_sentences};
+use fields::{hdg, heading_rad, htd, number, plain_numbers, Value};
+use framing::{check_framing, framing_checksum_ok, split_tag_block, valid_talker, Tags};
 pub use lines::{Line, LineBuffer};
+pub use options::{DecodeOptions, HeadingSentence, SpeedSentence, TimeSource};
+pub use stats::{DecodeStats, Reject};
 
 /// Metres per second in one knot.
 pub const KNOT_MPS: f64 = 1852.0 / 3600.0;
@@ -51,234 +57,6 @@ pub const UDPBC: &[u8; 6] = b"UdPbC\0";
 /// most the `nmea` crate's 102 characters; IEC 61162-1 allows 82).
 pub const MAX_LINE_BYTES: usize = 512;
 
-/// Where a sample's `t` comes from.
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
-#[serde(rename_all = "kebab-case")]
-pub enum TimeSource {
-    /// The time of reception (the bridge's clock, UNIX seconds).
-    #[default]
-    Receive,
-    /// The tag block's `c:` in UNIX seconds (NMEA 0183 v4 tag blocks); lines without it are
-    /// rejected (`no_time`).
-    TagBlockS,
-    /// The tag block's `c:` in milliseconds (some IEC 61162-450 senders; the simulated ship).
-    TagBlockMs,
-    /// The time of reception plus the offset to UTC from the latest ZDA; lines before the
-    /// first valid ZDA are rejected (`no_time`).
-    Zda,
-}
-
-/// Which sentence gives the heading (one source per stream: two would interleave).
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
-#[serde(rename_all = "lowercase")]
-pub enum HeadingSentence {
-    /// HDT, heading true (a gyro compass).
-    #[default]
-    Hdt,
-    /// HDG, magnetic sensor heading with deviation and variation.
-    Hdg,
-}
-
-/// Which sentence gives the speed through water.
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
-#[serde(rename_all = "lowercase")]
-pub enum SpeedSentence {
-    /// VHW, water speed and heading.
-    #[default]
-    Vhw,
-    /// VBW, dual ground/water speed (longitudinal water speed).
-    Vbw,
-}
-
-/// What the decoder accepts (the decoding part of `[bridge]`).
-#[derive(Debug, Clone, PartialEq)]
-pub struct DecodeOptions {
-    /// Where `t` comes from.
-    pub time_source: TimeSource,
-    /// The heading sentence.
-    pub heading: HeadingSentence,
-    /// The speed sentence.
-    pub speed: SpeedSentence,
-    /// Accepted talkers (e.g. `HE`, `AG`); empty: any.
-    pub talkers: Vec<String>,
-    /// Accepted IEC 61162-450 sources (tag block `s:`); empty: any, and lines without one.
-    pub sources: Vec<String>,
-    /// Largest |rudder angle| accepted [deg].
-    pub max_rudder_deg: f64,
-    /// Largest |speed through water| accepted [m/s].
-    pub max_speed_mps: f64,
-}
-
-impl Default for DecodeOptions {
-    fn default() -> Self {
-        Self {
-            time_source: TimeSource::Receive,
-            heading: HeadingSentence::Hdt,
-            speed: SpeedSentence::Vhw,
-            talkers: Vec::new(),
-            sources: Vec::new(),
-            max_rudder_deg: 45.0,
-            max_speed_mps: 30.0,
-        }
-    }
-}
-
-impl DecodeOptions {
-    /// Checks the limits; `section` names the table (`bridge`).
-    pub fn check(&self, section: &str) -> Result<(), ConfigError> {
-        check_range_open_low(
-            &format!("{section}.max-rudder-deg"),
-            self.max_rudder_deg,
-            0.0,
-            90.0,
-        )?;
-        check_range_open_low(
-            &format!("{section}.max-speed-mps"),
-            self.max_speed_mps,
-            0.0,
-            100.0,
-        )?;
-        for (i, t) in self.talkers.iter().enumerate() {
-            if !valid_talker(t.as_bytes()) {
-                return Err(fail(
-                    &format!("{section}.talkers[{i}]"),
-                    format!("{t:?}"),
-                    "two upper-case letters or digits, e.g. \"HE\"",
-                ));
-            }
-        }
-        for (i, s) in self.sources.iter().enumerate() {
-            if s.is_empty() || s.len() > 32 || !s.bytes().all(|b| b.is_ascii_alphanumeric()) {
-                return Err(fail(
-                    &format!("{section}.sources[{i}]"),
-                    format!("{s:?}"),
-                    "1 to 32 letters or digits, e.g. \"GP0001\"",
-                ));
-            }
-        }
-        Ok(())
-    }
-}
-
-/// Why a line gave no sample.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Reject {
-    /// Longer than [`MAX_LINE_BYTES`] (or than the `nmea` crate's 102-character sentence).
-    TooLong,
-    /// Not `$TTSSS,...*hh` of printable ASCII: truncated, no checksum, garbage.
-    Framing,
-    /// The checksum does not match.
-    Checksum,
-    /// A tag block that is not `\...*hh\` with a matching checksum, or a bad `c:`.
-    TagBlock,
-    /// A datagram whose IEC 61162-450 header is not `UdPbC` (counted once per datagram).
-    Header,
-    /// A talker that is not two upper-case letters or digits, or not in `talkers`.
-    Talker,
-    /// A tag-block source not in `sources`.
-    Source,
-    /// A status field says the value is invalid (V), or is empty.
-    Status,
-    /// The value's field is empty (or, for HDG, no variation).
-    NoValue,
-    /// A field that does not parse (a number, a unit letter, a mode).
-    BadField,
-    /// A value outside its range (heading [0, 360], |rudder| `max-rudder-deg`, speed).
-    OutOfRange,
-    /// The configured time source has no time for this line (no `c:`, no ZDA yet).
-    NoTime,
-}
-
-impl Reject {
-    /// Every reason, in the order of the counters.
-    pub const ALL: [Reject; 12] = [
-        Reject::TooLong,
-        Reject::Framing,
-        Reject::Checksum,
-        Reject::TagBlock,
-        Reject::Header,
-        Reject::Talker,
-        Reject::Source,
-        Reject::Status,
-        Reject::NoValue,
-        Reject::BadField,
-        Reject::OutOfRange,
-        Reject::NoTime,
-    ];
-
-    /// The reason's name in `bridge/stats` and the metrics.
-    pub fn name(self) -> &'static str {
-        match self {
-            Reject::TooLong => "too_long",
-            Reject::Framing => "framing",
-            Reject::Checksum => "checksum",
-            Reject::TagBlock => "tag_block",
-            Reject::Header => "header",
-            Reject::Talker => "talker",
-            Reject::Source => "source",
-            Reject::Status => "status",
-            Reject::NoValue => "no_value",
-            Reject::BadField => "bad_field",
-            Reject::OutOfRange => "out_of_range",
-            Reject::NoTime => "no_time",
-        }
-    }
-
-    fn index(self) -> usize {
-        Reject::ALL.iter().position(|r| *r == self).unwrap_or(0)
-    }
-}
-
-/// The decoder's counters (what `vessels/<v>/bridge/stats` publishes).
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct DecodeStats {
-    /// Datagrams looked at.
-    pub datagrams: u64,
-    /// Lines looked at (a datagram's lines, a stream's lines; empty lines are not counted).
-    pub lines: u64,
-    /// Lines that gave one or more samples, or a ZDA time fix.
-    pub used: u64,
-    /// Valid sentences the bridge does not use (other types, proprietary, `!` encapsulation,
-    /// the heading or speed sentence not selected).
-    pub ignored: u64,
-    /// Samples made, by [`Stream::index`].
-    pub samples: [u64; 6],
-    /// Lines rejected, by [`Reject::ALL`] order (a bad datagram header counts once).
-    pub rejected: [u64; 12],
-}
-
-impl DecodeStats {
-    /// Rejections for `r`.
-    pub fn rejected(&self, r: Reject) -> u64 {
-        self.rejected[r.index()]
-    }
-    /// Every rejection.
-    pub fn rejected_total(&self) -> u64 {
-        self.rejected.iter().sum()
-    }
-    /// The counters as a JSON object: `{"datagrams", "lines", "used", "ignored",
-    /// "samples": {stream: n}, "rejected": {reason: n}}` (every reason, zeros included).
-    pub fn to_json(&self) -> serde_json::Value {
-        let samples: serde_json::Map<String, serde_json::Value> = Stream::BY_INDEX
-            .iter()
-            .filter(|s| **s != Stream::DesignDisplacement)
-            .map(|s| (s.name().to_string(), self.samples[s.index()].into()))
-            .collect();
-        let rejected: serde_json::Map<String, serde_json::Value> = Reject::ALL
-            .iter()
-            .map(|r| (r.name().to_string(), self.rejected(*r).into()))
-            .collect();
-        serde_json::json!({
-            "datagrams": self.datagrams,
-            "lines": self.lines,
-            "used": self.used,
-            "ignored": self.ignored,
-            "samples": samples,
-            "rejected": rejected,
-        })
-    }
-}
-
 /// One vessel's NMEA decoder: options, the ZDA offset, counters. See the module doc.
 #[derive(Debug, Clone)]
 pub struct Decoder {
@@ -286,15 +64,6 @@ pub struct Decoder {
     /// UTC minus the receive clock at the latest valid ZDA [s] (`time-source = "zda"`).
     zda_offset_s: Option<f64>,
     stats: DecodeStats,
-}
-
-/// What a line's tag block says.
-#[derive(Debug, Default)]
-struct Tags<'a> {
-    /// `c:` as written (an integer).
-    time: Option<i64>,
-    /// `s:`.
-    source: Option<&'a str>,
 }
 
 /// A line's outcome before counting.
@@ -374,52 +143,9 @@ impl Decoder {
         recv_s: f64,
         out: &mut Vec<Input>,
     ) -> Result<Outcome, Reject> {
-        if line.len() > MAX_LINE_BYTES {
-            return Err(Reject::TooLong);
-        }
-        if !line.iter().all(|b| (0x20..0x7f).contains(b)) {
-            return Err(Reject::Framing);
-        }
-        // Printable ASCII: a valid str.
-        let text = std::str::from_utf8(line).map_err(|_| Reject::Framing)?;
-        let (tags, sentence) = split_tag_block(text)?;
-        if !self.opts.sources.is_empty()
-            && !tags
-                .source
-                .is_some_and(|s| self.opts.sources.iter().any(|x| x == s))
-        {
-            return Err(Reject::Source);
-        }
-        check_framing(sentence)?;
-        if sentence.starts_with('!') || sentence.as_bytes().get(1) == Some(&b'P') {
-            // Encapsulation (AIS) and proprietary sentences: valid, not ours.
+        let Some((tags, parsed)) = self.sentence(line)? else {
             return Ok(Outcome::Ignored);
-        }
-        if sentence.len() > nmea::SENTENCE_MAX_LEN {
-            return Err(Reject::TooLong);
-        }
-        let talker = &sentence.as_bytes()[1..3];
-        let parsed = match nmea::parse_nmea_sentence(sentence) {
-            Ok(p) => p,
-            // Framing was checked above: what the crate refuses is a sentence type it does
-            // not know (e.g. `$IIXYZ`) - unless the checksum is wrong, which is checked first.
-            Err(_) => {
-                return if framing_checksum_ok(sentence) {
-                    Ok(Outcome::Ignored)
-                } else {
-                    Err(Reject::Checksum)
-                };
-            }
         };
-        if parsed.checksum != parsed.calc_checksum() {
-            return Err(Reject::Checksum);
-        }
-        if !valid_talker(talker)
-            || (!self.opts.talkers.is_empty()
-                && !self.opts.talkers.iter().any(|t| t.as_bytes() == talker))
-        {
-            return Err(Reject::Talker);
-        }
         use nmea::SentenceType as S;
         let kind = parsed.message_id;
         let wanted = match kind {
@@ -441,6 +167,75 @@ impl Decoder {
             self.zda_offset_s = Some(utc_s - recv_s);
             return Ok(Outcome::Used);
         }
+        // The value first (its reasons say more about the instrument than a missing time).
+        let Some(value) = self.value(parsed)? else {
+            return Ok(Outcome::Ignored);
+        };
+        let t = self.time(&tags, recv_s)?;
+        value.push(t, out);
+        Ok(Outcome::Used)
+    }
+
+    /// A line's tag block and its sentence, parsed and checked (framing, source, checksum,
+    /// talker); `None` for a valid sentence that is not ours (encapsulation, proprietary, a
+    /// type the `nmea` crate does not know).
+    fn sentence<'a>(
+        &self,
+        line: &'a [u8],
+    ) -> Result<Option<(Tags<'a>, nmea::NmeaSentence<'a>)>, Reject> {
+        if line.len() > MAX_LINE_BYTES {
+            return Err(Reject::TooLong);
+        }
+        if !line.iter().all(|b| (0x20..0x7f).contains(b)) {
+            return Err(Reject::Framing);
+        }
+        // Printable ASCII: a valid str.
+        let text = std::str::from_utf8(line).map_err(|_| Reject::Framing)?;
+        let (tags, sentence) = split_tag_block(text)?;
+        if !self.opts.sources.is_empty()
+            && !tags
+                .source
+                .is_some_and(|s| self.opts.sources.iter().any(|x| x == s))
+        {
+            return Err(Reject::Source);
+        }
+        check_framing(sentence)?;
+        if sentence.starts_with('!') || sentence.as_bytes().get(1) == Some(&b'P') {
+            // Encapsulation (AIS) and proprietary sentences: valid, not ours.
+            return Ok(None);
+        }
+        if sentence.len() > nmea::SENTENCE_MAX_LEN {
+            return Err(Reject::TooLong);
+        }
+        let talker = &sentence.as_bytes()[1..3];
+        let parsed = match nmea::parse_nmea_sentence(sentence) {
+            Ok(p) => p,
+            // Framing was checked above: what the crate refuses is a sentence type it does
+            // not know (e.g. `$IIXYZ`) - unless the checksum is wrong, which is checked first.
+            Err(_) => {
+                return if framing_checksum_ok(sentence) {
+                    Ok(None)
+                } else {
+                    Err(Reject::Checksum)
+                };
+            }
+        };
+        if parsed.checksum != parsed.calc_checksum() {
+            return Err(Reject::Checksum);
+        }
+        if !valid_talker(talker)
+            || (!self.opts.talkers.is_empty()
+                && !self.opts.talkers.iter().any(|t| t.as_bytes() == talker))
+        {
+            return Err(Reject::Talker);
+        }
+        Ok(Some((tags, parsed)))
+    }
+
+    /// The value of a wanted sentence other than ZDA; `None` for a type without one.
+    fn value(&self, parsed: nmea::NmeaSentence<'_>) -> Result<Option<Value>, Reject> {
+        use nmea::SentenceType as S;
+        let kind = parsed.message_id;
         let data = parsed.data;
         // The crate reads numbers with Rust's parser, which takes `inf`, `NaN` and `1e3`:
         // its sentences' numeric fields are held to plain decimals first, as ours are.
@@ -449,7 +244,6 @@ impl Decoder {
             S::VHW => plain_numbers(data, &[0, 2, 4, 6])?,
             _ => {}
         }
-        // The value first (its reasons say more about the instrument than a missing time).
         let value = match kind {
             S::HDT => {
                 let h = nmea::sentences::parse_hdt(parsed).map_err(|_| Reject::BadField)?;
@@ -471,25 +265,9 @@ impl Decoder {
                 let (state, target) = htd(data)?;
                 Value::Autopilot(state, target)
             }
-            _ => return Ok(Outcome::Ignored),
+            _ => return Ok(None),
         };
-        let t = self.time(&tags, recv_s)?;
-        let sc = |value: f64| Scalar { t, value };
-        match value {
-            Value::Heading(v) => out.push(Input::Heading(sc(v))),
-            Value::Rudder(v) => out.push(Input::Rudder(sc(v))),
-            Value::Speed(v) => out.push(Input::Speed(sc(v))),
-            Value::Autopilot(state, target) => {
-                out.push(Input::AutopilotState(StateValue {
-                    t,
-                    value: state.to_string(),
-                }));
-                if let Some(v) = target {
-                    out.push(Input::TargetHeading(sc(v)));
-                }
-            }
-        }
-        Ok(Outcome::Used)
+        Ok(Some(value))
     }
 
     fn time(&self, tags: &Tags<'_>, recv_s: f64) -> Result<f64, Reject> {
@@ -548,192 +326,6 @@ impl Decoder {
             Err(Reject::OutOfRange)
         }
     }
-}
-
-/// A sentence's value before its time is known.
-enum Value {
-    Heading(f64),
-    Rudder(f64),
-    Speed(f64),
-    Autopilot(&'static str, Option<f64>),
-}
-
-/// A heading in [0, 360] degrees to [0, 2 pi) radians (360 is north).
-fn heading_rad(d: f64) -> Result<f64, Reject> {
-    if d.is_finite() && (0.0..=360.0).contains(&d) {
-        Ok(wrap_2pi(deg(d)))
-    } else {
-        Err(Reject::OutOfRange)
-    }
-}
-
-/// A numeric field: empty is `None`; anything but a plain decimal (digits, one point, a
-/// leading sign) is a bad field (Rust's parser would take `inf`, `NaN`, `1e3`).
-fn number(s: &str) -> Result<Option<f64>, Reject> {
-    if s.is_empty() {
-        return Ok(None);
-    }
-    let digits = s.strip_prefix(['-', '+']).unwrap_or(s);
-    let ok = !digits.is_empty()
-        && digits.bytes().all(|b| b.is_ascii_digit() || b == b'.')
-        && digits.bytes().filter(|b| *b == b'.').count() <= 1
-        && digits.bytes().any(|b| b.is_ascii_digit());
-    if !ok {
-        return Err(Reject::BadField);
-    }
-    s.parse::<f64>().map(Some).map_err(|_| Reject::BadField)
-}
-
-/// Each field of `data` at `idx` (when present) is empty or a plain decimal.
-fn plain_numbers(data: &str, idx: &[usize]) -> Result<(), Reject> {
-    let f: Vec<&str> = data.split(',').collect();
-    for i in idx {
-        if let Some(x) = f.get(*i) {
-            number(x)?;
-        }
-    }
-    Ok(())
-}
-
-/// An east/west-signed angle: value and `E` (+) or `W` (-); an empty pair is `None`.
-fn east_west(v: &str, dir: &str) -> Result<Option<f64>, Reject> {
-    match (number(v)?, dir) {
-        (None, "") => Ok(None),
-        (None, _) => Err(Reject::BadField),
-        (Some(x), _) if !(0.0..=180.0).contains(&x) => Err(Reject::OutOfRange),
-        (Some(x), "E") => Ok(Some(x)),
-        (Some(x), "W") => Ok(Some(-x)),
-        (Some(_), _) => Err(Reject::BadField),
-    }
-}
-
-/// HDG: magnetic sensor heading, deviation, E/W, variation, E/W. True heading = sensor +
-/// deviation + variation (east positive). No deviation: 0 (a compensated compass); no
-/// variation: no true heading.
-fn hdg(data: &str) -> Result<f64, Reject> {
-    let f: Vec<&str> = data.split(',').collect();
-    if f.len() < 5 {
-        return Err(Reject::BadField);
-    }
-    let sensor = number(f[0])?.ok_or(Reject::NoValue)?;
-    if !(0.0..=360.0).contains(&sensor) {
-        return Err(Reject::OutOfRange);
-    }
-    let deviation = east_west(f[1], f[2])?.unwrap_or(0.0);
-    let variation = east_west(f[3], f[4])?.ok_or(Reject::NoValue)?;
-    Ok(wrap_2pi(deg(sensor + deviation + variation)))
-}
-
-/// HTD (heading/track control data, IEC 61162-1): the autopilot's state and its
-/// heading-to-steer (true) when given. Fields (0-based): 0 override (A in use), 3 steering
-/// mode, 9 commanded heading-to-steer [deg], 12 heading reference (T/M).
-fn htd(data: &str) -> Result<(&'static str, Option<f64>), Reject> {
-    let f: Vec<&str> = data.split(',').collect();
-    if f.len() < 13 {
-        return Err(Reject::BadField);
-    }
-    let mode = match f[3] {
-        "" => return Err(Reject::NoValue),
-        "S" | "H" => "auto",
-        "T" => "route",
-        "M" => "standby",
-        "R" => "directControl",
-        _ => return Err(Reject::BadField),
-    };
-    let state = match f[0] {
-        "A" => "standby",
-        "V" | "" => mode,
-        _ => return Err(Reject::BadField),
-    };
-    let target = match number(f[9])? {
-        None => None,
-        Some(d) => {
-            if f[12] != "T" {
-                // A magnetic heading-to-steer cannot be made true here.
-                return Err(Reject::BadField);
-            }
-            Some(heading_rad(d)?)
-        }
-    };
-    Ok((state, target))
-}
-
-fn valid_talker(t: &[u8]) -> bool {
-    t.len() == 2
-        && t.iter()
-            .all(|b| b.is_ascii_uppercase() || b.is_ascii_digit())
-}
-
-fn hex_byte(s: &[u8]) -> Option<u8> {
-    let h = std::str::from_utf8(s).ok()?;
-    if h.len() != 2 || !h.bytes().all(|b| b.is_ascii_hexdigit()) {
-        return None;
-    }
-    u8::from_str_radix(h, 16).ok()
-}
-
-fn xor(bytes: &[u8]) -> u8 {
-    bytes.iter().fold(0, |c, b| c ^ b)
-}
-
-/// Splits an optional leading tag block `\k:v,k:v*hh\` off the sentence.
-fn split_tag_block(text: &str) -> Result<(Tags<'_>, &str), Reject> {
-    let Some(rest) = text.strip_prefix('\\') else {
-        return Ok((Tags::default(), text));
-    };
-    let end = rest.find('\\').ok_or(Reject::TagBlock)?;
-    let (block, sentence) = (&rest[..end], &rest[end + 1..]);
-    let star = block.rfind('*').ok_or(Reject::TagBlock)?;
-    let (params, hh) = (&block[..star], &block.as_bytes()[star + 1..]);
-    if hex_byte(hh) != Some(xor(params.as_bytes())) {
-        return Err(Reject::TagBlock);
-    }
-    let mut tags = Tags::default();
-    for p in params.split(',') {
-        let (k, v) = p.split_once(':').ok_or(Reject::TagBlock)?;
-        match k {
-            "c" => {
-                if v.is_empty() || !v.bytes().all(|b| b.is_ascii_digit()) {
-                    return Err(Reject::TagBlock);
-                }
-                tags.time = Some(v.parse().map_err(|_| Reject::TagBlock)?);
-            }
-            "s" => tags.source = Some(v),
-            _ => {}
-        }
-    }
-    Ok((tags, sentence))
-}
-
-/// `$` or `!`, five header characters, fields, `*`, two hex digits, nothing after.
-fn check_framing(s: &str) -> Result<(), Reject> {
-    let b = s.as_bytes();
-    if b.len() < 9 || !(b[0] == b'$' || b[0] == b'!') {
-        return Err(Reject::Framing);
-    }
-    let star = b.len() - 3;
-    if b[star] != b'*' || hex_byte(&b[star + 1..]).is_none() {
-        return Err(Reject::Framing);
-    }
-    let header = &b[1..6];
-    if !header.iter().all(|c| c.is_ascii_alphanumeric()) || b[6] != b',' {
-        return Err(Reject::Framing);
-    }
-    if b[1..star]
-        .iter()
-        .any(|c| matches!(c, b'$' | b'!' | b'*' | b'\\'))
-    {
-        return Err(Reject::Framing);
-    }
-    Ok(())
-}
-
-/// Whether the checksum of a framed sentence matches (for sentence types the crate does not
-/// know, so that a corrupted known sentence is not counted as an unknown one).
-fn framing_checksum_ok(s: &str) -> bool {
-    let b = s.as_bytes();
-    let star = b.len() - 3;
-    hex_byte(&b[star + 1..]) == Some(xor(&b[1..star]))
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -60,31 +60,34 @@
 //! realisation unchanged, and the sequence never depends on whether `publish` was called.
 
 pub mod autopilot;
+mod build;
 pub mod config;
+mod controls;
 pub mod fault;
 pub mod mariner;
 pub mod mmg;
 mod record;
+mod scenario;
 pub mod sea;
+mod sensors;
 pub mod servo;
 pub mod ship;
 
 pub use autopilot::{Autopilot, CommandSource};
 pub use fault::{Fault, FaultKind, FaultParseError};
 pub use record::record;
+pub use scenario::{Scenario, SimOptions};
 
-use crate::angle::{deg, wrap_2pi};
 use crate::config::ConfigError;
-use crate::model::{SeaState, ShipConfig};
-use crate::sim::config::SimConfig;
-use crate::wire::{Excitation, Input, Scalar, StateValue};
+use crate::model::ShipConfig;
+use crate::wire::Excitation;
 use fault::Effects;
 use mariner::Manoeuvring;
 use mmg::MmgInput;
-use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use sea::{MarkovBias, WaveYaw};
+use sensors::Measurement;
 use servo::{Backlash, Servo};
 use ship::{GeneralHull, Hull, HullStep, Structure};
 
@@ -119,83 +122,6 @@ pub enum SimError {
     /// Serialising a recording line failed.
     #[error("serialising a recording line: {0}")]
     Json(#[from] serde_json::Error),
-}
-
-/// What is simulated: the true speed and displacement, the sea, the faults, the seed.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Scenario {
-    /// True speed through water u [m/s] (> 0).
-    pub speed_mps: f64,
-    /// True displacement D [t] (> 0), before any displacement fault.
-    pub displacement_t: f64,
-    /// Sea state (disturbance levels from `SeaConfig::levels`).
-    pub sea: SeaState,
-    /// Faults, each with its onset.
-    pub faults: Vec<Fault>,
-    /// Seed of the only random generator.
-    pub seed: u64,
-}
-
-impl Scenario {
-    /// The nominal ship of `cfg` in its configured sea state, no fault.
-    pub fn nominal(cfg: &SimConfig, seed: u64) -> Self {
-        Self {
-            speed_mps: cfg.ship.nominal_speed_mps,
-            displacement_t: cfg.ship.nominal_displacement_t,
-            sea: cfg.sea.state,
-            faults: Vec::new(),
-            seed,
-        }
-    }
-
-    fn check(&self) -> Result<(), SimError> {
-        let positive = |field, value: f64| {
-            if value.is_finite() && value > 0.0 {
-                Ok(())
-            } else {
-                Err(SimError::Scenario {
-                    field,
-                    value,
-                    allowed: "finite and > 0",
-                })
-            }
-        };
-        positive("speed_mps", self.speed_mps)?;
-        positive("displacement_t", self.displacement_t)?;
-        for f in &self.faults {
-            f.check()?;
-        }
-        Ok(())
-    }
-}
-
-/// Switches for tests: run without sensor noise, without sea disturbances, or both.
-///
-/// Switching off scales the random draws by zero; the draws still happen, so the rest of the
-/// realisation is unchanged.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct SimOptions {
-    /// White noise on heading, rudder and speed measurements.
-    pub noise: bool,
-    /// Rudder-equivalent bias and wave yaw.
-    pub disturbances: bool,
-}
-
-impl Default for SimOptions {
-    fn default() -> Self {
-        Self {
-            noise: true,
-            disturbances: true,
-        }
-    }
-}
-
-impl SimOptions {
-    /// No noise, no disturbance: the deterministic ship.
-    pub const CLEAN: SimOptions = SimOptions {
-        noise: false,
-        disturbances: false,
-    };
 }
 
 /// The true state of the ship at the current tick (what no sensor sees exactly).
@@ -238,14 +164,6 @@ pub struct Truth {
     pub rate_limited: bool,
     /// Target heading of the autopilot [rad].
     pub target_rad: f64,
-}
-
-/// The tick's measurements, drawn once.
-#[derive(Debug, Clone, Copy)]
-struct Measurement {
-    heading_rad: f64,
-    rudder_rad: f64,
-    speed_mps: f64,
 }
 
 /// The simulated ship (see the module documentation for the call order and the model).
@@ -306,141 +224,6 @@ pub struct Ship {
 }
 
 impl Ship {
-    /// A ship for `scenario` with noise and disturbances on. Checks `cfg` and the scenario.
-    pub fn new(cfg: &SimConfig, scenario: &Scenario) -> Result<Ship, SimError> {
-        Ship::with_options(cfg, scenario, SimOptions::default())
-    }
-
-    /// A ship with noise and disturbances switched by `options`.
-    pub fn with_options(
-        cfg: &SimConfig,
-        scenario: &Scenario,
-        options: SimOptions,
-    ) -> Result<Ship, SimError> {
-        cfg.check()?;
-        scenario.check()?;
-        let dt = cfg.sensors.dt_s();
-        let substeps = cfg.simulation.substeps;
-        let h_s = dt / f64::from(substeps);
-        let levels = cfg.sea.levels(scenario.sea);
-        let on = |b: bool| if b { 1.0 } else { 0.0 };
-        let dist = on(options.disturbances);
-        let noise = on(options.noise);
-
-        let mut rng = ChaCha8Rng::seed_from_u64(scenario.seed);
-        let mut bias = MarkovBias::new(
-            cfg.sea.bias_time_constant_s,
-            dist * deg(levels.bias_deg),
-            dt,
-        );
-        let mut wave = WaveYaw::new(
-            cfg.sea.wave_frequency_rad_s,
-            cfg.sea.wave_damping,
-            dist * deg(levels.wave_yaw_deg),
-            dt,
-        )?;
-        bias.start(normal(&mut rng));
-        let (n1, n2) = (normal(&mut rng), normal(&mut rng));
-        wave.start(n1, n2);
-
-        // Start trimmed: rudder and autopilot integral balance the initial bias.
-        let max = cfg.servo.max_angle_rad();
-        let trim = (-bias.value_rad()).clamp(-max, max);
-        let course = deg(cfg.simulation.initial_course_deg);
-        let (a, b) = cfg.ship.nomoto(scenario.speed_mps, scenario.displacement_t);
-        let st = &cfg.structure;
-        let hull = Hull {
-            psi_rad: wrap_2pi(course),
-            r_rad_s: 0.0,
-        };
-        let mmg = Manoeuvring::new(st.hull, st.mmg_length_m, scenario.speed_mps, hull.psi_rad)?;
-        let general = (!st.first_order_hull() && mmg.is_none()).then(|| {
-            let s = Structure::new(
-                a,
-                b,
-                st.nomoto_t2_ratio,
-                st.nomoto_t3_ratio,
-                st.norrbin_n3_s2,
-            );
-            (*st, GeneralHull::steady(&s, &hull, trim + bias.value_rad()))
-        });
-        let backlash = (st.rudder_backlash_deg > 0.0)
-            .then(|| Backlash::new(deg(st.rudder_backlash_deg), trim));
-        // On the MMG hull the autopilot is tuned by the same pole placement on that hull's own
-        // linearised first-order model (at the nominal displacement; at the nominal speed too
-        // when it has fixed gains), as it would be commissioned on its ship.
-        let gains = match &mmg {
-            Some(m) => {
-                let tuned = match cfg.autopilot.speed_scheduling {
-                    true => m.clone(),
-                    false => Manoeuvring::new(
-                        st.hull,
-                        st.mmg_length_m,
-                        cfg.ship.nominal_speed_mps,
-                        hull.psi_rad,
-                    )?
-                    .unwrap_or_else(|| m.clone()),
-                };
-                let (k, t) = tuned.linear(1.0, 1.0).first_order();
-                cfg.autopilot.gains_for_first_order(k, t)
-            }
-            None => cfg.autopilot.gains_at(&cfg.ship, scenario.speed_mps),
-        };
-        let autopilot = Autopilot::new(
-            gains,
-            cfg.autopilot.wave_filter_rad_s,
-            max,
-            course,
-            trim,
-            dt,
-        );
-        Ok(Ship {
-            ship_cfg: cfg.ship.clone(),
-            speed_mps: scenario.speed_mps,
-            displacement_t: scenario.displacement_t,
-            faults: scenario.faults.clone(),
-            servo_rate_rad_s: cfg.servo.max_rate_rad_s(),
-            tick: 0,
-            start_s: cfg.simulation.start_time_s,
-            rate_hz: cfg.sensors.rate_hz,
-            substeps,
-            h_s,
-            full: HullStep::new(a, h_s),
-            a_per_s: a,
-            hull,
-            general,
-            autopilot_cfg: cfg.autopilot.clone(),
-            declared_displacement_t: None,
-            mmg,
-            nominal_displacement_t: cfg.ship.nominal_displacement_t,
-            servo: Servo::new(
-                max,
-                cfg.servo.max_rate_rad_s(),
-                cfg.servo.time_constant_s,
-                trim,
-                h_s,
-            )
-            .with_dead_band(deg(st.rudder_dead_band_deg)),
-            backlash,
-            autopilot,
-            bias,
-            wave,
-            sea_levels: levels,
-            rng,
-            heading_noise_rad: noise * deg(cfg.sensors.heading_noise_deg),
-            rudder_noise_rad: noise * deg(cfg.sensors.rudder_noise_deg),
-            speed_noise_mps: noise * cfg.sensors.speed_noise_mps,
-            meas: None,
-            status_period_s: cfg.sensors.status_period_s,
-            status_count: 0,
-            status_dirty: true,
-            override_rad: None,
-            last_command_rad: trim,
-            last_source: CommandSource::Own,
-            rate_limited: false,
-        })
-    }
-
     /// Adds `fault` from the next tick on (its onset set to now): a fault that appears
     /// during a run, after commissioning (the FDI suite).
     pub fn inject(&mut self, mut fault: Fault) {
@@ -456,98 +239,6 @@ impl Ship {
     /// Tick length [s].
     pub fn dt_s(&self) -> f64 {
         1.0 / self.rate_hz
-    }
-
-    /// The tick's measurements, drawing them on first use.
-    fn measure(&mut self) -> Measurement {
-        if let Some(m) = self.meas {
-            return m;
-        }
-        let t = self.time_s();
-        let fx = Effects::at(&self.faults, t);
-        let n_rudder = normal(&mut self.rng);
-        let n_speed = normal(&mut self.rng);
-        let n_heading = normal(&mut self.rng);
-        let m = Measurement {
-            rudder_rad: self.rudder_rad() + self.rudder_noise_rad * n_rudder,
-            speed_mps: self.true_speed_mps() * fx.speed_log_scale
-                + fx.speed_log_bias_mps
-                + self.speed_noise_mps * n_speed,
-            heading_rad: wrap_2pi(
-                self.hull.psi_rad
-                    + self.wave.value_rad()
-                    + fx.heading_drift_rad
-                    + self.heading_noise_rad * n_heading,
-            ),
-        };
-        self.meas = Some(m);
-        m
-    }
-
-    /// Measurements at the current tick, drawn exactly once per tick, in lockstep order:
-    /// rudder, speed, (autopilot state, target heading when due), heading LAST. Appends to `out`.
-    ///
-    /// The state and target are due every `sensors.status-period-s` from the start, and at the
-    /// first tick after either changes; the declared displacement (after
-    /// [`Ship::set_loading_t`], in kg) goes out with them, after the target. Only the state's
-    /// string is allocated (once per status period); reuse `out` between calls.
-    pub fn publish(&mut self, out: &mut Vec<Input>) {
-        let m = self.measure();
-        let t = self.clock_s() + self.outlier_s();
-        out.push(Input::Rudder(Scalar {
-            t,
-            value: m.rudder_rad,
-        }));
-        out.push(Input::Speed(Scalar {
-            t,
-            value: m.speed_mps,
-        }));
-        // Publications are due by ship time; only their stamps carry the sensors' clock.
-        let now = self.time_s();
-        let next_due = self.start_s + self.status_count as f64 * self.status_period_s;
-        if self.status_dirty || now >= next_due - 1e-9 {
-            out.push(Input::AutopilotState(StateValue {
-                t,
-                value: self.autopilot.state_name().to_string(),
-            }));
-            out.push(Input::TargetHeading(Scalar {
-                t,
-                value: self.autopilot.target_rad(),
-            }));
-            if let Some(d) = self.declared_displacement_t {
-                out.push(Input::DesignDisplacement(Scalar {
-                    t,
-                    value: d * 1000.0,
-                }));
-            }
-            self.status_dirty = false;
-            while self.start_s + self.status_count as f64 * self.status_period_s <= now + 1e-9 {
-                self.status_count += 1;
-            }
-        }
-        out.push(Input::Heading(Scalar {
-            t,
-            value: m.heading_rad,
-        }));
-    }
-
-    /// The sensors' clock: ship time plus any stepped clock ([`FaultKind::ClockStepS`]) [s].
-    pub fn clock_s(&self) -> f64 {
-        let t = self.time_s();
-        t + Effects::at(&self.faults, t).clock_offset_s
-    }
-
-    /// The wild-timestamp offset of this tick ([`FaultKind::ClockOutlierS`]: the one tick at
-    /// or just after its onset) [s].
-    fn outlier_s(&self) -> f64 {
-        let t = self.time_s();
-        let dt = 1.0 / self.rate_hz;
-        self.faults
-            .iter()
-            .filter(|f| f.kind == FaultKind::ClockOutlierS)
-            .filter(|f| t >= f.onset_s - 1e-9 && t < f.onset_s + dt - 1e-9)
-            .map(|f| f.value)
-            .sum()
     }
 
     /// The autopilot side of the contract: store the latest excitation message.
@@ -643,114 +334,6 @@ impl Ship {
         self.backlash
             .as_ref()
             .map_or(self.servo.delta_rad(), Backlash::blade_rad)
-    }
-
-    /// The ship's speed through water becomes `speed_mps` from the next tick (not a fault):
-    /// the Nomoto hull's a, the MMG hull's propeller revolutions (set for a steady straight
-    /// course at that speed) and its surge speed, and a speed-scheduled autopilot's gains
-    /// (re-tuned without a bump in its command). Refuses a speed that is not finite and > 0.
-    pub fn set_speed_mps(&mut self, speed_mps: f64) -> Result<(), SimError> {
-        if !(speed_mps.is_finite() && speed_mps > 0.0) {
-            return Err(SimError::Scenario {
-                field: "speed_mps",
-                value: speed_mps,
-                allowed: "finite and > 0",
-            });
-        }
-        let (a, _) = self.ship_cfg.nomoto(speed_mps, self.displacement_t);
-        let gains = match &mut self.mmg {
-            Some(m) => {
-                m.set_speed_mps(speed_mps)?;
-                let (k, t) = m.linear(1.0, 1.0).first_order();
-                self.autopilot_cfg
-                    .speed_scheduling
-                    .then(|| self.autopilot_cfg.gains_for_first_order(k, t))
-            }
-            None => self
-                .autopilot_cfg
-                .speed_scheduling
-                .then(|| self.autopilot_cfg.gains_at(&self.ship_cfg, speed_mps)),
-        };
-        if let Some(g) = gains {
-            self.autopilot.set_gains(g);
-        }
-        self.speed_mps = speed_mps;
-        self.a_per_s = a;
-        self.full = HullStep::new(a, self.h_s);
-        Ok(())
-    }
-
-    /// The ship is loaded to `displacement_t` (its true displacement from the next tick, not
-    /// a fault) and declares it: `design/displacement` (kg) goes out with the status at the
-    /// next tick and every status period after. Refuses a value that is not finite and > 0.
-    pub fn set_loading_t(&mut self, displacement_t: f64) -> Result<(), SimError> {
-        if !(displacement_t.is_finite() && displacement_t > 0.0) {
-            return Err(SimError::Scenario {
-                field: "displacement_t",
-                value: displacement_t,
-                allowed: "finite and > 0",
-            });
-        }
-        self.displacement_t = displacement_t;
-        self.declared_displacement_t = Some(displacement_t);
-        self.status_dirty = true;
-        Ok(())
-    }
-
-    /// The sea becomes `levels` from the next tick (the weather, not a fault): the
-    /// rudder-equivalent bias and the wave yaw keep their state, rescaled to the new
-    /// standard deviations (both stay stationary; no random draw, so the run's other draws
-    /// are those of the same seed). A level that was zero stays zero. Refuses levels that
-    /// are not finite and >= 0.
-    pub fn set_sea(&mut self, levels: config::SeaLevels) -> Result<(), SimError> {
-        for (field, value) in [
-            ("sea.wave_yaw_deg", levels.wave_yaw_deg),
-            ("sea.bias_deg", levels.bias_deg),
-        ] {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err(SimError::Scenario {
-                    field,
-                    value,
-                    allowed: "finite and >= 0",
-                });
-            }
-        }
-        let ratio = |new: f64, old: f64| if old > 0.0 { new / old } else { 0.0 };
-        self.wave
-            .rescale(ratio(levels.wave_yaw_deg, self.sea_levels.wave_yaw_deg));
-        self.bias
-            .rescale(ratio(levels.bias_deg, self.sea_levels.bias_deg));
-        self.sea_levels = levels;
-        Ok(())
-    }
-
-    /// The displacement the ship declares [t] (None until [`Ship::set_loading_t`]).
-    pub fn declared_displacement_t(&self) -> Option<f64> {
-        self.declared_displacement_t
-    }
-
-    /// Sets the autopilot's target course [rad] (published at the next tick).
-    pub fn set_course(&mut self, course_rad: f64) {
-        self.autopilot.set_target_rad(course_rad);
-        self.status_dirty = true;
-    }
-
-    /// `true` = "auto", `false` = "standby" (holds the last command, ignores excitation).
-    pub fn set_autopilot_engaged(&mut self, engaged: bool) {
-        if engaged != self.autopilot.engaged() {
-            self.status_dirty = true;
-        }
-        self.autopilot.set_engaged(engaged);
-    }
-
-    /// Whether the autopilot is in `auto` (else `standby`).
-    pub fn autopilot_engaged(&self) -> bool {
-        self.autopilot.engaged()
-    }
-
-    /// Open-loop mode for tests: the rudder command is `cmd_rad` (bypasses the autopilot and excitation); None restores.
-    pub fn set_command_override(&mut self, cmd_rad: Option<f64>) {
-        self.override_rad = cmd_rad;
     }
 
     /// The true state at the current tick.

@@ -6,6 +6,9 @@
 #![allow(clippy::unwrap_used)]
 
 use super::*;
+use crate::model::SeaState;
+use crate::sim::config::SimConfig;
+use crate::wire::Input;
 use approx::assert_relative_eq;
 
 fn scenario(u: f64, d: f64, faults: &[&str]) -> Scenario {

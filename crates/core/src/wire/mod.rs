@@ -31,6 +31,11 @@ pub mod residuals;
 
 pub use features::Features;
 
+mod input;
+mod report;
+pub use input::{decode, decode_value, DecodeError, Input, Scalar, StateValue};
+pub use report::{Cause, Decision, Estimate, Outcome, Report};
+
 /// Key expressions of one vessel.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Keys {
@@ -191,24 +196,6 @@ impl Keys {
     }
 }
 
-/// `{"t": f64, "value": f64}`: heading, rudder, speed, target heading.
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
-pub struct Scalar {
-    /// Ship time [s].
-    pub t: f64,
-    /// Value in SI units (rad or m/s).
-    pub value: f64,
-}
-
-/// `{"t": f64, "value": "auto" | "standby" | ...}`: autopilot state.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct StateValue {
-    /// Ship time [s].
-    pub t: f64,
-    /// Signal K autopilot state.
-    pub value: String,
-}
-
 /// Excitation mode.
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
@@ -282,103 +269,6 @@ pub struct Status {
     pub reason: Option<String>,
 }
 
-/// Test outcome.
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "lowercase")]
-pub enum Outcome {
-    /// The test ran to the end.
-    Completed,
-    /// The test was stopped by a safety condition.
-    Aborted,
-}
-
-/// Decision of one test.
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "lowercase")]
-pub enum Decision {
-    /// Residuals consistent with the nominal ship.
-    Nominal,
-    /// A fault is declared.
-    Fault,
-    /// No decision (aborted test, no estimator, residuals pending persistence).
-    Inconclusive,
-}
-
-/// A suspected cause in a report's `isolation` (and the FDI's notification).
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Hash)]
-#[serde(rename_all = "snake_case")]
-pub enum Cause {
-    /// The speed log reads wrong.
-    SpeedLog,
-    /// The ship is heavier or lighter, or the rudder lost effectiveness (both move b).
-    DisplacementOrRudderEffectiveness,
-    /// The steering actuator (servo) responds unlike the nominal one.
-    SteeringActuator,
-}
-
-impl Cause {
-    /// Every cause.
-    pub const ALL: [Cause; 3] = [
-        Cause::SpeedLog,
-        Cause::DisplacementOrRudderEffectiveness,
-        Cause::SteeringActuator,
-    ];
-
-    /// The wire name (serde's), for messages.
-    pub fn name(self) -> &'static str {
-        match self {
-            Cause::SpeedLog => "speed_log",
-            Cause::DisplacementOrRudderEffectiveness => "displacement_or_rudder_effectiveness",
-            Cause::SteeringActuator => "steering_actuator",
-        }
-    }
-}
-
-impl std::fmt::Display for Cause {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-/// `estimate` of a report.
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
-pub struct Estimate {
-    /// Estimated speed through water [m/s].
-    pub speed_mps: f64,
-    /// Estimated displacement [t].
-    pub displacement_t: f64,
-}
-
-/// `fdi/report`, after every test, completed or aborted.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct Report {
-    /// Test id.
-    pub test: String,
-    /// Method.
-    pub method: crate::wire::Method,
-    /// Start of the test (ship time) [s].
-    pub t_start: f64,
-    /// End of the test (ship time) [s].
-    pub t_end: f64,
-    /// Completed or aborted.
-    pub outcome: Outcome,
-    /// Abort reason, or null.
-    pub reason: Option<String>,
-    /// Method-specific features (documented in docs/contract.md; `{}` for an aborted test).
-    pub features: Features,
-    /// Estimated parameters, null for an aborted test or when no estimator is loaded.
-    pub estimate: Option<Estimate>,
-    /// Residuals (documented in docs/contract.md; `{}` for an aborted test).
-    #[serde(default)]
-    pub residuals: residuals::Residuals,
-    /// The decision.
-    pub decision: Decision,
-    /// Suspected causes.
-    pub isolation: Vec<Cause>,
-    /// Human-readable summary.
-    pub message: String,
-}
-
 /// Signal K notification state.
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, PartialOrd, Ord)]
 #[serde(rename_all = "lowercase")]
@@ -424,99 +314,6 @@ pub struct RecordLine {
     pub payload: serde_json::Value,
 }
 
-/// A decoded sample of one input stream.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Input {
-    /// True heading [rad].
-    Heading(Scalar),
-    /// Rudder angle [rad].
-    Rudder(Scalar),
-    /// Speed through water [m/s].
-    Speed(Scalar),
-    /// Autopilot state.
-    AutopilotState(StateValue),
-    /// Autopilot target heading [rad].
-    TargetHeading(Scalar),
-    /// Design displacement [kg] (Signal K `design.displacement`).
-    DesignDisplacement(Scalar),
-}
-
-impl Input {
-    /// The stream this sample belongs to.
-    pub fn stream(&self) -> Stream {
-        match self {
-            Input::Heading(_) => Stream::Heading,
-            Input::Rudder(_) => Stream::Rudder,
-            Input::Speed(_) => Stream::Speed,
-            Input::AutopilotState(_) => Stream::AutopilotState,
-            Input::TargetHeading(_) => Stream::TargetHeading,
-            Input::DesignDisplacement(_) => Stream::DesignDisplacement,
-        }
-    }
-    /// Ship time of the sample [s].
-    pub fn t(&self) -> f64 {
-        match self {
-            Input::Heading(s)
-            | Input::Rudder(s)
-            | Input::Speed(s)
-            | Input::TargetHeading(s)
-            | Input::DesignDisplacement(s) => s.t,
-            Input::AutopilotState(s) => s.t,
-        }
-    }
-    /// The JSON payload of this sample, as a ship publishes it.
-    pub fn payload(&self) -> serde_json::Value {
-        let r = match self {
-            Input::Heading(s)
-            | Input::Rudder(s)
-            | Input::Speed(s)
-            | Input::TargetHeading(s)
-            | Input::DesignDisplacement(s) => serde_json::to_value(s),
-            Input::AutopilotState(s) => serde_json::to_value(s),
-        };
-        r.unwrap_or(serde_json::Value::Null)
-    }
-}
-
-/// Why a payload was not accepted as an input sample.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum DecodeError {
-    /// Not JSON, or not of the payload's shape.
-    #[error("malformed payload: {0}")]
-    Malformed(String),
-}
-
-/// Decodes the payload of `stream` from JSON bytes. Only the shape is checked here; values
-/// (finiteness, ranges, time order) are checked by the monitor, which counts rejections.
-pub fn decode(stream: Stream, bytes: &[u8]) -> Result<Input, DecodeError> {
-    let m = |e: serde_json::Error| DecodeError::Malformed(e.to_string());
-    Ok(match stream {
-        Stream::Heading => Input::Heading(serde_json::from_slice(bytes).map_err(m)?),
-        Stream::Rudder => Input::Rudder(serde_json::from_slice(bytes).map_err(m)?),
-        Stream::Speed => Input::Speed(serde_json::from_slice(bytes).map_err(m)?),
-        Stream::AutopilotState => Input::AutopilotState(serde_json::from_slice(bytes).map_err(m)?),
-        Stream::TargetHeading => Input::TargetHeading(serde_json::from_slice(bytes).map_err(m)?),
-        Stream::DesignDisplacement => {
-            Input::DesignDisplacement(serde_json::from_slice(bytes).map_err(m)?)
-        }
-    })
-}
-
-/// Decodes a payload already parsed as JSON (recordings).
-pub fn decode_value(stream: Stream, v: serde_json::Value) -> Result<Input, DecodeError> {
-    let m = |e: serde_json::Error| DecodeError::Malformed(e.to_string());
-    Ok(match stream {
-        Stream::Heading => Input::Heading(serde_json::from_value(v).map_err(m)?),
-        Stream::Rudder => Input::Rudder(serde_json::from_value(v).map_err(m)?),
-        Stream::Speed => Input::Speed(serde_json::from_value(v).map_err(m)?),
-        Stream::AutopilotState => Input::AutopilotState(serde_json::from_value(v).map_err(m)?),
-        Stream::TargetHeading => Input::TargetHeading(serde_json::from_value(v).map_err(m)?),
-        Stream::DesignDisplacement => {
-            Input::DesignDisplacement(serde_json::from_value(v).map_err(m)?)
-        }
-    })
-}
-
 /// Test method.
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Hash)]
 #[serde(rename_all = "lowercase")]
@@ -551,15 +348,6 @@ impl std::str::FromStr for Method {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// The names in messages are serde's wire names, for every variant.
-    #[test]
-    fn cause_names_are_the_wire_names() {
-        for c in Cause::ALL {
-            assert_eq!(serde_json::to_value(c).unwrap(), c.name());
-            assert_eq!(serde_json::from_value::<Cause>(c.name().into()).unwrap(), c);
-        }
-    }
 
     #[test]
     fn keys_follow_contract() {
@@ -600,14 +388,5 @@ mod tests {
             serde_json::json!({"t": 12.5, "mode": "none", "value": 0.0, "hold_s": 1.0, "test": null})
         );
         assert!(e.valid_at(13.5) && !e.valid_at(13.6) && !e.valid_at(12.4));
-    }
-
-    #[test]
-    fn malformed_payload_is_an_error_not_a_panic() {
-        assert!(decode(Stream::Heading, b"{\"t\": 1.0}").is_err());
-        assert!(decode(Stream::Heading, b"not json").is_err());
-        assert!(decode(Stream::AutopilotState, b"{\"t\": 1.0, \"value\": 3}").is_err());
-        let ok = decode(Stream::Heading, br#"{"t": 1.0, "value": 0.5}"#).unwrap();
-        assert_eq!(ok.t(), 1.0);
     }
 }
