@@ -110,7 +110,7 @@ pub(crate) fn replay(cfg: &Config, a: ReplayArgs) -> Result<(), Failure> {
         Box::new(std::io::BufReader::new(f))
     };
     // An MCAP recording (the daemon's `[daemon] record`) starts with its magic bytes.
-    let mcap = crate::shells::recording::is_mcap(
+    let mcap = crate::shells::recording::replay::is_mcap(
         reader
             .fill_buf()
             .map_err(|e| fail(EX_IOERR)(anyhow::anyhow!("{}: {e}", a.file.display())))?,
@@ -148,7 +148,7 @@ pub(crate) fn replay(cfg: &Config, a: ReplayArgs) -> Result<(), Failure> {
         }
     };
     let sum = if mcap {
-        crate::shells::recording::replay_mcap(&cfg.core(), &own, reader, on_output)
+        crate::shells::recording::replay::replay_mcap(&cfg.core(), &own, reader, on_output)
     } else {
         helmwatch_core::drivers::replay::replay_fleet(&cfg.core(), &own, reader, on_output)
     }
@@ -323,7 +323,7 @@ pub(crate) fn plot(cfg: &Config, a: PlotArgs) -> Result<(), Failure> {
         height_px: a.height,
         vessel: a.vessel.clone(),
     };
-    let (kind, svg) = if crate::shells::recording::is_mcap(&bytes) {
+    let (kind, svg) = if crate::shells::recording::replay::is_mcap(&bytes) {
         if a.kind.is_some_and(|k| k != InputKind::Recording) {
             return Err(code(PlotError::Data(
                 "an MCAP file is a recording (--kind recording)".into(),

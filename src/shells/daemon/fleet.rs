@@ -78,7 +78,7 @@ impl Fleet {
         };
         let len = payload.len();
         let kept = if len > MAX_SAMPLE_BYTES {
-            &payload[..crate::shells::recording::REJECTED_HEAD_BYTES]
+            &payload[..crate::shells::recording::rejected::REJECTED_HEAD_BYTES]
         } else {
             payload
         };
