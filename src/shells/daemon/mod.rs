@@ -65,7 +65,7 @@ pub enum DaemonError {
     State(#[from] crate::shells::state::StateError),
     /// The metrics endpoint cannot listen (`daemon.metrics-listen`: port in use...).
     #[error(transparent)]
-    Metrics(#[from] crate::shells::metrics::MetricsError),
+    Metrics(#[from] crate::shells::metrics::http::MetricsError),
     /// The history database cannot be opened, even afresh.
     #[error(transparent)]
     History(#[from] crate::shells::history::HistoryError),
@@ -237,7 +237,7 @@ impl Daemon {
         let metrics_listener = if cfg.metrics_listen.is_empty() {
             None
         } else {
-            Some(crate::shells::metrics::bind(&cfg.metrics_listen).await?)
+            Some(crate::shells::metrics::http::bind(&cfg.metrics_listen).await?)
         };
         let mut metrics = Metrics::new();
         let state = match &cfg.state_dir {

@@ -418,12 +418,12 @@ pub(super) fn serve_metrics(
     };
     let addr = listener
         .local_addr()
-        .map_err(|e| crate::shells::metrics::MetricsError {
+        .map_err(|e| crate::shells::metrics::http::MetricsError {
             addr: cfg.metrics_listen.clone(),
             reason: e.to_string(),
         })?;
     let registry = Arc::new(metrics.into_registry());
-    let task = tokio::spawn(crate::shells::metrics::serve(listener, registry));
+    let task = tokio::spawn(crate::shells::metrics::http::serve(listener, registry));
     tracing::info!(%addr, "metrics on http://{addr}/metrics");
     Ok(Some((addr, task)))
 }
