@@ -9,7 +9,7 @@ use super::service::runtime;
 use super::Failure;
 use crate::config::Config;
 use crate::shells::history::{HistoryReply, Kind};
-use helmwatch_core::wire::{Keys, TriggerReply};
+use helmwatch_core::wire::{vessel_key, Keys, TriggerReply};
 use std::time::Duration;
 
 fn vessel(cfg: &Config, a: &ClientArgs) -> Result<String, Failure> {
@@ -304,7 +304,10 @@ pub(crate) fn status(cfg: &Config, a: ClientArgs) -> Result<(), Failure> {
                 if let Ok(replies) = s.liveliness().get(key).timeout(limit).await {
                     while let Ok(r) = replies.recv_async().await {
                         if let Ok(sample) = r.result() {
-                            if let Some(id) = sample.key_expr().as_str().rsplit('/').next() {
+                            let key = sample.key_expr().as_str();
+                            if let Some((_, id)) =
+                                vessel_key::split(key).and_then(|k| k.fdi_token())
+                            {
                                 out.push(id.to_string());
                             }
                         }

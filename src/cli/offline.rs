@@ -106,8 +106,9 @@ pub(crate) fn replay(cfg: &Config, a: ReplayArgs) -> Result<(), Failure> {
         Box::new(std::io::BufReader::new(f))
     };
     // An MCAP recording (the daemon's `[daemon] record`) starts with its magic bytes.
-    let mcap =
-        crate::shells::recording::is_mcap(reader.fill_buf().map_err(|e| Failure::io(&a.file, e))?);
+    let mcap = crate::shells::recording::replay::is_mcap(
+        reader.fill_buf().map_err(|e| Failure::io(&a.file, e))?,
+    );
     let json = a.json;
     // Vessels with a `[vessel.<name>]` table are replayed with their own configuration.
     let own = cfg
@@ -140,7 +141,7 @@ pub(crate) fn replay(cfg: &Config, a: ReplayArgs) -> Result<(), Failure> {
         }
     };
     let sum = if mcap {
-        crate::shells::recording::replay_mcap(&cfg.core(), &own, reader, on_output)
+        crate::shells::recording::replay::replay_mcap(&cfg.core(), &own, reader, on_output)
     } else {
         helmwatch_core::drivers::replay::replay_fleet(&cfg.core(), &own, reader, on_output)
     }
@@ -307,7 +308,7 @@ pub(crate) fn plot(cfg: &Config, a: PlotArgs) -> Result<(), Failure> {
         height_px: a.height,
         vessel: a.vessel.clone(),
     };
-    let (kind, svg) = if crate::shells::recording::is_mcap(&bytes) {
+    let (kind, svg) = if crate::shells::recording::replay::is_mcap(&bytes) {
         if a.kind.is_some_and(|k| k != InputKind::Recording) {
             return Err(code(PlotError::Data(
                 "an MCAP file is a recording (--kind recording)".into(),

@@ -21,6 +21,8 @@
 //! sentence it receives. While it is down the daemon hears nothing, and its silence check
 //! (`safety.stream-timeout-s`) aborts a running test.
 
+pub mod metrics;
+
 use crate::shells::net::{ZenohConfig, ZenohMode};
 use helmwatch_core::config::{check_range_open_low, fail, ConfigError};
 use helmwatch_core::nmea::{
@@ -28,10 +30,6 @@ use helmwatch_core::nmea::{
     TimeSource,
 };
 use helmwatch_core::wire::{Input, Keys, Stream};
-use prometheus_client::collector::Collector;
-use prometheus_client::encoding::{DescriptorEncoder, EncodeLabelSet, EncodeMetric};
-use prometheus_client::metrics::counter::ConstCounter;
-use prometheus_client::metrics::MetricType;
 use prometheus_client::registry::Registry;
 use serde::{Deserialize, Serialize};
 use std::future::Future;
@@ -62,7 +60,7 @@ pub enum BridgeError {
     },
     /// The metrics endpoint could not start.
     #[error(transparent)]
-    Metrics(#[from] crate::shells::metrics::MetricsError),
+    Metrics(#[from] crate::shells::metrics::http::MetricsError),
 }
 
 /// Where the sentences come from.
@@ -302,7 +300,7 @@ impl Bridge {
         let metrics = if cfg.metrics_listen.is_empty() {
             None
         } else {
-            Some(crate::shells::metrics::bind(&cfg.metrics_listen).await?)
+            Some(crate::shells::metrics::http::bind(&cfg.metrics_listen).await?)
         };
         let session = zenoh::open(zcfg)
             .await
@@ -455,11 +453,11 @@ async fn drive(
     let shared = Arc::new(Mutex::new(DecodeStats::default()));
     let _metrics_task = metrics.map(|listener| {
         let mut registry = Registry::with_prefix("helmwatch");
-        registry.register_collector(Box::new(StatsCollector {
+        registry.register_collector(Box::new(metrics::StatsCollector {
             vessel: cfg.vessel.clone(),
             stats: shared.clone(),
         }));
-        AbortOnDrop(tokio::spawn(crate::shells::metrics::serve(
+        AbortOnDrop(tokio::spawn(crate::shells::metrics::http::serve(
             listener,
             Arc::new(registry),
         )))
@@ -553,93 +551,5 @@ struct AbortOnDrop(tokio::task::JoinHandle<()>);
 impl Drop for AbortOnDrop {
     fn drop(&mut self) {
         self.0.abort();
-    }
-}
-
-// ---------------------------------------------------------------------------------------------
-// Metrics
-
-/// Every metric family of the bridge, as exposed.
-pub const METRIC_FAMILIES: [&str; 5] = [
-    "helmwatch_bridge_datagrams_total",
-    "helmwatch_bridge_lines_total",
-    "helmwatch_bridge_ignored_total",
-    "helmwatch_bridge_samples_total",
-    "helmwatch_bridge_rejected_total",
-];
-
-#[derive(Clone, Debug, Hash, PartialEq, Eq, EncodeLabelSet)]
-struct VesselLabel {
-    vessel: String,
-}
-
-#[derive(Clone, Debug, Hash, PartialEq, Eq, EncodeLabelSet)]
-struct StreamLabel {
-    vessel: String,
-    stream: &'static str,
-}
-
-#[derive(Clone, Debug, Hash, PartialEq, Eq, EncodeLabelSet)]
-struct ReasonLabel {
-    vessel: String,
-    reason: &'static str,
-}
-
-/// The decoder's counters, read at each scrape.
-#[derive(Debug)]
-struct StatsCollector {
-    vessel: String,
-    stats: Arc<Mutex<DecodeStats>>,
-}
-
-impl Collector for StatsCollector {
-    fn encode(&self, mut encoder: DescriptorEncoder) -> Result<(), std::fmt::Error> {
-        let s = self.stats.lock().map(|g| g.clone()).unwrap_or_default();
-        let vl = VesselLabel {
-            vessel: self.vessel.clone(),
-        };
-        for (name, help, v) in [
-            ("bridge_datagrams", "UDP datagrams received", s.datagrams),
-            (
-                "bridge_lines",
-                "NMEA lines looked at (empty lines are not counted)",
-                s.lines,
-            ),
-            (
-                "bridge_ignored",
-                "Valid sentences the bridge does not use",
-                s.ignored,
-            ),
-        ] {
-            let mut f = encoder.encode_descriptor(name, help, None, MetricType::Counter)?;
-            ConstCounter::new(v).encode(f.encode_family(&vl)?)?;
-        }
-        let mut f = encoder.encode_descriptor(
-            "bridge_samples",
-            "Samples published, by stream",
-            None,
-            MetricType::Counter,
-        )?;
-        for st in Stream::REQUIRED {
-            let l = StreamLabel {
-                vessel: self.vessel.clone(),
-                stream: st.name(),
-            };
-            ConstCounter::new(s.samples[st.index()]).encode(f.encode_family(&l)?)?;
-        }
-        let mut f = encoder.encode_descriptor(
-            "bridge_rejected",
-            "Lines rejected, by reason (never published)",
-            None,
-            MetricType::Counter,
-        )?;
-        for r in Reject::ALL {
-            let l = ReasonLabel {
-                vessel: self.vessel.clone(),
-                reason: r.name(),
-            };
-            ConstCounter::new(s.rejected(r)).encode(f.encode_family(&l)?)?;
-        }
-        Ok(())
     }
 }

@@ -24,20 +24,17 @@
 //! | `helmwatch_replicated_states_refused_total` | counter | vessel | the holder's `fdi/state` refused by this standby (another format, vessel, configuration or models) |
 //! | `helmwatch_excitation_latency_seconds` | histogram | vessel | wall time from a heading sample's arrival (the Zenoh callback) to its excitation's publication |
 
+pub mod http;
+mod queues;
+
 use helmwatch_core::monitor::input::RejectReason;
 use helmwatch_core::wire::{AlarmState, Decision, Method, Outcome, Stream};
-use http_body_util::Full;
-use hyper::body::Bytes;
-use prometheus_client::collector::Collector;
-use prometheus_client::encoding::{DescriptorEncoder, EncodeLabelSet, EncodeMetric};
+use prometheus_client::encoding::EncodeLabelSet;
 use prometheus_client::metrics::counter::Counter;
 use prometheus_client::metrics::family::Family;
-use prometheus_client::metrics::gauge::{ConstGauge, Gauge};
+use prometheus_client::metrics::gauge::Gauge;
 use prometheus_client::metrics::histogram::{exponential_buckets, Histogram};
-use prometheus_client::metrics::MetricType;
 use prometheus_client::registry::{Registry, Unit};
-use std::net::SocketAddr;
-use std::sync::Arc;
 use std::time::Duration;
 
 /// The content type of the OpenMetrics text exposition.
@@ -307,10 +304,10 @@ impl Metrics {
         queues: Vec<(String, tokio::sync::mpsc::WeakSender<T>)>,
     ) {
         self.registry
-            .register_collector(Box::new(QueueCollector { queues }));
+            .register_collector(Box::new(queues::QueueCollector { queues }));
     }
 
-    /// The registry, for [`serve`] and [`encode`].
+    /// The registry, for [`http::serve`] and [`encode`].
     pub fn into_registry(self) -> Registry {
         self.registry
     }
@@ -438,146 +435,6 @@ impl VesselMetrics {
     pub fn excitation_latency(&self, latency: Duration) {
         self.latency.observe(latency.as_secs_f64());
     }
-}
-
-/// The queue gauges, read at each scrape from the vessels' queues (weak: the registry does
-/// not keep a stopped vessel's queue open).
-struct QueueCollector<T> {
-    queues: Vec<(String, tokio::sync::mpsc::WeakSender<T>)>,
-}
-
-impl<T> std::fmt::Debug for QueueCollector<T> {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("QueueCollector")
-            .field("queues", &self.queues.len())
-            .finish()
-    }
-}
-
-impl<T: Send + 'static> Collector for QueueCollector<T> {
-    fn encode(&self, mut encoder: DescriptorEncoder) -> Result<(), std::fmt::Error> {
-        let sizes: Vec<(VesselLabels, i64, i64)> = self
-            .queues
-            .iter()
-            .filter_map(|(v, q)| {
-                let q = q.upgrade()?;
-                let max = i64::try_from(q.max_capacity()).unwrap_or(i64::MAX);
-                let free = i64::try_from(q.capacity()).unwrap_or(i64::MAX);
-                Some((
-                    VesselLabels { vessel: v.clone() },
-                    max.saturating_sub(free),
-                    max,
-                ))
-            })
-            .collect();
-        for (name, help, pick) in [
-            (
-                "queue_depth",
-                "Messages waiting in the vessel's input queue.",
-                0,
-            ),
-            (
-                "queue_capacity",
-                "Capacity of the vessel's input queue (daemon.queue-capacity).",
-                1,
-            ),
-        ] {
-            let mut family = encoder.encode_descriptor(name, help, None, MetricType::Gauge)?;
-            for (labels, depth, max) in &sizes {
-                let v = if pick == 0 { *depth } else { *max };
-                ConstGauge::new(v).encode(family.encode_family(labels)?)?;
-            }
-        }
-        Ok(())
-    }
-}
-
-/// Why the metrics endpoint could not start.
-#[derive(Debug, thiserror::Error)]
-#[error("cannot listen for metrics on daemon.metrics-listen = {addr:?}: {reason}")]
-pub struct MetricsError {
-    /// The configured address.
-    pub addr: String,
-    /// The operating system's message.
-    pub reason: String,
-}
-
-/// Binds the metrics listener on `addr` (`IP:PORT`; port 0 picks a free one).
-pub async fn bind(addr: &str) -> Result<tokio::net::TcpListener, MetricsError> {
-    let err = |reason: String| MetricsError {
-        addr: addr.to_string(),
-        reason,
-    };
-    let sa: SocketAddr = addr.parse().map_err(|e| err(format!("{e}")))?;
-    tokio::net::TcpListener::bind(sa)
-        .await
-        .map_err(|e| err(e.to_string()))
-}
-
-/// At most this many scrape connections at once; more wait in the listen backlog.
-const MAX_CONNECTIONS: usize = 16;
-
-/// Serves `GET /metrics` on `listener` until the task is dropped (which closes every
-/// connection). Other paths answer 404, other methods 405. A connection that sends no
-/// complete request head within 10 s is closed.
-pub async fn serve(listener: tokio::net::TcpListener, registry: Arc<Registry>) {
-    use hyper::server::conn::http1;
-    use hyper_util::rt::{TokioIo, TokioTimer};
-    let mut connections = tokio::task::JoinSet::new();
-    loop {
-        while connections.try_join_next().is_some() {}
-        if connections.len() >= MAX_CONNECTIONS {
-            let _ = connections.join_next().await;
-            continue;
-        }
-        let (stream, peer) = match listener.accept().await {
-            Ok(s) => s,
-            Err(e) => {
-                // Out of file descriptors and the like: wait a little rather than spin.
-                tracing::warn!("metrics endpoint: accept failed: {e}");
-                tokio::time::sleep(Duration::from_millis(100)).await;
-                continue;
-            }
-        };
-        let reg = registry.clone();
-        connections.spawn(async move {
-            let service = hyper::service::service_fn(move |req| {
-                let reg = reg.clone();
-                async move { Ok::<_, std::convert::Infallible>(respond(&reg, &req)) }
-            });
-            let conn = http1::Builder::new()
-                .timer(TokioTimer::new())
-                .header_read_timeout(Duration::from_secs(10))
-                .serve_connection(TokioIo::new(stream), service);
-            if let Err(e) = conn.await {
-                tracing::debug!(%peer, "metrics connection: {e}");
-            }
-        });
-    }
-}
-
-fn respond<B>(registry: &Registry, req: &hyper::Request<B>) -> hyper::Response<Full<Bytes>> {
-    let (status, ctype, body) = if req.uri().path() != "/metrics" {
-        (
-            404,
-            "text/plain; charset=utf-8",
-            "not found: GET /metrics\n".to_string(),
-        )
-    } else if req.method() != hyper::Method::GET && req.method() != hyper::Method::HEAD {
-        (
-            405,
-            "text/plain; charset=utf-8",
-            "method not allowed\n".to_string(),
-        )
-    } else {
-        (200, CONTENT_TYPE, encode(registry))
-    };
-    let mut resp = hyper::Response::new(Full::new(Bytes::from(body)));
-    *resp.status_mut() = hyper::StatusCode::from_u16(status).unwrap_or_default();
-    if let Ok(v) = hyper::header::HeaderValue::from_str(ctype) {
-        resp.headers_mut().insert(hyper::header::CONTENT_TYPE, v);
-    }
-    resp
 }
 
 #[cfg(test)]

@@ -12,14 +12,14 @@
 //! | `vessels/<v>/steering/autopilot/excitation` | every excitation published | `helmwatch.Excitation` |
 //! | `vessels/<v>/fdi/status`, `fdi/report`, `notifications/steering/fdi` | as published | `helmwatch.Status`, `.Report`, `.Notification` |
 //! | `vessels/<v>/fdi/analysis` (recordings only) | one message per grid point of a completed test's analysis: the resampled heading, rudder and excitation | `helmwatch.AnalysisPoint` |
-//! | `vessels/<v>/fdi/rejected` (recordings only) | a rejected input sample: `{"stream", "reason", "len", "head", "suppressed"}`, at most [`REJECTED_HEAD_BYTES`] of it, at a bounded rate | `helmwatch.Rejected` |
+//! | `vessels/<v>/fdi/rejected` (recordings only) | a rejected input sample: `{"stream", "reason", "len", "head", "suppressed"}`, at most [`rejected::REJECTED_HEAD_BYTES`] of it, at a bounded rate | `helmwatch.Rejected` |
 //!
 //! The input channels hold the accepted samples only. A rejected one (malformed, oversized,
 //! out of range, out of order, duplicate, a time jump) goes to `fdi/rejected` as its reason,
-//! its length and its first [`REJECTED_HEAD_BYTES`] bytes, through a token bucket per stream
-//! ([`REJECTED_BURST`] records, then one every [`REJECTED_PERIOD_S`] s of wall time); the
+//! its length and its first [`rejected::REJECTED_HEAD_BYTES`] bytes, through a token bucket per stream
+//! ([`rejected::REJECTED_BURST`] records, then one every [`rejected::REJECTED_PERIOD_S`] s of wall time); the
 //! rest are counted (`suppressed`: how many were left out before this one). So bad input
-//! writes at most [`rejected_bytes_per_hour`] per hour whatever its rate (1.3 MiB/h for the six
+//! writes at most [`rejected::rejected_bytes_per_hour`] per hour whatever its rate (1.3 MiB/h for the six
 //! streams with every byte of every head escaped, about 0.3 MiB/h for text; normal service
 //! records about 20 MiB/h), so it can take at most 7 % of the recordings' budget: under a
 //! flood that never ends, the accepted inputs, excitations, reports and analysis records are
@@ -30,7 +30,7 @@
 //! `log_time` and `publish_time` are the sample's ship time `t` in nanoseconds (UNIX time in
 //! service; negative times are clamped to 0): a report at its `t_end`, a notification at its
 //! report's. Messages are written in the order the daemon handled them, which is the order
-//! [`replay_mcap`] feeds them back to a monitor core: same inputs, same order, same reports.
+//! [`replay::replay_mcap`] feeds them back to a monitor core: same inputs, same order, same reports.
 //!
 //! ## Files, rotation and bounds
 //!
@@ -46,8 +46,11 @@
 //!
 //! Chunks are uncompressed (the `mcap` crate without its zstd and lz4 features).
 
-use helmwatch_core::drivers::replay::{Payload, ReplayError, ReplaySummary, Replayer};
-use helmwatch_core::wire::{Keys, Stream};
+pub mod message;
+pub mod rejected;
+pub mod replay;
+
+use message::{ship_ns, Kind};
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
 use std::io::BufWriter;
@@ -99,200 +102,6 @@ fn mcap_err(path: &Path) -> impl FnOnce(mcap::McapError) -> RecordingError + '_ 
     move |e| RecordingError::Mcap {
         path: path.display().to_string(),
         message: e.to_string(),
-    }
-}
-
-/// What kind of message a channel carries (its schema).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Kind {
-    /// An input stream, as received.
-    Input(Stream),
-    /// `steering/autopilot/excitation`.
-    Excitation,
-    /// `fdi/status`.
-    Status,
-    /// `fdi/report`.
-    Report,
-    /// `notifications/steering/fdi`.
-    Notification,
-    /// `fdi/analysis`: one grid point of a test's analysis.
-    Analysis,
-    /// `fdi/rejected`: a rejected input, bounded.
-    Rejected,
-}
-
-/// Most bytes of a rejected payload recorded (its head).
-pub const REJECTED_HEAD_BYTES: usize = 256;
-/// Rejected records a stream may write at once (the token bucket's depth).
-pub const REJECTED_BURST: f64 = 10.0;
-/// Then one rejected record per stream every this many seconds of wall time.
-pub const REJECTED_PERIOD_S: f64 = 30.0;
-/// Most bytes one rejected record takes in a file: the head, its JSON escaping (a byte may
-/// take 6 characters as `\u00XX`), the other fields and the MCAP record and index overhead.
-pub const REJECTED_RECORD_MAX_BYTES: u64 = 6 * REJECTED_HEAD_BYTES as u64 + 200;
-
-/// The most bytes rejected inputs write into the recordings per hour, all streams.
-pub fn rejected_bytes_per_hour() -> u64 {
-    let per_stream = REJECTED_BURST + 3600.0 / REJECTED_PERIOD_S;
-    (Stream::ALL.len() as f64 * per_stream) as u64 * REJECTED_RECORD_MAX_BYTES
-}
-
-/// `vessels/<v>/fdi/rejected`: the channel of rejected inputs (recordings only).
-pub fn rejected_key(keys: &Keys) -> String {
-    format!("{}/fdi/rejected", keys.prefix)
-}
-
-/// A token bucket: whether a rejected record of one stream may be written now.
-#[derive(Debug, Clone)]
-pub struct RejectedBudget {
-    tokens: f64,
-    last: Option<Instant>,
-    /// Left out since the last record written.
-    pub suppressed: u64,
-}
-
-impl Default for RejectedBudget {
-    fn default() -> Self {
-        Self {
-            tokens: REJECTED_BURST,
-            last: None,
-            suppressed: 0,
-        }
-    }
-}
-
-impl RejectedBudget {
-    /// Takes a token at `now` if there is one (else counts the record as suppressed).
-    pub fn take(&mut self, now: Instant) -> bool {
-        if let Some(last) = self.last {
-            let dt = now.saturating_duration_since(last).as_secs_f64();
-            self.tokens = (self.tokens + dt / REJECTED_PERIOD_S).min(REJECTED_BURST);
-        }
-        self.last = Some(now);
-        if self.tokens >= 1.0 {
-            self.tokens -= 1.0;
-            true
-        } else {
-            self.suppressed += 1;
-            false
-        }
-    }
-}
-
-/// The record of a rejected payload: its stream, reason, length, head (lossy UTF-8) and the
-/// count left out before it.
-pub fn rejected_record(
-    stream: Stream,
-    reason: &str,
-    len: usize,
-    head: &[u8],
-    suppressed: u64,
-) -> Vec<u8> {
-    let head = &head[..head.len().min(REJECTED_HEAD_BYTES)];
-    serde_json::to_vec(&serde_json::json!({
-        "stream": stream.name(),
-        "reason": reason,
-        "len": len,
-        "head": String::from_utf8_lossy(head),
-        "suppressed": suppressed,
-    }))
-    .unwrap_or_default()
-}
-
-/// `vessels/<v>/fdi/analysis`: the channel of the analysis records (recordings only, never
-/// published on Zenoh).
-pub fn analysis_key(keys: &Keys) -> String {
-    format!("{}/fdi/analysis", keys.prefix)
-}
-
-impl Kind {
-    /// The schema's name and its JSON schema.
-    fn schema(self) -> (&'static str, serde_json::Value) {
-        use serde_json::json;
-        let num = json!({"type": "number"});
-        let t = json!({"type": "number", "description": "ship time [s] (UNIX time in service)"});
-        let nullable_str = json!({"type": ["string", "null"]});
-        match self {
-            Kind::Input(Stream::AutopilotState) => (
-                "helmwatch.AutopilotState",
-                json!({"type": "object", "properties": {"t": t, "value": {"type": "string"}}}),
-            ),
-            Kind::Input(s) => (
-                "helmwatch.Scalar",
-                json!({"type": "object", "title": s.name(),
-                    "properties": {"t": t, "value": {"type": "number", "description": "SI units: rad, m/s, kg"}}}),
-            ),
-            Kind::Excitation => (
-                "helmwatch.Excitation",
-                json!({"type": "object", "properties": {
-                    "t": t,
-                    "mode": {"type": "string", "enum": ["none", "add", "replace"]},
-                    "value": {"type": "number", "description": "rad"},
-                    "hold_s": num,
-                    "test": nullable_str}}),
-            ),
-            Kind::Status => (
-                "helmwatch.Status",
-                json!({"type": "object", "properties": {
-                    "t": t,
-                    "state": {"type": "string", "enum": ["idle", "settling", "exciting", "analysing"]},
-                    "test": nullable_str,
-                    "method": {"type": ["string", "null"], "enum": ["hbt", "clfrt", null]},
-                    "reason": nullable_str}}),
-            ),
-            Kind::Report => (
-                "helmwatch.Report",
-                json!({"type": "object", "properties": {
-                    "test": {"type": "string"},
-                    "method": {"type": "string", "enum": ["hbt", "clfrt"]},
-                    "t_start": num, "t_end": num,
-                    "outcome": {"type": "string", "enum": ["completed", "aborted"]},
-                    "reason": nullable_str,
-                    "features": {"type": "object"},
-                    "estimate": {"type": ["object", "null"], "properties": {
-                        "speed_mps": num, "displacement_t": num}},
-                    "residuals": {"type": "object"},
-                    "decision": {"type": "string", "enum": ["nominal", "fault", "inconclusive"]},
-                    "isolation": {"type": "array", "items": {"type": "string"}},
-                    "message": {"type": "string"}}}),
-            ),
-            Kind::Notification => (
-                "helmwatch.Notification",
-                json!({"type": "object", "properties": {
-                    "state": {"type": "string", "enum": ["normal", "alert", "warn", "alarm"]},
-                    "method": {"type": "array", "items": {"type": "string"}},
-                    "message": {"type": "string"}}}),
-            ),
-            Kind::Rejected => (
-                "helmwatch.Rejected",
-                json!({"type": "object", "properties": {
-                    "stream": {"type": "string"},
-                    "reason": {"type": "string"},
-                    "len": {"type": "integer", "description": "the payload's length [bytes]"},
-                    "head": {"type": "string", "description": "its first bytes (lossy UTF-8)"},
-                    "suppressed": {"type": "integer", "description": "rejected samples of the stream left out before this one"}}}),
-            ),
-            Kind::Analysis => (
-                "helmwatch.AnalysisPoint",
-                json!({"type": "object", "properties": {
-                    "test": {"type": "string"},
-                    "method": {"type": "string", "enum": ["hbt", "clfrt"]},
-                    "t": t,
-                    "heading": {"type": "number", "description": "continuous heading, resampled [rad]"},
-                    "rudder": {"type": "number", "description": "rudder, resampled [rad]"},
-                    "excitation": {"type": "number", "description": "CLFRT: the multisine reference; HBT: the relay command [rad]"}}}),
-            ),
-        }
-    }
-}
-
-/// Nanoseconds of ship time `t` [s] for `log_time` (negative or not finite: 0).
-pub fn ship_ns(t: f64) -> u64 {
-    if t.is_finite() && t > 0.0 {
-        // `as` saturates at u64::MAX.
-        (t * 1e9).round() as u64
-    } else {
-        0
     }
 }
 
@@ -617,38 +426,10 @@ fn utc_stamp(at: SystemTime) -> String {
     )
 }
 
-/// Whether `head` starts with the MCAP magic bytes.
-pub fn is_mcap(head: &[u8]) -> bool {
-    head.starts_with(mcap::MAGIC)
-}
-
-/// Replays an MCAP recording through the monitor core, message by message in the file's
-/// order (the order the daemon handled them); see [`helmwatch_core::drivers::replay`].
-pub fn replay_mcap(
-    cfg: &helmwatch_core::monitor::config::CoreConfig,
-    own: &[(String, helmwatch_core::monitor::config::CoreConfig)],
-    reader: impl std::io::Read,
-    mut on_output: impl FnMut(&str, &helmwatch_core::monitor::Output),
-) -> Result<ReplaySummary, ReplayError> {
-    let mut r = Replayer::new(cfg, own)?;
-    for message in mcap::io::MessageReader::new(reader) {
-        match message {
-            Ok(m) => r.feed(&m.channel.topic, Payload::Bytes(&m.data), &mut on_output)?,
-            Err(mcap::McapError::Io(e)) => return Err(ReplayError::Io(e)),
-            // A file cut short (a crash) ends where it ends; anything else is a bad record.
-            Err(e) => {
-                tracing::warn!("MCAP recording: {e}");
-                r.bad_record();
-                break;
-            }
-        }
-    }
-    Ok(r.finish())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use helmwatch_core::wire::Stream;
 
     #[test]
     fn utc_stamps_are_civil_dates() {
@@ -658,46 +439,6 @@ mod tests {
         assert_eq!(utc_stamp(at(951_827_696)), "20000229T123456Z");
         // 2026-11-23 16:18:42 UTC = 1795450722.
         assert_eq!(utc_stamp(at(1_795_450_722)), "20261123T161842Z");
-    }
-
-    #[test]
-    fn the_rejected_budget_is_a_burst_then_one_per_period() {
-        let t0 = Instant::now();
-        let mut b = RejectedBudget::default();
-        let written = (0..1000).filter(|_| b.take(t0)).count();
-        assert_eq!(written, REJECTED_BURST as usize);
-        assert_eq!(b.suppressed, 1000 - REJECTED_BURST as u64);
-        // An hour of a flood at 1 kHz: one record per period after the burst.
-        let mut b = RejectedBudget::default();
-        let mut n = 0u64;
-        for ms in 0..3_600_000u64 {
-            if b.take(t0 + std::time::Duration::from_millis(ms)) {
-                n += 1;
-            }
-        }
-        let want = REJECTED_BURST + 3600.0 / REJECTED_PERIOD_S;
-        assert!(
-            (n as f64 - want).abs() <= 1.0,
-            "{n} records, {want} expected"
-        );
-        // A record is bounded whatever the payload (all bytes needing escapes).
-        let big = vec![0x01u8; 1 << 20];
-        let r = rejected_record(Stream::Heading, "malformed", big.len(), &big, u64::MAX);
-        assert!((r.len() as u64) < REJECTED_RECORD_MAX_BYTES, "{}", r.len());
-        let v: serde_json::Value = serde_json::from_slice(&r).unwrap();
-        assert_eq!(v["len"], 1 << 20);
-        assert_eq!(v["head"].as_str().unwrap().len(), REJECTED_HEAD_BYTES);
-        // The documented hourly bound: 1.3 MiB for all streams, 7 % of 20 MiB.
-        let h = rejected_bytes_per_hour() as f64 / (1u64 << 20) as f64;
-        assert!(h <= 1.3 && h / 20.0 <= 0.07, "{h} MiB/h");
-    }
-
-    #[test]
-    fn ship_time_in_nanoseconds_clamps_negatives() {
-        assert_eq!(ship_ns(-5.0), 0);
-        assert_eq!(ship_ns(f64::NAN), 0);
-        assert_eq!(ship_ns(1.5), 1_500_000_000);
-        assert_eq!(ship_ns(1.7e9), 1_700_000_000_000_000_000);
     }
 
     fn temp(name: &str) -> PathBuf {

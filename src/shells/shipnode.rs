@@ -26,11 +26,17 @@
 //! the daemon's excitation over Zenoh and, in lockstep, waits for the excitation whose `t` is
 //! the heading's time as the tag block carries it (rounded to the millisecond).
 
+mod links;
+
 use crate::shells::net::{ZenohConfig, ZenohMode};
 use helmwatch_core::config::{check_range_open_low, fail, ConfigError};
 use helmwatch_core::sim::config::SimConfig;
 use helmwatch_core::sim::{CommandSource, Scenario, Ship, SimError, Truth};
 use helmwatch_core::wire::{Excitation, Input, Keys, RecordLine, Stream};
+use links::{
+    declare_stream_publishers, nmea_socket, send_nmea, subscribe_alive, subscribe_excitations,
+    zenoh_error, Links,
+};
 use serde::{Deserialize, Serialize};
 use std::future::Future;
 use std::io::Write;
@@ -39,9 +45,6 @@ use std::sync::Arc;
 use std::time::Duration;
 use tokio::sync::mpsc;
 use tokio::time::Instant;
-use zenoh::bytes::Encoding;
-use zenoh::qos::{CongestionControl, Priority};
-use zenoh::sample::SampleKind;
 
 /// Why the ship peer stopped with an error.
 #[derive(Debug, thiserror::Error)]
@@ -165,241 +168,34 @@ impl ShipNode {
         zcfg: zenoh::Config,
         shutdown: impl Future<Output = ()>,
     ) -> Result<ShipSummary, ShipNodeError> {
-        let z = |e: zenoh::Error| ShipNodeError::Zenoh(e.to_string());
-        let session = zenoh::open(zcfg).await.map_err(z)?;
+        let session = zenoh::open(zcfg).await.map_err(zenoh_error)?;
         let nmea = match self.nmea {
-            Some(addr) => {
-                let local: std::net::SocketAddr = if addr.is_ipv4() {
-                    ([0, 0, 0, 0], 0).into()
-                } else {
-                    (std::net::Ipv6Addr::UNSPECIFIED, 0).into()
-                };
-                let sock = tokio::net::UdpSocket::bind(local).await?;
-                Some((sock, addr))
-            }
+            Some(addr) => Some((nmea_socket(addr).await?, addr)),
             None => None,
         };
         let keys = Keys::new(&self.opts.vessel);
-        let cc = if self.opts.lockstep {
-            CongestionControl::Block
-        } else {
-            CongestionControl::Drop
-        };
-        let mut pubs = Vec::with_capacity(5);
-        let mut stream_keys = Vec::with_capacity(5);
-        for s in Stream::BY_INDEX {
-            // Index order = Stream::index().
-            let key = keys.stream(s);
-            // A declared key expression travels as a numeric id: the daemon caches its route.
-            let ke = session.declare_keyexpr(key.clone()).await.map_err(z)?;
-            let p = session
-                .declare_publisher(ke)
-                .encoding(Encoding::APPLICATION_JSON)
-                .congestion_control(cc)
-                .priority(Priority::Data)
-                // Heading last and express: it flushes the tick's batch in one write.
-                .express(s == Stream::Heading)
-                .await
-                .map_err(z)?;
-            pubs.push(p);
-            stream_keys.push(key);
-        }
-
+        let (pubs, stream_keys) =
+            declare_stream_publishers(&session, &keys, self.opts.lockstep).await?;
         let malformed = Arc::new(AtomicU64::new(0));
-        let (etx, mut erx) = mpsc::channel::<Excitation>(1024);
-        let m = malformed.clone();
-        let _excitation_sub = session
-            .declare_subscriber(keys.excitation())
-            .callback(move |sample| {
-                let bytes = sample.payload().to_bytes();
-                match serde_json::from_slice::<Excitation>(&bytes) {
-                    Ok(e) => {
-                        let _ = etx.try_send(e);
-                    }
-                    Err(_) => {
-                        m.fetch_add(1, Ordering::Relaxed);
-                    }
-                }
-            })
-            .await
-            .map_err(z)?;
+        let (_excitation_sub, erx) =
+            subscribe_excitations(&session, &keys, malformed.clone()).await?;
         let alive = Arc::new(AtomicI64::new(0));
-        let a = alive.clone();
-        let _alive_sub = session
-            .liveliness()
-            .declare_subscriber(keys.alive())
-            .history(true)
-            .callback(move |sample| match sample.kind() {
-                SampleKind::Put => {
-                    a.fetch_add(1, Ordering::Relaxed);
-                }
-                SampleKind::Delete => {
-                    a.fetch_sub(1, Ordering::Relaxed);
-                }
-            })
-            .await
-            .map_err(z)?;
+        let _alive_sub = subscribe_alive(&session, &keys, alive.clone()).await?;
         tracing::info!(
             vessel = %self.opts.vessel,
             lockstep = self.opts.lockstep,
             speed_up = self.opts.speed_up,
             "ship peer running"
         );
-
-        let dt = self.ship.dt_s();
-        let pace = Duration::from_secs_f64(dt / self.opts.speed_up);
-        let t0 = self.ship.time_s();
-        let mut summary = ShipSummary::default();
-        let mut inputs: Vec<Input> = Vec::with_capacity(8);
-        let mut last_exc_t: f64;
-        let mut next = Instant::now();
-        let mut source = CommandSource::Own;
-        let mut daemon_seen = false;
-        tokio::pin!(shutdown);
-        let result = 'run: loop {
-            if let Some(d) = self.opts.duration_s {
-                if self.ship.time_s() - t0 >= d - 1e-9 {
-                    break 'run Ok(());
-                }
-            }
-            tokio::select! {
-                biased;
-                _ = &mut shutdown => break 'run Ok(()),
-                _ = std::future::ready(()) => {}
-            }
-            inputs.clear();
-            self.ship.publish(&mut inputs);
-            // The excitation to wait for carries the heading's `t` as published: the sensors'
-            // clock, which may have stepped (a clock fault) or be wild for one tick.
-            let t = inputs
-                .iter()
-                .rev()
-                .find(|i| i.stream() == Stream::Heading)
-                .map_or_else(|| self.ship.clock_s(), |i| i.t());
-            // Excitations of earlier ticks do not answer this one (a clock stepped back
-            // would otherwise leave an old, later `t` standing in for it).
-            last_exc_t = f64::NEG_INFINITY;
-            for input in &inputs {
-                let payload = input.payload();
-                let i = input.stream().index();
-                if let Some(w) = self.record.as_mut() {
-                    let line = RecordLine {
-                        key: stream_keys[i].clone(),
-                        payload: payload.clone(),
-                    };
-                    if let Err(e) = serde_json::to_writer(&mut *w, &line)
-                        .map_err(std::io::Error::from)
-                        .and_then(|()| w.write_all(b"\n"))
-                    {
-                        break 'run Err(e.into());
-                    }
-                }
-                if nmea.is_some() {
-                    continue;
-                }
-                let bytes = serde_json::to_vec(&payload).unwrap_or_default();
-                if let Err(e) = pubs[i].put(bytes).await {
-                    tracing::warn!("publishing {}: {e}", stream_keys[i]);
-                }
-            }
-            // NMEA only: one datagram per tick; the excitation to wait for carries the
-            // heading's time as the tag block says it.
-            let t = match &nmea {
-                Some((sock, addr)) => {
-                    let (ms, t_wire) = helmwatch_core::nmea::tag_time_ms(t);
-                    let sentences = helmwatch_core::nmea::tick_sentences(&inputs);
-                    let d = helmwatch_core::nmea::datagram("SI0001", ms, &sentences);
-                    if let Err(e) = sock.send_to(&d, addr).await {
-                        tracing::warn!("sending NMEA to {addr}: {e}");
-                    }
-                    t_wire
-                }
-                None => t,
-            };
-            let daemon_alive = alive.load(Ordering::Relaxed) > 0;
-            if daemon_alive != daemon_seen {
-                daemon_seen = daemon_alive;
-                tracing::info!(
-                    t,
-                    "daemon {}",
-                    if daemon_alive {
-                        "alive: lockstep"
-                    } else {
-                        "gone: ticking on the timer"
-                    }
-                );
-            }
-            while let Ok(e) = erx.try_recv() {
-                last_exc_t = last_exc_t.max(e.t);
-                self.ship.receive_excitation(&e);
-                summary.excitations += 1;
-            }
-            if self.opts.lockstep && daemon_alive && last_exc_t < t {
-                let deadline = Instant::now() + self.opts.excitation_timeout;
-                loop {
-                    tokio::select! {
-                        biased;
-                        _ = &mut shutdown => break 'run Ok(()),
-                        e = erx.recv() => match e {
-                            Some(e) => {
-                                last_exc_t = last_exc_t.max(e.t);
-                                self.ship.receive_excitation(&e);
-                                summary.excitations += 1;
-                                if e.t >= t {
-                                    break;
-                                }
-                            }
-                            None => break,
-                        },
-                        _ = tokio::time::sleep_until(deadline) => {
-                            summary.excitation_timeouts += 1;
-                            if summary.excitation_timeouts.is_power_of_two() {
-                                tracing::warn!(
-                                    t,
-                                    count = summary.excitation_timeouts,
-                                    "no excitation for this heading in time: stepping on (a daemon that saw a later t, \
-                                     e.g. from an earlier simulated ship, rejects these samples as out of order: \
-                                     restart it, or set simulation.start-time-s past that t)"
-                                );
-                            }
-                            break;
-                        }
-                    }
-                }
-                next = Instant::now();
-            } else if !(self.opts.lockstep && daemon_alive) {
-                next += pace;
-                let now = Instant::now();
-                if next + Duration::from_secs(1) < now {
-                    next = now; // after a stall, do not burst to catch up
-                }
-                tokio::select! {
-                    biased;
-                    _ = &mut shutdown => break 'run Ok(()),
-                    _ = tokio::time::sleep_until(next) => {}
-                }
-                while let Ok(e) = erx.try_recv() {
-                    last_exc_t = last_exc_t.max(e.t);
-                    self.ship.receive_excitation(&e);
-                    summary.excitations += 1;
-                }
-            }
-            self.ship.step();
-            summary.ticks += 1;
-            let truth = self.ship.truth();
-            if truth.command_source != source {
-                tracing::info!(
-                    t,
-                    "autopilot command: {:?} -> {:?}",
-                    source,
-                    truth.command_source
-                );
-                source = truth.command_source;
-            }
-            if let Some(obs) = self.observer.as_mut() {
-                obs(t, &truth);
-            }
+        let mut links = Links {
+            pubs,
+            stream_keys,
+            nmea,
+            erx,
+            alive,
         };
+        let mut summary = ShipSummary::default();
+        let result = self.tick_loop(&mut links, &mut summary, shutdown).await;
         if let Some(w) = self.record.as_mut() {
             w.flush()?;
         }
@@ -416,6 +212,193 @@ impl ShipNode {
             "ship peer stopped"
         );
         result.map(|()| summary)
+    }
+
+    /// Ticks until `shutdown` completes or the duration is over: each tick publishes the
+    /// samples, waits for the daemon's excitation (lockstep) or for the timer, then steps.
+    async fn tick_loop(
+        &mut self,
+        links: &mut Links,
+        summary: &mut ShipSummary,
+        shutdown: impl Future<Output = ()>,
+    ) -> Result<(), ShipNodeError> {
+        let dt = self.ship.dt_s();
+        let pace = Duration::from_secs_f64(dt / self.opts.speed_up);
+        let t0 = self.ship.time_s();
+        let mut inputs: Vec<Input> = Vec::with_capacity(8);
+        let mut last_exc_t: f64;
+        let mut next = Instant::now();
+        let mut source = CommandSource::Own;
+        let mut daemon_seen = false;
+        tokio::pin!(shutdown);
+        loop {
+            if let Some(d) = self.opts.duration_s {
+                if self.ship.time_s() - t0 >= d - 1e-9 {
+                    return Ok(());
+                }
+            }
+            tokio::select! {
+                biased;
+                _ = &mut shutdown => return Ok(()),
+                _ = std::future::ready(()) => {}
+            }
+            inputs.clear();
+            self.ship.publish(&mut inputs);
+            // The excitation to wait for carries the heading's `t` as published: the sensors'
+            // clock, which may have stepped (a clock fault) or be wild for one tick.
+            let t = inputs
+                .iter()
+                .rev()
+                .find(|i| i.stream() == Stream::Heading)
+                .map_or_else(|| self.ship.clock_s(), |i| i.t());
+            // Excitations of earlier ticks do not answer this one (a clock stepped back
+            // would otherwise leave an old, later `t` standing in for it).
+            last_exc_t = f64::NEG_INFINITY;
+            self.publish_inputs(&inputs, links).await?;
+            let t = send_nmea(links.nmea.as_ref(), t, &inputs).await;
+            let daemon_alive = links.alive.load(Ordering::Relaxed) > 0;
+            if daemon_alive != daemon_seen {
+                daemon_seen = daemon_alive;
+                tracing::info!(
+                    t,
+                    "daemon {}",
+                    if daemon_alive {
+                        "alive: lockstep"
+                    } else {
+                        "gone: ticking on the timer"
+                    }
+                );
+            }
+            self.take_excitations(&mut links.erx, &mut last_exc_t, summary);
+            if self.opts.lockstep && daemon_alive && last_exc_t < t {
+                let waited = self
+                    .await_excitation(&mut links.erx, t, &mut last_exc_t, summary, &mut shutdown)
+                    .await;
+                if !waited {
+                    return Ok(());
+                }
+                next = Instant::now();
+            } else if !(self.opts.lockstep && daemon_alive) {
+                next += pace;
+                let now = Instant::now();
+                if next + Duration::from_secs(1) < now {
+                    next = now; // after a stall, do not burst to catch up
+                }
+                tokio::select! {
+                    biased;
+                    _ = &mut shutdown => return Ok(()),
+                    _ = tokio::time::sleep_until(next) => {}
+                }
+                self.take_excitations(&mut links.erx, &mut last_exc_t, summary);
+            }
+            self.step(t, &mut source, summary);
+        }
+    }
+
+    /// Records the tick's samples (when recording) and publishes them on their keys (unless
+    /// the instruments speak NMEA).
+    async fn publish_inputs(
+        &mut self,
+        inputs: &[Input],
+        links: &Links,
+    ) -> Result<(), ShipNodeError> {
+        for input in inputs {
+            let payload = input.payload();
+            let i = input.stream().index();
+            if let Some(w) = self.record.as_mut() {
+                let line = RecordLine {
+                    key: links.stream_keys[i].clone(),
+                    payload: payload.clone(),
+                };
+                serde_json::to_writer(&mut *w, &line)
+                    .map_err(std::io::Error::from)
+                    .and_then(|()| w.write_all(b"\n"))?;
+            }
+            if links.nmea.is_some() {
+                continue;
+            }
+            let bytes = serde_json::to_vec(&payload).unwrap_or_default();
+            if let Err(e) = links.pubs[i].put(bytes).await {
+                tracing::warn!("publishing {}: {e}", links.stream_keys[i]);
+            }
+        }
+        Ok(())
+    }
+
+    /// Applies the excitations already received.
+    fn take_excitations(
+        &mut self,
+        erx: &mut mpsc::Receiver<Excitation>,
+        last_exc_t: &mut f64,
+        summary: &mut ShipSummary,
+    ) {
+        while let Ok(e) = erx.try_recv() {
+            *last_exc_t = last_exc_t.max(e.t);
+            self.ship.receive_excitation(&e);
+            summary.excitations += 1;
+        }
+    }
+
+    /// Lockstep: applies excitations as they come until the one for the heading at `t`, at
+    /// most `excitation-timeout-s`; `false` when `shutdown` completed first.
+    async fn await_excitation<S: Future<Output = ()>>(
+        &mut self,
+        erx: &mut mpsc::Receiver<Excitation>,
+        t: f64,
+        last_exc_t: &mut f64,
+        summary: &mut ShipSummary,
+        shutdown: &mut std::pin::Pin<&mut S>,
+    ) -> bool {
+        let deadline = Instant::now() + self.opts.excitation_timeout;
+        loop {
+            tokio::select! {
+                biased;
+                _ = &mut *shutdown => return false,
+                e = erx.recv() => match e {
+                    Some(e) => {
+                        *last_exc_t = last_exc_t.max(e.t);
+                        self.ship.receive_excitation(&e);
+                        summary.excitations += 1;
+                        if e.t >= t {
+                            return true;
+                        }
+                    }
+                    None => return true,
+                },
+                _ = tokio::time::sleep_until(deadline) => {
+                    summary.excitation_timeouts += 1;
+                    if summary.excitation_timeouts.is_power_of_two() {
+                        tracing::warn!(
+                            t,
+                            count = summary.excitation_timeouts,
+                            "no excitation for this heading in time: stepping on (a daemon that saw a later t, \
+                             e.g. from an earlier simulated ship, rejects these samples as out of order: \
+                             restart it, or set simulation.start-time-s past that t)"
+                        );
+                    }
+                    return true;
+                }
+            }
+        }
+    }
+
+    /// Steps the ship, logs a change of what steers, tells the observer.
+    fn step(&mut self, t: f64, source: &mut CommandSource, summary: &mut ShipSummary) {
+        self.ship.step();
+        summary.ticks += 1;
+        let truth = self.ship.truth();
+        if truth.command_source != *source {
+            tracing::info!(
+                t,
+                "autopilot command: {:?} -> {:?}",
+                source,
+                truth.command_source
+            );
+            *source = truth.command_source;
+        }
+        if let Some(obs) = self.observer.as_mut() {
+            obs(t, &truth);
+        }
     }
 }
 

@@ -11,7 +11,9 @@
 //! vessel's state and alarm are known from the first message after the view started (the
 //! daemon publishes them on change); until then they show as `-`.
 
-use helmwatch_core::wire::{AlarmState, Decision, Method, MonitorState, Notification, Status};
+use helmwatch_core::wire::{
+    vessel_key, AlarmState, Decision, Method, MonitorState, Notification, Status,
+};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::future::Future;
@@ -113,35 +115,26 @@ impl Event {
     }
 }
 
-/// The vessel of a key `vessels/<v>/...`.
-pub fn vessel_of(key: &str) -> Option<&str> {
-    let mut parts = key.split('/');
-    match (parts.next(), parts.next()) {
-        (Some("vessels"), Some(v)) if !v.is_empty() => Some(v),
-        _ => None,
-    }
-}
-
 /// The event of a sample on `key` (a liveliness sample: `delete` when the token went away);
 /// `None` for a key or payload that is not one (ignored).
 pub fn event_of(key: &str, delete: bool, payload: &[u8]) -> Option<Event> {
-    let v = vessel_of(key)?.to_string();
-    let rest = key.strip_prefix("vessels/")?.strip_prefix(v.as_str())?;
-    match rest {
-        "/fdi/alive" if delete => Some(Event::Gone(v)),
-        "/fdi/alive" => Some(Event::Alive(v)),
-        "/fdi/status" => serde_json::from_slice(payload)
+    let k = vessel_key::split(key)?;
+    let v = k.vessel.to_string();
+    match k.rest {
+        "fdi/alive" if delete => Some(Event::Gone(v)),
+        "fdi/alive" => Some(Event::Alive(v)),
+        "fdi/status" => serde_json::from_slice(payload)
             .ok()
             .map(|s| Event::Status(v, s)),
-        "/notifications/steering/fdi" => serde_json::from_slice(payload)
+        "notifications/steering/fdi" => serde_json::from_slice(payload)
             .ok()
             .map(|n| Event::Notification(v, n)),
-        "/fdi/report" => serde_json::from_slice::<serde_json::Value>(payload)
+        "fdi/report" => serde_json::from_slice::<serde_json::Value>(payload)
             .ok()
             .filter(serde_json::Value::is_object)
             .map(|r| Event::Report(v, r)),
         _ => {
-            let (what, daemon) = rest.strip_prefix("/fdi/")?.split_once('/')?;
+            let (what, daemon) = k.fdi_token()?;
             let holder = match what {
                 "holder" => true,
                 "candidate" => false,

@@ -438,7 +438,7 @@ async fn tcp_and_serial_streams_are_cut_into_lines_and_reopened() {
     // The counters on the metrics endpoint: both headings of both connections, the two
     // over-long lines at least.
     let text = crate::common::scrape_metrics(metrics).await;
-    for family in helmwatch::shells::bridge::METRIC_FAMILIES {
+    for family in helmwatch::shells::bridge::metrics::METRIC_FAMILIES {
         assert!(text.contains(family), "{family}: {text}");
     }
     let value = |series: &str| -> u64 {

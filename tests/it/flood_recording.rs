@@ -6,7 +6,9 @@
 //! the wall clock). Waits are bounded; figures are printed. Slow tier (about a minute).
 use crate::common::{daemon_config, endpoint, start_daemon, temp_dir};
 use helmwatch::shells::net::loopback_peer;
-use helmwatch::shells::recording::{REJECTED_BURST, REJECTED_PERIOD_S, REJECTED_RECORD_MAX_BYTES};
+use helmwatch::shells::recording::rejected::{
+    REJECTED_BURST, REJECTED_PERIOD_S, REJECTED_RECORD_MAX_BYTES,
+};
 use helmwatch::shells::shipnode::{ShipNode, ShipNodeOptions};
 use helmwatch_core::sim::Scenario;
 use helmwatch_core::wire::{Keys, Stream};

@@ -261,7 +261,7 @@ async fn the_recording_holds_what_the_daemon_saw_and_replays_to_the_same_reports
     let mut replayed = Vec::new();
     for f in &files {
         let reader = std::io::BufReader::new(std::fs::File::open(f).unwrap());
-        helmwatch::shells::recording::replay_mcap(&cfgc, &[], reader, |_, out| {
+        helmwatch::shells::recording::replay::replay_mcap(&cfgc, &[], reader, |_, out| {
             if let Output::Report(r) = out {
                 replayed.push(serde_json::to_value(r).unwrap());
             }

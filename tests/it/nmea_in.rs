@@ -529,7 +529,7 @@ fn every_rejection_reason_and_bridge_metric_is_documented() {
         );
     }
     let deploying = read("docs/deploying.md");
-    for m in helmwatch::shells::bridge::METRIC_FAMILIES {
+    for m in helmwatch::shells::bridge::metrics::METRIC_FAMILIES {
         assert!(
             deploying.contains(&format!("| `{m}` |")),
             "docs/deploying.md lacks {m}"

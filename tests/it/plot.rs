@@ -370,7 +370,8 @@ fn recording_is_detected_and_bad_input_is_refused() {
 /// same samples: the same SVG, byte for byte (the MCAP reader feeds the same trace).
 #[test]
 fn an_mcap_recording_plots_as_its_json_lines() {
-    use helmwatch::shells::recording::{Kind, Limits, Recorder};
+    use helmwatch::shells::recording::message::Kind;
+    use helmwatch::shells::recording::{Limits, Recorder};
     use helmwatch_core::wire::{Keys, RecordLine, Stream};
     let cfg = Config::default();
     let mut rec = Vec::new();

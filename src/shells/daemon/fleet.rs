@@ -4,7 +4,7 @@
 //! vessel task that owns the core and replies with its answer.
 
 use super::{owner, Msg, Shared, MAX_SAMPLE_BYTES};
-use helmwatch_core::wire::{Method, Stream, TriggerReply};
+use helmwatch_core::wire::{vessel_key, Method, Stream, TriggerReply};
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -65,9 +65,8 @@ impl Fleet {
 
     /// The vessel of `vessels/<vessel>/...`, if configured.
     pub(super) fn vessel_of(&self, key: &str) -> Option<usize> {
-        let rest = key.strip_prefix("vessels/")?;
-        let (name, _) = rest.split_once('/')?;
-        self.index.get(name).copied()
+        let k = vessel_key::split(key)?;
+        self.index.get(k.vessel).copied()
     }
 
     /// Hands a sample to its vessel's queue (its head only when oversized); drops and counts
@@ -79,7 +78,7 @@ impl Fleet {
         };
         let len = payload.len();
         let kept = if len > MAX_SAMPLE_BYTES {
-            &payload[..crate::shells::recording::REJECTED_HEAD_BYTES]
+            &payload[..crate::shells::recording::rejected::REJECTED_HEAD_BYTES]
         } else {
             payload
         };

@@ -30,30 +30,29 @@
 pub mod config;
 mod fleet;
 mod owner;
+mod publishers;
+mod start;
 mod vessel;
+mod vessel_recording;
 
-use crate::shells::history::History;
 use crate::shells::metrics::{Metrics, VesselMetrics};
 use crate::shells::recording::Recorder;
 use crate::shells::state::StateDir;
 use config::DaemonConfig;
-use fleet::{serve_controls, Control, Fleet};
+use fleet::Fleet;
 use helmwatch_core::config::ConfigError;
 use helmwatch_core::monitor::config::CoreConfig;
-use helmwatch_core::monitor::Monitor;
 use helmwatch_core::wire::Method;
 use helmwatch_core::wire::{Keys, Stream, TriggerReply};
 use std::future::Future;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
-use tokio::sync::{mpsc, oneshot, watch};
+use tokio::sync::oneshot;
 use tokio_util::sync::CancellationToken;
-use vessel::{Publishers, Recording, VesselTask};
-use zenoh::key_expr::KeyExpr;
 use zenoh::pubsub::Subscriber;
-use zenoh::query::{Query, Queryable};
+use zenoh::query::Queryable;
 
 /// Why the daemon could not start.
 #[derive(Debug, thiserror::Error)]
@@ -66,7 +65,7 @@ pub enum DaemonError {
     State(#[from] crate::shells::state::StateError),
     /// The metrics endpoint cannot listen (`daemon.metrics-listen`: port in use...).
     #[error(transparent)]
-    Metrics(#[from] crate::shells::metrics::MetricsError),
+    Metrics(#[from] crate::shells::metrics::http::MetricsError),
     /// The history database cannot be opened, even afresh.
     #[error(transparent)]
     History(#[from] crate::shells::history::HistoryError),
@@ -233,297 +232,55 @@ impl Daemon {
         zcfg: zenoh::Config,
     ) -> Result<Daemon, DaemonError> {
         cfg.check()?;
-        let mut cores: Vec<(&CoreConfig, Parts)> = Vec::new();
-        let mut part_of = Vec::with_capacity(vessels.len());
-        for (_, core) in vessels {
-            let i = match cores.iter().position(|(c, _)| *c == core) {
-                Some(i) => i,
-                None => {
-                    core.check()?;
-                    if cfg.takeover_s <= core.safety.hold_s {
-                        return Err(helmwatch_core::config::fail(
-                            "daemon.takeover-s",
-                            cfg.takeover_s,
-                            &format!(
-                                "greater than safety.hold-s ({} s): the old driver's last excitation expires first",
-                                core.safety.hold_s
-                            ),
-                        )
-                        .into());
-                    }
-                    let estimator = helmwatch_core::estimator::Estimator::from_config(core)?;
-                    let multisine = Monitor::design_multisine(core).ok();
-                    cores.push((core, (multisine, estimator)));
-                    cores.len() - 1
-                }
-            };
-            part_of.push(i);
-        }
+        let (parts, part_of) = start::design_parts(vessels, cfg)?;
         // The metrics listener first: a port in use stops the start before anything is open.
         let metrics_listener = if cfg.metrics_listen.is_empty() {
             None
         } else {
-            Some(crate::shells::metrics::bind(&cfg.metrics_listen).await?)
+            Some(crate::shells::metrics::http::bind(&cfg.metrics_listen).await?)
         };
         let mut metrics = Metrics::new();
         let state = match &cfg.state_dir {
             Some(dir) => Some(StateDir::open(std::path::Path::new(dir))?),
             None => None,
         };
-        let history = match &cfg.state_dir {
-            Some(dir) => {
-                let (h, note) = History::open(
-                    std::path::Path::new(dir),
-                    cfg.history_days,
-                    cfg.history_max_records,
-                )?;
-                if let Some(n) = note {
-                    tracing::error!("{n}");
-                }
-                Some(Arc::new(h))
-            }
-            None => None,
-        };
-        let recorder = match (cfg.record, &cfg.state_dir) {
-            (false, _) => None,
-            (true, None) => {
-                return Err(helmwatch_core::config::fail(
-                    "daemon.record",
-                    "true",
-                    "false without a state directory (daemon.state-dir or run --state-dir)",
-                )
-                .into())
-            }
-            (true, Some(dir)) => {
-                let dir = std::path::Path::new(dir).join("recordings");
-                let r = Recorder::open(&dir, cfg.recording_limits())?;
-                tracing::info!(dir = %dir.display(), "recording into MCAP files");
-                Some(Arc::new(Mutex::new(r)))
-            }
-        };
+        let history = start::open_history(cfg)?;
+        let recorder = start::open_recorder(cfg)?;
         let session = zenoh::open(zcfg)
             .await
             .map_err(|e| DaemonError::Open(e.to_string()))?;
         let cancel = CancellationToken::new();
-        let names: Vec<String> = vessels.iter().map(|(n, _)| n.clone()).collect();
-        let capacity = cfg.queue_capacity as usize;
-
-        // Publishers and vessel tasks.
-        let mut senders = Vec::with_capacity(names.len());
-        let mut shared = Vec::with_capacity(names.len());
-        let mut trigger_keys = Vec::with_capacity(names.len());
-        let mut commission_keys = Vec::with_capacity(names.len());
-        let mut state_keys = Vec::with_capacity(names.len());
-        let mut roles = Vec::with_capacity(names.len());
-        let mut vessel_tasks = Vec::with_capacity(names.len());
-        let mut settled = Vec::with_capacity(names.len());
         let daemon_id = cfg.daemon_id();
-        for (v, (name, core)) in vessels.iter().enumerate() {
-            let (multisine, estimator) = &cores[part_of[v]].1;
-            let keys = Keys::new(name);
-            let pubs = Publishers::declare(&session, &keys, cfg.publish_stats).await?;
-            let (tx, rx) = mpsc::channel(capacity);
-            let sh = Arc::new(Shared {
-                metrics: metrics.vessel(name),
-            });
-            let trigger_key = KeyExpr::try_from(keys.trigger())
-                .map_err(DaemonError::declare("trigger key", name))?;
-            let commission_key = KeyExpr::try_from(keys.commission())
-                .map_err(DaemonError::declare("commission key", name))?;
-            let state_key =
-                KeyExpr::try_from(keys.state()).map_err(DaemonError::declare("state key", name))?;
-            let (role_tx, role_rx) = watch::channel(owner::RoleView::claiming());
-            roles.push(role_tx);
-            let (settled_tx, settled_rx) = oneshot::channel();
-            settled.push(settled_rx);
-            // The state is taken up when the vessel is taken over (from the holder's
-            // publication, else from the state directory).
-            let mut monitor = Monitor::with_parts(core, name, multisine.clone(), estimator.clone());
-            monitor.set_analysis_output(recorder.is_some());
-            let restored = None;
-            sh.metrics.alarm(monitor.alarm_state());
-            let seen_aborts = monitor.stats().aborts.clone();
-            let task = VesselTask {
-                seen_aborts,
-                pending_heading: None,
-                monitor,
-                name: name.clone(),
-                state: state.clone(),
-                history: history.clone(),
-                last_report_t: f64::NAN,
-                restored,
-                rx,
-                pubs,
-                shared: sh.clone(),
-                last_heading: None,
-                tick: Duration::from_secs_f64(cfg.tick_s),
-                stats_period: (cfg.stats_period_s > 0.0)
-                    .then(|| Duration::from_secs_f64(cfg.stats_period_s)),
-                shutdown_timeout: Duration::from_secs_f64(cfg.shutdown_timeout_s),
-                publish_errors: 0,
-                recorder: recorder.clone(),
-                recording: Recording::new(&keys),
-                fresh: vessel::Fresh {
-                    core: core.clone(),
-                    multisine: multisine.clone(),
-                    estimator: estimator.clone(),
-                    analysis: recorder.is_some(),
-                },
-                daemon_id: daemon_id.clone(),
-                role_rx,
-                driving: false,
-                replica: None,
-                refused_states: 0,
-                concurrent_since: 0,
-                settled: Some(settled_tx),
-            };
-            vessel_tasks.push(tokio::spawn(task.run(cancel.clone())));
-            senders.push(tx);
-            shared.push(sh);
-            trigger_keys.push(trigger_key);
-            commission_keys.push(commission_key);
-            state_keys.push(state_key);
-        }
-        metrics.register_queues(
-            names
-                .iter()
-                .cloned()
-                .zip(senders.iter().map(mpsc::Sender::downgrade))
-                .collect(),
-        );
-        let fleet = Arc::new(Fleet {
-            index: names
-                .iter()
-                .enumerate()
-                .map(|(i, n)| (n.clone(), i))
-                .collect(),
-            names: names.clone(),
-            senders,
-            shared,
-            trigger_keys,
-            commission_keys,
-            state_keys,
-            roles: roles.iter().map(watch::Sender::subscribe).collect(),
-            unknown: AtomicU64::new(0),
-            queries_dropped: AtomicU64::new(0),
-        });
-
-        // Subscribers: one per vessel and stream, on exact keys. (A wildcard subscription
-        // per stream would be fewer declarations, but Zenoh then computes the route of every
-        // sample: a fleet daemon kept up with a third as many vessels in the benchmark.)
+        let common = start::Common {
+            cfg,
+            daemon_id: &daemon_id,
+            state,
+            history: history.clone(),
+            recorder: recorder.clone(),
+            cancel: &cancel,
+        };
+        let start::Spawned {
+            fleet,
+            roles,
+            vessel_tasks,
+            settled,
+        } = start::spawn_vessels(&session, vessels, &parts, &part_of, &common, &mut metrics)
+            .await?;
+        let names = &fleet.names;
         let single = (names.len() == 1).then(|| Keys::new(&names[0]));
-        let mut sub_keys = Vec::with_capacity(Stream::ALL.len() * names.len());
-        for n in &names {
-            let keys = Keys::new(n);
-            for stream in Stream::ALL {
-                sub_keys.push((stream, keys.stream(stream)));
-            }
-        }
-        let mut subscribers = Vec::with_capacity(sub_keys.len());
-        for (stream, key) in sub_keys {
-            let f = fleet.clone();
-            let sub = session
-                .declare_subscriber(key.clone())
-                .callback(move |sample| {
-                    let payload = sample.payload().to_bytes();
-                    f.dispatch(stream, sample.key_expr().as_str(), &payload);
-                })
-                .await
-                .map_err(DaemonError::declare("subscriber", &key))?;
-            subscribers.push(sub);
-        }
-        // The vessels' replicated state, from whichever daemon holds them (a standby keeps
-        // it; the holder ignores it).
-        let state_sub_key = single
-            .as_ref()
-            .map_or("vessels/*/fdi/state".into(), Keys::state);
-        let f = fleet.clone();
-        let sub = session
-            .declare_subscriber(state_sub_key.clone())
-            .callback(move |sample| {
-                if let Some(i) = f.vessel_of(sample.key_expr().as_str()) {
-                    let payload = sample.payload().to_bytes().into_owned();
-                    if f.senders[i].try_send(Msg::State { payload }).is_err() {
-                        f.shared[i].metrics.control_dropped();
-                    }
-                }
-            })
-            .await
-            .map_err(DaemonError::declare("subscriber", &state_sub_key))?;
-        subscribers.push(sub);
-
-        // The control queryables (trigger, commission) and their task.
-        let (qtx, qrx) = mpsc::channel::<(Control, Query)>(64);
-        let mut queryables = Vec::with_capacity(2);
-        for (control, key) in [
-            (
-                Control::Trigger,
-                single
-                    .as_ref()
-                    .map_or("vessels/*/fdi/trigger".into(), Keys::trigger),
-            ),
-            (
-                Control::Commission,
-                single
-                    .as_ref()
-                    .map_or("vessels/*/fdi/commission".into(), Keys::commission),
-            ),
-            (
-                Control::State,
-                single
-                    .as_ref()
-                    .map_or("vessels/*/fdi/state".into(), Keys::state),
-            ),
-        ] {
-            let f = fleet.clone();
-            let tx = qtx.clone();
-            let q = session
-                .declare_queryable(key.clone())
-                .callback(move |query| {
-                    if tx.try_send((control, query)).is_err() {
-                        f.queries_dropped.fetch_add(1, Ordering::Relaxed);
-                    }
-                })
-                .await
-                .map_err(DaemonError::declare("queryable", &key))?;
-            queryables.push(q);
-        }
-        drop(qtx);
-        let trigger_task = tokio::spawn(serve_controls(fleet.clone(), qrx, cancel.clone()));
-
-        // The history queryable, when a history is kept.
-        let mut history_queryable = None;
-        if let Some(h) = &history {
-            let key = match &single {
-                Some(k) => k.history(),
-                None => "vessels/*/fdi/history".to_string(),
-            };
-            let (htx, hrx) = mpsc::channel::<Query>(64);
-            let f = fleet.clone();
-            let q = session
-                .declare_queryable(key.clone())
-                .callback(move |query| {
-                    if f.leaves_to_holder(query.key_expr().as_str()) {
-                        return;
-                    }
-                    if htx.try_send(query).is_err() {
-                        f.queries_dropped.fetch_add(1, Ordering::Relaxed);
-                    }
-                })
-                .await
-                .map_err(DaemonError::declare("queryable", &key))?;
-            let served =
-                crate::shells::history::serve(h.clone(), names.clone(), hrx, cancel.clone());
-            history_queryable = Some((q, tokio::spawn(served)));
-        }
-
+        let subscribers = start::declare_subscribers(&session, &fleet, single.as_ref()).await?;
+        let (queryables, trigger_task) =
+            start::declare_controls(&session, &fleet, single.as_ref(), &cancel).await?;
+        let history_queryable =
+            start::declare_history(&session, &fleet, history.as_ref(), single.as_ref(), &cancel)
+                .await?;
         // Ownership last: the candidate tokens, then each vessel driven (`fdi/alive`, which
         // tells the world the vessel is monitored) or stood by, once the claim window ended.
         let owner_cancel = CancellationToken::new();
         let owner = owner::OwnerDriver::start(
             &session,
             &daemon_id,
-            &names,
+            names,
             roles,
             fleet.senders.clone(),
             cfg.claim_s,
@@ -531,32 +288,9 @@ impl Daemon {
             owner_cancel.clone(),
         )
         .await?;
-        // Ready once every vessel task has taken up its role: a held vessel's state restored
-        // (and its alarm published again), a standby standing by.
-        for rx in settled {
-            if tokio::time::timeout(Duration::from_secs(5), rx)
-                .await
-                .is_err()
-            {
-                tracing::warn!("a vessel task did not take up its role within 5 s");
-            }
-        }
-        let metrics = match metrics_listener {
-            Some(listener) => {
-                let addr =
-                    listener
-                        .local_addr()
-                        .map_err(|e| crate::shells::metrics::MetricsError {
-                            addr: cfg.metrics_listen.clone(),
-                            reason: e.to_string(),
-                        })?;
-                let registry = Arc::new(metrics.into_registry());
-                let task = tokio::spawn(crate::shells::metrics::serve(listener, registry));
-                tracing::info!(%addr, "metrics on http://{addr}/metrics");
-                Some((addr, task))
-            }
-            None => None,
-        };
+        // Ready once every vessel task has taken up its role.
+        start::await_settled(settled).await;
+        let metrics = start::serve_metrics(metrics_listener, metrics, cfg)?;
         tracing::info!(
             vessels = names.len(),
             zid = %session.zid(),

@@ -241,10 +241,8 @@ enum Seen {
 /// `vessels/<v>/fdi/candidate/<id>`, `.../holder/<id>` or `.../yielded/<id>` as an event about
 /// vessel `v` (a yielded token's going away says nothing).
 fn parse(key: &str, kind: SampleKind) -> Option<(String, Seen)> {
-    let rest = key.strip_prefix("vessels/")?;
-    let (vessel, rest) = rest.split_once('/')?;
-    let rest = rest.strip_prefix("fdi/")?;
-    let (what, id) = rest.split_once('/')?;
+    let k = helmwatch_core::wire::vessel_key::split(key)?;
+    let (what, id) = k.fdi_token()?;
     let id = id.to_string();
     let up = kind == SampleKind::Put;
     let ev = match (what, up) {
@@ -255,7 +253,7 @@ fn parse(key: &str, kind: SampleKind) -> Option<(String, Seen)> {
         ("yielded", true) => Seen::Yielded(id),
         _ => return None,
     };
-    Some((vessel.to_string(), ev))
+    Some((k.vessel.to_string(), ev))
 }
 
 async fn run(

@@ -17,7 +17,8 @@
 //! `"concurrent_drivers": [ids]`.
 
 use super::owner::RoleView;
-use super::DaemonError;
+use super::publishers::Publishers;
+use super::vessel_recording::Recording;
 use super::{Msg, Shared, VesselSummary};
 use crate::shells::history::{History, Kind};
 use crate::shells::recording::{self, Recorder};
@@ -27,100 +28,11 @@ use helmwatch_core::monitor::input::RejectReason;
 use helmwatch_core::monitor::VesselState;
 use helmwatch_core::monitor::{Monitor, Output};
 use helmwatch_core::ownership::Role;
-use helmwatch_core::wire::{self, Input, Keys};
-use std::collections::BTreeMap;
+use helmwatch_core::wire::{self, Input};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use tokio::sync::{mpsc, watch};
 use tokio_util::sync::CancellationToken;
-use zenoh::bytes::Encoding;
-use zenoh::pubsub::Publisher;
-use zenoh::qos::{CongestionControl, Priority};
-
-/// The publishers of one vessel, declared once.
-pub(super) struct Publishers {
-    excitation: Publisher<'static>,
-    status: Publisher<'static>,
-    report: Publisher<'static>,
-    notification: Publisher<'static>,
-    stats: Option<Publisher<'static>>,
-    /// `fdi/state`: the vessel's state for the standbys.
-    state: Publisher<'static>,
-}
-
-impl Publishers {
-    pub(super) async fn declare(
-        session: &zenoh::Session,
-        keys: &Keys,
-        stats: bool,
-    ) -> Result<Self, DaemonError> {
-        let json = || Encoding::APPLICATION_JSON;
-        // Declared key expressions travel as numeric ids and let the receivers cache routes.
-        let excitation_key = keys.excitation();
-        let ke = session
-            .declare_keyexpr(excitation_key.clone())
-            .await
-            .map_err(DaemonError::declare("key expression", &excitation_key))?;
-        let excitation = session
-            .declare_publisher(ke)
-            .encoding(json())
-            .congestion_control(CongestionControl::Block)
-            .priority(Priority::RealTime)
-            .express(true)
-            .await
-            .map_err(DaemonError::declare("publisher", &excitation_key))?;
-        let reliable = |key: String, priority: Priority| {
-            session
-                .declare_publisher(key)
-                .encoding(json())
-                .congestion_control(CongestionControl::Block)
-                .priority(priority)
-        };
-        let k = keys.status();
-        let status = reliable(k.clone(), Priority::Data)
-            .await
-            .map_err(DaemonError::declare("publisher", &k))?;
-        let k = keys.report();
-        let report = reliable(k.clone(), Priority::Data)
-            .await
-            .map_err(DaemonError::declare("publisher", &k))?;
-        let k = keys.notification();
-        let notification = reliable(k.clone(), Priority::DataHigh)
-            .await
-            .map_err(DaemonError::declare("publisher", &k))?;
-        let k = keys.state();
-        let state = reliable(k.clone(), Priority::Data)
-            .await
-            .map_err(DaemonError::declare("publisher", &k))?;
-        let stats = if stats {
-            let k = stats_key(keys);
-            Some(
-                session
-                    .declare_publisher(k.clone())
-                    .encoding(json())
-                    .congestion_control(CongestionControl::Drop)
-                    .priority(Priority::DataLow)
-                    .await
-                    .map_err(DaemonError::declare("publisher", &k))?,
-            )
-        } else {
-            None
-        };
-        Ok(Self {
-            excitation,
-            status,
-            report,
-            notification,
-            stats,
-            state,
-        })
-    }
-}
-
-/// `vessels/<v>/fdi/stats`: the daemon's counters for one vessel (an addition to the contract).
-pub fn stats_key(keys: &Keys) -> String {
-    format!("{}/fdi/stats", keys.prefix)
-}
 
 /// The task that owns one vessel's monitor core.
 pub(super) struct VesselTask {
@@ -189,55 +101,6 @@ struct Replicated {
     state: VesselState,
 }
 
-/// One vessel's side of the recording: its channels' names and its counts.
-#[derive(Debug, Default)]
-pub(super) struct Recording {
-    /// The input streams' keys, by [`wire::Stream::index`].
-    inputs: Vec<String>,
-    excitation: String,
-    status: String,
-    report: String,
-    notification: String,
-    analysis: String,
-    /// `fdi/rejected`.
-    rejected: String,
-    /// Per input stream (by index), the rejected records' budget.
-    rejected_budgets: Vec<recording::RejectedBudget>,
-    /// Rejected samples left out of the recording (over the budget).
-    rejected_suppressed: u64,
-    /// Ship time of the last accepted input sample (a rejected one is recorded at it) [s].
-    last_input_t: f64,
-    /// Messages written, per channel.
-    counts: BTreeMap<String, u64>,
-    /// Messages that could not be written.
-    errors: u64,
-}
-
-impl Recording {
-    pub(super) fn new(keys: &Keys) -> Self {
-        Self {
-            inputs: wire::Stream::BY_INDEX
-                .iter()
-                .map(|&s| keys.stream(s))
-                .collect(),
-            excitation: keys.excitation(),
-            status: keys.status(),
-            report: keys.report(),
-            notification: keys.notification(),
-            analysis: recording::analysis_key(keys),
-            rejected: recording::rejected_key(keys),
-            rejected_budgets: vec![
-                recording::RejectedBudget::default();
-                wire::Stream::BY_INDEX.len()
-            ],
-            rejected_suppressed: 0,
-            last_input_t: 0.0,
-            counts: BTreeMap::new(),
-            errors: 0,
-        }
-    }
-}
-
 impl VesselTask {
     pub(super) async fn run(mut self, cancel: CancellationToken) -> VesselSummary {
         let mut roles_open = true;
@@ -303,73 +166,7 @@ impl VesselTask {
                 payload,
                 len,
                 arrived,
-            } => {
-                // An oversized sample is not read (only its head was queued).
-                let decoded = if len > payload.len() {
-                    Err(format!(
-                        "{} sample of {len} bytes, over {} bytes: not read",
-                        stream.name(),
-                        super::MAX_SAMPLE_BYTES
-                    ))
-                } else {
-                    wire::decode(stream, &payload).map_err(|e| e.to_string())
-                };
-                let reason = match decoded {
-                    Err(e) => {
-                        self.shared
-                            .metrics
-                            .rejected(stream, RejectReason::Malformed);
-                        if self.monitor.count_malformed(stream) {
-                            let n = self
-                                .monitor
-                                .counters()
-                                .rejected(stream, RejectReason::Malformed);
-                            tracing::warn!(vessel = %self.name, stream = stream.name(), count = n, "{e}");
-                        }
-                        Some(if len > payload.len() {
-                            "oversized"
-                        } else {
-                            RejectReason::Malformed.name()
-                        })
-                    }
-                    Ok(input) => {
-                        let t = input.t();
-                        let heading_t = match &input {
-                            Input::Heading(s) => Some(s.t),
-                            _ => None,
-                        };
-                        match self.monitor.handle_input(input) {
-                            Ok(()) => {
-                                self.shared.metrics.accepted(stream);
-                                if let Some(t) = heading_t {
-                                    self.last_heading = Some((t, Instant::now()));
-                                    self.pending_heading = Some((t, arrived));
-                                }
-                                // Recorded before its outputs, in the order it was handled.
-                                if self.recorder.is_some() {
-                                    self.recording.last_input_t = t;
-                                    let topic = self.recording.inputs[stream.index()].clone();
-                                    self.record_message(
-                                        &topic,
-                                        recording::Kind::Input(stream),
-                                        t,
-                                        &payload,
-                                    );
-                                }
-                                None
-                            }
-                            Err(r) => {
-                                self.shared.metrics.rejected(r.stream, r.reason);
-                                Some(r.reason.name())
-                            }
-                        }
-                    }
-                };
-                if let Some(reason) = reason {
-                    self.record_rejected(stream, reason, len, &payload);
-                }
-                self.publish_outputs().await;
-            }
+            } => self.handle_sample(stream, payload, len, arrived).await,
             Msg::Trigger { method, reply } => {
                 let r = self.monitor.trigger(method);
                 tracing::info!(vessel = %self.name, method = method.name(), accepted = r.accepted, test = ?r.test, reason = ?r.reason, "trigger");
@@ -399,6 +196,82 @@ impl VesselTask {
         }
     }
 
+    /// An input sample: decoded (unless oversized), fed to the core, counted, recorded (a
+    /// rejected one as its reason), then every output published.
+    async fn handle_sample(
+        &mut self,
+        stream: wire::Stream,
+        payload: Vec<u8>,
+        len: usize,
+        arrived: Instant,
+    ) {
+        // An oversized sample is not read (only its head was queued).
+        let decoded = if len > payload.len() {
+            Err(format!(
+                "{} sample of {len} bytes, over {} bytes: not read",
+                stream.name(),
+                super::MAX_SAMPLE_BYTES
+            ))
+        } else {
+            wire::decode(stream, &payload).map_err(|e| e.to_string())
+        };
+        let reason = match decoded {
+            Err(e) => {
+                self.shared
+                    .metrics
+                    .rejected(stream, RejectReason::Malformed);
+                if self.monitor.count_malformed(stream) {
+                    let n = self
+                        .monitor
+                        .counters()
+                        .rejected(stream, RejectReason::Malformed);
+                    tracing::warn!(vessel = %self.name, stream = stream.name(), count = n, "{e}");
+                }
+                Some(if len > payload.len() {
+                    "oversized"
+                } else {
+                    RejectReason::Malformed.name()
+                })
+            }
+            Ok(input) => {
+                let t = input.t();
+                let heading_t = match &input {
+                    Input::Heading(s) => Some(s.t),
+                    _ => None,
+                };
+                match self.monitor.handle_input(input) {
+                    Ok(()) => {
+                        self.shared.metrics.accepted(stream);
+                        if let Some(t) = heading_t {
+                            self.last_heading = Some((t, Instant::now()));
+                            self.pending_heading = Some((t, arrived));
+                        }
+                        // Recorded before its outputs, in the order it was handled.
+                        if self.recorder.is_some() {
+                            self.recording.last_input_t = t;
+                            let topic = self.recording.inputs[stream.index()].clone();
+                            self.record_message(
+                                &topic,
+                                recording::message::Kind::Input(stream),
+                                t,
+                                &payload,
+                            );
+                        }
+                        None
+                    }
+                    Err(r) => {
+                        self.shared.metrics.rejected(r.stream, r.reason);
+                        Some(r.reason.name())
+                    }
+                }
+            }
+        };
+        if let Some(reason) = reason {
+            self.record_rejected(stream, reason, len, &payload);
+        }
+        self.publish_outputs().await;
+    }
+
     /// Adds a report or notification to the history, if kept (durable when this returns).
     fn record(&self, kind: Kind, t: f64, payload: &impl serde::Serialize) {
         if let Some(h) = &self.history {
@@ -418,67 +291,6 @@ impl VesselTask {
         }
     }
 
-    /// Writes one message into the recording (when recording) and counts it.
-    fn record_message(&mut self, topic: &str, kind: recording::Kind, t: f64, payload: &[u8]) {
-        let Some(rec) = &self.recorder else { return };
-        // A poisoned lock only means another vessel's task panicked while writing: the
-        // recorder itself is still consistent (a failed write abandons its segment).
-        let mut r = rec
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner);
-        match r.write(topic, kind, t, payload) {
-            Ok(()) => match self.recording.counts.get_mut(topic) {
-                Some(n) => *n += 1,
-                None => {
-                    self.recording.counts.insert(topic.to_string(), 1);
-                }
-            },
-            Err(e) => {
-                self.recording.errors += 1;
-                if self.recording.errors.is_power_of_two() {
-                    tracing::error!(vessel = %self.name, count = self.recording.errors, "recording: {e}");
-                }
-            }
-        }
-    }
-
-    /// Records a rejected sample as its reason, length and head, within the stream's budget
-    /// (`recording::RejectedBudget`); the rest are counted.
-    fn record_rejected(&mut self, stream: wire::Stream, reason: &str, len: usize, payload: &[u8]) {
-        if self.recorder.is_none() {
-            return;
-        }
-        let budget = &mut self.recording.rejected_budgets[stream.index()];
-        if !budget.take(Instant::now()) {
-            self.recording.rejected_suppressed += 1;
-            return;
-        }
-        let suppressed = std::mem::take(&mut budget.suppressed);
-        let b = recording::rejected_record(stream, reason, len, payload, suppressed);
-        let topic = self.recording.rejected.clone();
-        let t = self.recording.last_input_t;
-        self.record_message(&topic, recording::Kind::Rejected, t, &b);
-    }
-
-    /// Records a completed test's analysis: one message per grid point.
-    fn record_analysis(&mut self, a: &helmwatch_core::monitor::AnalysisRecord) {
-        let topic = self.recording.analysis.clone();
-        for i in 0..a.len() {
-            let t = a.t0_s + i as f64 * a.dt_s;
-            let point = serde_json::json!({
-                "test": a.test,
-                "method": a.method,
-                "t": t,
-                "heading": a.heading_rad[i],
-                "rudder": a.rudder_rad[i],
-                "excitation": a.excitation_rad[i],
-            });
-            if let Ok(b) = serde_json::to_vec(&point) {
-                self.record_message(&topic, recording::Kind::Analysis, t, &b);
-            }
-        }
-    }
-
     /// Drains the core and publishes every output on its key, in order (recording each first,
     /// when recording).
     async fn publish_outputs(&mut self) {
@@ -488,10 +300,12 @@ impl VesselTask {
                 || matches!(&out, Output::Status(s) if s.state == wire::MonitorState::Settling);
             let mut excitation_of: Option<Instant> = None;
             let (kind, t) = match &out {
-                Output::Excitation(e) => (recording::Kind::Excitation, e.t),
-                Output::Status(s) => (recording::Kind::Status, s.t),
-                Output::Report(r) => (recording::Kind::Report, r.t_end),
-                Output::Notification(_) => (recording::Kind::Notification, self.last_report_t),
+                Output::Excitation(e) => (recording::message::Kind::Excitation, e.t),
+                Output::Status(s) => (recording::message::Kind::Status, s.t),
+                Output::Report(r) => (recording::message::Kind::Report, r.t_end),
+                Output::Notification(_) => {
+                    (recording::message::Kind::Notification, self.last_report_t)
+                }
                 Output::Analysis(a) => {
                     self.record_analysis(a);
                     continue;
@@ -507,67 +321,8 @@ impl VesselTask {
                         .map(|(_, at)| at);
                     serde_json::to_vec(e)
                 }
-                Output::Status(s) => {
-                    if s.state == wire::MonitorState::Settling {
-                        // A new test: marked only if another daemon drives during it.
-                        self.concurrent_since = self.role_rx.borrow().seq;
-                        // A test started: its id is taken, even if the daemon dies before it ends.
-                        self.save_state();
-                        if let Some(m) = s.method {
-                            self.shared.metrics.test_started(m);
-                        }
-                    }
-                    tracing::info!(vessel = %self.name, t = s.t, state = ?s.state, test = ?s.test, reason = ?s.reason, "status");
-                    serde_json::to_vec(s)
-                }
-                Output::Report(r) => {
-                    // The decision is on disk before anyone hears of it.
-                    self.save_state();
-                    self.last_report_t = r.t_end;
-                    // Made while another daemon also drove the vessel: marked.
-                    let (concurrent, seq) = {
-                        let view = self.role_rx.borrow();
-                        (view.drove_since(self.concurrent_since), view.seq)
-                    };
-                    let marked = if concurrent.is_empty() {
-                        None
-                    } else {
-                        let mut v = serde_json::to_value(r).unwrap_or_default();
-                        if let Some(o) = v.as_object_mut() {
-                            o.insert("concurrent_drivers".into(), serde_json::json!(concurrent));
-                        }
-                        tracing::warn!(vessel = %self.name, test = %r.test, others = ?concurrent, "report made while another daemon drove too: marked");
-                        Some(v)
-                    };
-                    self.concurrent_since = seq;
-                    match &marked {
-                        Some(v) => self.record(Kind::Report, r.t_end, v),
-                        None => self.record(Kind::Report, r.t_end, r),
-                    }
-                    let aborts = self.monitor.stats().aborts.clone();
-                    let moved: Vec<(&'static str, u64)> = aborts
-                        .iter()
-                        .zip(self.seen_aborts.iter())
-                        .filter(|((_, now), (_, before))| now > before)
-                        .map(|((code, now), (_, before))| (code, now - before))
-                        .collect();
-                    self.seen_aborts = aborts;
-                    self.shared
-                        .metrics
-                        .test_ended(r.method, r.outcome, r.decision, moved);
-                    tracing::info!(
-                        vessel = %self.name,
-                        test = %r.test,
-                        outcome = ?r.outcome,
-                        decision = ?r.decision,
-                        reason = ?r.reason,
-                        "report"
-                    );
-                    match &marked {
-                        Some(v) => serde_json::to_vec(v),
-                        None => serde_json::to_vec(r),
-                    }
-                }
+                Output::Status(s) => self.status_out(s),
+                Output::Report(r) => self.report_out(r),
                 Output::Notification(n) => {
                     self.record(Kind::Notification, self.last_report_t, n);
                     self.shared.metrics.alarm(n.state);
@@ -578,38 +333,116 @@ impl VesselTask {
             if self.recorder.is_some() {
                 if let Ok(b) = &bytes {
                     let topic = match kind {
-                        recording::Kind::Excitation => &self.recording.excitation,
-                        recording::Kind::Status => &self.recording.status,
-                        recording::Kind::Report => &self.recording.report,
+                        recording::message::Kind::Excitation => &self.recording.excitation,
+                        recording::message::Kind::Status => &self.recording.status,
+                        recording::message::Kind::Report => &self.recording.report,
                         _ => &self.recording.notification,
                     }
                     .clone();
                     self.record_message(&topic, kind, t, b);
                 }
             }
-            let publisher = match kind {
-                recording::Kind::Excitation => &self.pubs.excitation,
-                recording::Kind::Status => &self.pubs.status,
-                recording::Kind::Report => &self.pubs.report,
-                _ => &self.pubs.notification,
-            };
-            let result = match bytes {
-                Ok(b) => publisher.put(b).await.map_err(|e| e.to_string()),
-                Err(e) => Err(e.to_string()),
-            };
-            if let (Ok(()), Some(at)) = (&result, excitation_of) {
-                self.shared.metrics.excitation_latency(at.elapsed());
-            }
-            if let Err(e) = result {
-                self.shared.metrics.publish_error();
-                self.publish_errors += 1;
-                if self.publish_errors.is_power_of_two() {
-                    tracing::warn!(vessel = %self.name, count = self.publish_errors, "publication failed: {e}");
-                }
-            }
+            self.put_output(kind, bytes, excitation_of).await;
         }
         if state_changed {
             self.publish_state().await;
+        }
+    }
+
+    /// A status about to be published: a new test is noted (its id saved, its start
+    /// counted) and the status logged; returns its payload.
+    fn status_out(&mut self, s: &wire::Status) -> serde_json::Result<Vec<u8>> {
+        if s.state == wire::MonitorState::Settling {
+            // A new test: marked only if another daemon drives during it.
+            self.concurrent_since = self.role_rx.borrow().seq;
+            // A test started: its id is taken, even if the daemon dies before it ends.
+            self.save_state();
+            if let Some(m) = s.method {
+                self.shared.metrics.test_started(m);
+            }
+        }
+        tracing::info!(vessel = %self.name, t = s.t, state = ?s.state, test = ?s.test, reason = ?s.reason, "status");
+        serde_json::to_vec(s)
+    }
+
+    /// A report about to be published: the state saved and the report in the history first,
+    /// marked when another daemon drove too, its end counted and logged; returns its payload.
+    fn report_out(&mut self, r: &wire::Report) -> serde_json::Result<Vec<u8>> {
+        // The decision is on disk before anyone hears of it.
+        self.save_state();
+        self.last_report_t = r.t_end;
+        // Made while another daemon also drove the vessel: marked.
+        let (concurrent, seq) = {
+            let view = self.role_rx.borrow();
+            (view.drove_since(self.concurrent_since), view.seq)
+        };
+        let marked = if concurrent.is_empty() {
+            None
+        } else {
+            let mut v = serde_json::to_value(r).unwrap_or_default();
+            if let Some(o) = v.as_object_mut() {
+                o.insert("concurrent_drivers".into(), serde_json::json!(concurrent));
+            }
+            tracing::warn!(vessel = %self.name, test = %r.test, others = ?concurrent, "report made while another daemon drove too: marked");
+            Some(v)
+        };
+        self.concurrent_since = seq;
+        match &marked {
+            Some(v) => self.record(Kind::Report, r.t_end, v),
+            None => self.record(Kind::Report, r.t_end, r),
+        }
+        let aborts = self.monitor.stats().aborts.clone();
+        let moved: Vec<(&'static str, u64)> = aborts
+            .iter()
+            .zip(self.seen_aborts.iter())
+            .filter(|((_, now), (_, before))| now > before)
+            .map(|((code, now), (_, before))| (code, now - before))
+            .collect();
+        self.seen_aborts = aborts;
+        self.shared
+            .metrics
+            .test_ended(r.method, r.outcome, r.decision, moved);
+        tracing::info!(
+            vessel = %self.name,
+            test = %r.test,
+            outcome = ?r.outcome,
+            decision = ?r.decision,
+            reason = ?r.reason,
+            "report"
+        );
+        match &marked {
+            Some(v) => serde_json::to_vec(v),
+            None => serde_json::to_vec(r),
+        }
+    }
+
+    /// Puts one output's payload on its publisher; counts (and logs once per burst) a
+    /// failure, measures the excitation latency of a heading (`excitation_of`: its arrival).
+    async fn put_output(
+        &mut self,
+        kind: recording::message::Kind,
+        bytes: serde_json::Result<Vec<u8>>,
+        excitation_of: Option<Instant>,
+    ) {
+        let publisher = match kind {
+            recording::message::Kind::Excitation => &self.pubs.excitation,
+            recording::message::Kind::Status => &self.pubs.status,
+            recording::message::Kind::Report => &self.pubs.report,
+            _ => &self.pubs.notification,
+        };
+        let result = match bytes {
+            Ok(b) => publisher.put(b).await.map_err(|e| e.to_string()),
+            Err(e) => Err(e.to_string()),
+        };
+        if let (Ok(()), Some(at)) = (&result, excitation_of) {
+            self.shared.metrics.excitation_latency(at.elapsed());
+        }
+        if let Err(e) = result {
+            self.shared.metrics.publish_error();
+            self.publish_errors += 1;
+            if self.publish_errors.is_power_of_two() {
+                tracing::warn!(vessel = %self.name, count = self.publish_errors, "publication failed: {e}");
+            }
         }
     }
 

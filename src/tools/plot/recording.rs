@@ -9,7 +9,9 @@
 
 use super::{data, PlotError};
 use helmwatch_core::angle::wrap_pi;
-use helmwatch_core::wire::{Excitation, ExcitationMode, Keys, RecordLine, Scalar, Stream};
+use helmwatch_core::wire::{
+    vessel_key, Excitation, ExcitationMode, Keys, RecordLine, Scalar, Stream,
+};
 
 /// Most points a series keeps: longer series are reduced to the minimum and maximum of
 /// equal time buckets (the shape survives, the SVG stays small).
@@ -81,10 +83,9 @@ impl Trace {
         for line in lines {
             let line = line?;
             if keys.is_none() {
-                let mut parts = line.key.split('/');
-                if let (Some("vessels"), Some(v)) = (parts.next(), parts.next()) {
-                    trace.vessel = v.to_string();
-                    keys = Some(Keys::new(v));
+                if let Some(k) = vessel_key::split(&line.key) {
+                    trace.vessel = k.vessel.to_string();
+                    keys = Some(Keys::new(k.vessel));
                 }
             }
             let Some(k) = keys.as_ref() else { continue };

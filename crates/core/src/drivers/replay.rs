@@ -150,11 +150,7 @@ impl Replayer {
     ) -> Result<(), ReplayError> {
         let sum = &mut self.sum;
         sum.lines += 1;
-        let Some(vessel) = key
-            .strip_prefix("vessels/")
-            .and_then(|r| r.split_once('/'))
-            .map(|(v, _)| v)
-        else {
+        let Some(vessel) = crate::wire::vessel_key::split(key).map(|k| k.vessel) else {
             sum.skipped += 1;
             return Ok(());
         };

@@ -28,6 +28,7 @@ use serde::{Deserialize, Serialize};
 
 pub mod features;
 pub mod residuals;
+pub mod vessel_key;
 
 pub use features::Features;
 
