@@ -23,6 +23,7 @@ const CORE_FLOORS: &[&str] = &[
     "angle",
     "config",
     "wire",
+    "timeline",
     "nmea",
     "model",
     "design",

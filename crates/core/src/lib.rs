@@ -25,6 +25,7 @@
 //! | [`angle`] | angle wrapping and unit conversions |
 //! | [`config`] | the configuration error (exit 78), range checks, vessel names |
 //! | [`wire`] | the Zenoh keys and JSON payloads of the contract |
+//! | [`timeline`] | per-stream clock-step detection (duplicates, time backwards, jumps, re-synchronisation) |
 //! | [`nmea`] | NMEA 0183 / IEC 61162-450 sentences to the contract's input samples (the bridge's decoder) |
 //! | [`model`] | the ship model both ways, its particulars, servo, sensors, sea states |
 //! | [`design`] | the HBT and CLFRT test designs (model files record them) |
@@ -52,4 +53,5 @@ pub mod ownership;
 pub mod sim;
 #[cfg(any(test, feature = "test-support"))]
 pub mod testing;
+pub mod timeline;
 pub mod wire;

@@ -22,7 +22,8 @@ impl Monitor {
         let stream = input.stream();
         let order = input::validate(&input, &self.latest, &self.limits).and_then(|()| {
             let c = &self.cfg.input;
-            self.clocks.check(
+            input::order(
+                &mut self.clocks,
                 stream,
                 input.t(),
                 self.latest.t(stream),

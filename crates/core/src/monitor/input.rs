@@ -1,7 +1,7 @@
 //! Input validation, rejection counters and the latest value of every stream.
 //!
 //! Every sample is checked before it touches any state: `t` finite and in order on its stream
-//! ([`Clocks`]), the value finite and physically
+//! ([`order`]), the value finite and physically
 //! plausible (heading and target in [0, 2 pi), |rudder| below `input.max-rudder-deg`, speed in
 //! [-5, `input.max-speed-mps`], design displacement in (0, 1e9] kg). A rejected sample is counted by stream and reason, logged once
 //! per burst (the first, then at every power of two), and otherwise ignored: it never reaches
@@ -12,20 +12,15 @@
 //!
 //! ## Clock steps
 //!
-//! Ship sensors step their clocks (a GNSS time fix, a reboot to the epoch), and a single
-//! sample can carry a wild time. Per stream, against its last accepted `t`:
-//! - `t` equal: a duplicate, rejected.
-//! - `t` later by at most `input.time-jump-s`: in order, accepted.
-//! - `t` later by more (a jump ahead) or earlier (time going backwards): rejected
-//!   (`time_jump` or `out_of_order`) and remembered as the start of a candidate timeline.
-//!   Samples that continue that candidate (increasing, each within `input.time-jump-s` of the
-//!   previous one) extend it; the `input.resync-samples`-th is accepted and the stream
-//!   *re-synchronises* on the new timeline (counted in `resyncs`). A lone outlier never gets
-//!   there: the next in-order sample drops the candidate.
+//! Each stream's time is checked by [`crate::timeline::Clocks`] (duplicates, time going
+//! backwards, jumps ahead beyond `input.time-jump-s`, re-synchronisation after
+//! `input.resync-samples` consistent samples); [`order`] turns its verdict into a counted
+//! rejection.
 //!
 //! The monitor aborts a test under way on a re-synchronisation ("clock step") and moves its
 //! time-based state (scheduler interval, steady course) to the new timeline.
 
+use crate::timeline::{Clocks, Jump, Order};
 use crate::wire::{Input, Stream};
 use std::f64::consts::PI;
 
@@ -233,92 +228,37 @@ pub fn validate(input: &Input, latest: &Latest, limits: &Limits) -> Result<(), R
             );
         }
     }
-    let _ = latest; // the order in time is the clocks' ([`Clocks::check`])
+    let _ = latest; // the order in time is the clocks' ([`order`])
     Ok(())
 }
 
-/// A sample's place in its stream's time, when [`Clocks::check`] lets it in.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Order {
-    /// In order after the stream's last accepted sample (or the stream's first).
-    Next,
-    /// The stream re-synchronised on a new timeline: its last accepted sample was at `from_t`.
-    Resync {
-        /// The last accepted `t` of the old timeline [s].
-        from_t: f64,
-    },
-}
-
-/// A candidate timeline: samples rejected as out of order or ahead that follow each other.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Candidate {
-    last_t: f64,
-    samples: u32,
-}
-
-/// Per-stream clock-step detection (module documentation). Fixed size.
-#[derive(Debug, Clone, Default)]
-pub struct Clocks {
-    candidates: [Option<Candidate>; 6],
-}
-
-impl Clocks {
-    /// Places a sample of `stream` at `t` (finite) after the stream's last accepted `last`:
-    /// `jump_s` is `input.time-jump-s`, `resync` is `input.resync-samples`.
-    pub fn check(
-        &mut self,
-        stream: Stream,
-        t: f64,
-        last: Option<f64>,
-        jump_s: f64,
-        resync: u32,
-    ) -> Result<Order, Rejection> {
-        let slot = &mut self.candidates[stream.index()];
-        let Some(last) = last else {
-            *slot = None;
-            return Ok(Order::Next);
-        };
-        if t == last {
-            return Err(Rejection {
-                stream,
-                reason: RejectReason::Duplicate,
-                detail: format!("t = {t} seen already"),
-            });
-        }
-        if t > last && t - last <= jump_s {
-            *slot = None;
-            return Ok(Order::Next);
-        }
-        let continues = slot.is_some_and(|c| t > c.last_t && t - c.last_t <= jump_s);
-        let samples = if continues {
-            slot.map_or(1, |c| c.samples + 1)
-        } else {
-            1
-        };
-        if samples >= resync {
-            *slot = None;
-            return Ok(Order::Resync { from_t: last });
-        }
-        *slot = Some(Candidate { last_t: t, samples });
-        let (reason, detail) = if t < last {
-            (
-                RejectReason::OutOfOrder,
-                format!(
-                    "t = {t} before last accepted {last} ({samples} of {resync} to re-synchronise)"
-                ),
-            )
-        } else {
-            (
-                RejectReason::TimeJump,
-                format!("t = {t} is {:.1} s after last accepted {last} ({samples} of {resync} to re-synchronise)", t - last),
-            )
-        };
-        Err(Rejection {
-            stream,
-            reason,
-            detail,
-        })
-    }
+/// The place of a sample of `stream` at `t` after the stream's last accepted `last`
+/// ([`Clocks::check`], with `input.time-jump-s` and `input.resync-samples`), or its rejection.
+pub fn order(
+    clocks: &mut Clocks,
+    stream: Stream,
+    t: f64,
+    last: Option<f64>,
+    jump_s: f64,
+    resync: u32,
+) -> Result<Order, Rejection> {
+    let (reason, detail) = match clocks.check(stream, t, last, jump_s, resync) {
+        Ok(o) => return Ok(o),
+        Err(Jump::Duplicate) => (RejectReason::Duplicate, format!("t = {t} seen already")),
+        Err(Jump::Backwards { last, samples }) => (
+            RejectReason::OutOfOrder,
+            format!("t = {t} before last accepted {last} ({samples} of {resync} to re-synchronise)"),
+        ),
+        Err(Jump::Ahead { last, samples }) => (
+            RejectReason::TimeJump,
+            format!("t = {t} is {:.1} s after last accepted {last} ({samples} of {resync} to re-synchronise)", t - last),
+        ),
+    };
+    Err(Rejection {
+        stream,
+        reason,
+        detail,
+    })
 }
 
 /// Stores an accepted sample as the latest of its stream.
@@ -367,88 +307,6 @@ mod tests {
             value: String::new(),
         });
         assert_eq!(r(&st), Err(RejectReason::OutOfRange));
-    }
-
-    /// Feeds `ts` to one stream's clock as a driver would (storing what is accepted) and
-    /// returns each verdict: `Ok(true)` a resync, `Ok(false)` in order, `Err(reason)`.
-    fn feed(ts: &[f64]) -> Vec<Result<bool, RejectReason>> {
-        let mut c = Clocks::default();
-        let mut last = None;
-        ts.iter()
-            .map(|&t| match c.check(Stream::Heading, t, last, 60.0, 3) {
-                Ok(o) => {
-                    last = Some(t);
-                    Ok(matches!(o, Order::Resync { .. }))
-                }
-                Err(r) => Err(r.reason),
-            })
-            .collect()
-    }
-
-    #[test]
-    fn rejects_time_going_backwards_and_duplicates() {
-        use RejectReason::*;
-        assert_eq!(
-            feed(&[10.0, 9.9, 10.0, 10.1]),
-            vec![Ok(false), Err(OutOfOrder), Err(Duplicate), Ok(false)]
-        );
-        // Other streams keep their own clocks.
-        let mut c = Clocks::default();
-        assert!(c.check(Stream::Heading, 10.0, Some(9.0), 60.0, 3).is_ok());
-        assert!(c.check(Stream::Rudder, 5.0, Some(4.9), 60.0, 3).is_ok());
-    }
-
-    #[test]
-    fn a_lone_future_sample_is_rejected_and_forgotten() {
-        use RejectReason::*;
-        assert_eq!(
-            feed(&[10.0, 1e9, 10.1, 1e9 + 0.1, 10.2, 10.3]),
-            vec![
-                Ok(false),
-                Err(TimeJump),
-                Ok(false),
-                Err(TimeJump),
-                Ok(false),
-                Ok(false)
-            ]
-        );
-    }
-
-    #[test]
-    fn a_clock_step_resynchronises_after_a_consistent_run() {
-        use RejectReason::*;
-        // An hour back: two rejected, the third of the new timeline accepted as a resync.
-        assert_eq!(
-            feed(&[3600.0, 3600.1, 0.2, 0.3, 0.4, 0.5]),
-            vec![
-                Ok(false),
-                Ok(false),
-                Err(OutOfOrder),
-                Err(OutOfOrder),
-                Ok(true),
-                Ok(false)
-            ]
-        );
-        // An hour ahead, the same.
-        assert_eq!(
-            feed(&[0.0, 3600.0, 3600.1, 3600.2, 3600.3]),
-            vec![Ok(false), Err(TimeJump), Err(TimeJump), Ok(true), Ok(false)]
-        );
-        // A run broken by an in-order sample starts again.
-        assert_eq!(
-            feed(&[0.0, 3600.0, 3600.1, 0.1, 3600.2, 3600.3, 3600.4]),
-            vec![
-                Ok(false),
-                Err(TimeJump),
-                Err(TimeJump),
-                Ok(false),
-                Err(TimeJump),
-                Err(TimeJump),
-                Ok(true)
-            ]
-        );
-        // A gap within the limit is no jump.
-        assert_eq!(feed(&[0.0, 59.0]), vec![Ok(false), Ok(false)]);
     }
 
     #[test]

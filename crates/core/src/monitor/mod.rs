@@ -85,13 +85,14 @@ use crate::dsp::multisine::Multisine;
 use crate::estimator::{Estimator, EstimatorScratch};
 use crate::fdi::Fdi;
 use crate::monitor::config::CoreConfig;
+use crate::timeline::{Clocks, Order};
 use crate::wire::Method;
 use crate::wire::{
     Decision, Excitation, ExcitationMode, Features, Input, MonitorState, Notification, Outcome,
     Report, Status, Stream, TriggerReply,
 };
 pub use abort::{AbortCounts, AbortReason};
-use input::{Clocks, Counters, Latest, Limits, Order, RejectReason, Rejection};
+use input::{Counters, Latest, Limits, RejectReason, Rejection};
 pub use state::{RestoreError, VesselState};
 use std::collections::VecDeque;
 use std::sync::Arc;
