@@ -323,6 +323,18 @@ mod tests {
     }
 
     #[test]
+    fn an_unknown_bridge_key_is_named_with_every_key_allowed() {
+        let e = Config::from_toml_str("[bridge]\nbogus = 1\n").unwrap_err();
+        let m = e.to_string();
+        let keys = toml::Value::try_from(crate::shells::bridge::BridgeConfig::default()).unwrap();
+        let keys = keys.as_table().unwrap();
+        assert!(keys.len() >= 20 && m.contains("bogus"), "{m}");
+        for k in keys.keys() {
+            assert!(m.contains(&format!("`{k}`")), "{k} missing from: {m}");
+        }
+    }
+
+    #[test]
     fn out_of_range_names_key_and_range() {
         let e = Config::from_toml_str("[servo]\nmax-rate-deg-s = -1\n").unwrap_err();
         let m = e.to_string();

@@ -99,7 +99,7 @@ pub struct BridgeConfig {
     pub reconnect_s: f64,
     /// Where a sample's `t` comes from: `receive`, `tag-block-s`, `tag-block-ms`, `zda`.
     pub time_source: TimeSource,
-    /// The heading sentence: `hdt` or `hdg`.
+    /// The heading sentence: `hdt`, `hdg` or `ths`.
     pub heading: HeadingSentence,
     /// The speed-through-water sentence: `vhw` or `vbw`.
     pub speed: SpeedSentence,
@@ -111,6 +111,12 @@ pub struct BridgeConfig {
     pub max_rudder_deg: f64,
     /// Largest |speed through water| published [m/s], (0, 100].
     pub max_speed_mps: f64,
+    /// Tag-block time: a step of a stream's time larger than this is a jump, rejected
+    /// (`time_jump`) [s], (0, 86400].
+    pub time_jump_s: f64,
+    /// Tag-block time: consecutive samples of a new timeline that re-synchronise a stream on
+    /// it, [2, 1000].
+    pub resync_samples: u32,
     /// Period of `vessels/<v>/bridge/stats` [s, wall], (0, 3600].
     pub stats_period_s: f64,
     /// `IP:PORT` of the bridge's metrics endpoint (`GET /metrics`), or empty for none.
@@ -144,6 +150,8 @@ impl Default for BridgeConfig {
             sources: d.sources,
             max_rudder_deg: d.max_rudder_deg,
             max_speed_mps: d.max_speed_mps,
+            time_jump_s: d.time_jump_s,
+            resync_samples: d.resync_samples,
             stats_period_s: 10.0,
             metrics_listen: String::new(),
             mode: ZenohMode::Peer,
@@ -217,6 +225,8 @@ impl BridgeConfig {
             sources: self.sources.clone(),
             max_rudder_deg: self.max_rudder_deg,
             max_speed_mps: self.max_speed_mps,
+            time_jump_s: self.time_jump_s,
+            resync_samples: self.resync_samples,
         }
     }
 
@@ -300,7 +310,10 @@ impl Bridge {
         let metrics = if cfg.metrics_listen.is_empty() {
             None
         } else {
-            Some(crate::shells::metrics::http::bind(&cfg.metrics_listen).await?)
+            Some(
+                crate::shells::metrics::http::bind("bridge.metrics-listen", &cfg.metrics_listen)
+                    .await?,
+            )
         };
         let session = zenoh::open(zcfg)
             .await

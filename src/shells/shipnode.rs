@@ -115,6 +115,7 @@ pub struct ShipNode {
     observer: Option<TickObserver>,
     record: Option<Box<dyn Write + Send>>,
     nmea: Option<std::net::SocketAddr>,
+    nmea_heading: helmwatch_core::nmea::HeadingSentence,
 }
 
 impl std::fmt::Debug for ShipNode {
@@ -140,6 +141,7 @@ impl ShipNode {
             observer: None,
             record: None,
             nmea: None,
+            nmea_heading: helmwatch_core::nmea::HeadingSentence::Hdt,
         })
     }
 
@@ -159,6 +161,13 @@ impl ShipNode {
     /// instead of being published on the contract's keys (see the module doc).
     pub fn nmea_to(mut self, addr: std::net::SocketAddr) -> Self {
         self.nmea = Some(addr);
+        self
+    }
+
+    /// The heading sentence the NMEA instruments send (HDT unless set: THS as gyros and INS
+    /// that do not send HDT, HDG as a magnetic compass without deviation or variation).
+    pub fn nmea_heading(mut self, h: helmwatch_core::nmea::HeadingSentence) -> Self {
+        self.nmea_heading = h;
         self
     }
 
@@ -255,7 +264,7 @@ impl ShipNode {
             // would otherwise leave an old, later `t` standing in for it).
             last_exc_t = f64::NEG_INFINITY;
             self.publish_inputs(&inputs, links).await?;
-            let t = send_nmea(links.nmea.as_ref(), t, &inputs).await;
+            let t = send_nmea(links.nmea.as_ref(), self.nmea_heading, t, &inputs).await;
             let daemon_alive = links.alive.load(Ordering::Relaxed) > 0;
             if daemon_alive != daemon_seen {
                 daemon_seen = daemon_alive;

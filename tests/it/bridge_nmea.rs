@@ -11,7 +11,7 @@ use helmwatch::config::Config;
 use helmwatch::shells::bridge::{Bridge, BridgeConfig, BridgeError};
 use helmwatch::shells::net::loopback_peer;
 use helmwatch::shells::shipnode::{ShipNode, ShipNodeError, ShipNodeOptions, ShipSummary};
-use helmwatch_core::nmea::{DecodeStats, TimeSource};
+use helmwatch_core::nmea::{DecodeStats, HeadingSentence, TimeSource};
 use helmwatch_core::sim::Scenario;
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -21,12 +21,14 @@ use tokio::task::JoinHandle;
 use tokio_util::sync::CancellationToken;
 
 const LIMIT: Duration = Duration::from_secs(300);
+const HDT: HeadingSentence = HeadingSentence::Hdt;
 
 type Task<T, E> = (CancellationToken, JoinHandle<Result<T, E>>);
 
-fn bridge_config(udp: SocketAddr) -> BridgeConfig {
+fn bridge_config(udp: SocketAddr, heading: HeadingSentence) -> BridgeConfig {
     let b = BridgeConfig {
         udp_listen: udp.to_string(),
+        heading,
         time_source: TimeSource::TagBlockMs,
         talkers: vec!["AG".into(), "VW".into(), "HE".into()],
         stats_period_s: 0.2,
@@ -42,9 +44,10 @@ async fn start_bridge(
     ep: &str,
     own: &str,
     udp: SocketAddr,
+    heading: HeadingSentence,
 ) -> (SocketAddr, Task<DecodeStats, BridgeError>) {
     let bridge = Bridge::start(
-        &bridge_config(udp),
+        &bridge_config(udp, heading),
         loopback_peer(&[own.to_string()], &[ep.to_string()]).unwrap(),
     )
     .await
@@ -62,12 +65,14 @@ fn spawn_nmea_ship(
     seed: u64,
     ep: &str,
     nmea: SocketAddr,
+    heading: HeadingSentence,
 ) -> Task<ShipSummary, ShipNodeError> {
     let mut opts = ShipNodeOptions::from_config(&cfg.ship_peer, &cfg.simulation.vessel);
     opts.lockstep = true;
     let node = ShipNode::new(&cfg.sim(), &Scenario::nominal(&cfg.sim(), seed), opts)
         .unwrap()
-        .nmea_to(nmea);
+        .nmea_to(nmea)
+        .nmea_heading(heading);
     let stop = CancellationToken::new();
     let s = stop.clone();
     let zcfg = loopback_peer(&[], &[ep.to_string()]).unwrap();
@@ -119,9 +124,9 @@ async fn an_nmea_only_ship_runs_a_test_end_to_end_and_bad_sentences_are_counted(
     let obs = Observer::new(&ep, "self", false).await;
     let own = endpoint();
     let (udp, (bridge_stop, bridge)) =
-        start_bridge(&ep, &own, "127.0.0.1:0".parse().unwrap()).await;
+        start_bridge(&ep, &own, "127.0.0.1:0".parse().unwrap(), HDT).await;
     let (watcher, stats_sub) = watch_bridge_stats(&obs, &own).await;
-    let (ship_stop, ship) = spawn_nmea_ship(&cfg, 7, &ep, udp);
+    let (ship_stop, ship) = spawn_nmea_ship(&cfg, 7, &ep, udp, HDT);
 
     let id = obs.trigger("hbt").await.test.unwrap();
     // Hostile sentences from another instrument while the test runs, with the ship's own
@@ -277,12 +282,12 @@ async fn a_silent_rudder_indicator_and_a_bridge_restart_abort_the_test_without_a
     let daemon = start_daemon(&cfg, &ep).await;
     let obs = Observer::new(&ep, "self", false).await;
     let (udp, (bridge_stop, bridge)) =
-        start_bridge(&ep, &endpoint(), "127.0.0.1:0".parse().unwrap()).await;
+        start_bridge(&ep, &endpoint(), "127.0.0.1:0".parse().unwrap(), HDT).await;
     let relay_sock = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
     let relay_addr = relay_sock.local_addr().unwrap();
     let drop_rudder = Arc::new(AtomicBool::new(false));
     let relay = spawn_relay(relay_sock, udp, drop_rudder.clone());
-    let (ship_stop, ship) = spawn_nmea_ship(&cfg, 3, &ep, relay_addr);
+    let (ship_stop, ship) = spawn_nmea_ship(&cfg, 3, &ep, relay_addr, HDT);
 
     // 1. The rudder angle indicator falls silent in the middle of a test.
     let id1 = obs.trigger("clfrt").await.test.unwrap();
@@ -319,7 +324,7 @@ async fn a_silent_rudder_indicator_and_a_bridge_restart_abort_the_test_without_a
     eprintln!("aborted: {reason}; {}", r2["reason"]);
     assert_ne!(r2["decision"], "fault", "{r2}");
     // A new bridge on the same port: the samples flow again and the daemon answers them.
-    let (udp2, (bridge_stop, bridge)) = start_bridge(&ep, &endpoint(), udp).await;
+    let (udp2, (bridge_stop, bridge)) = start_bridge(&ep, &endpoint(), udp, HDT).await;
     assert_eq!(udp2, udp);
     let t_end = r2["t_end"].as_f64().unwrap();
     obs.wait_for("fdi/stats", LIMIT, |s| {
@@ -520,4 +525,47 @@ async fn tcp_and_serial_streams_are_cut_into_lines_and_reopened() {
     sub.undeclare().await.unwrap();
     session.close().await.unwrap();
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A gyro that sends THS and no HDT feeds the daemon through a bridge set to `ths`: a test
+/// completes on its heading.
+#[tokio::test(flavor = "multi_thread")]
+async fn a_ths_only_gyro_feeds_a_test_that_completes() {
+    let ep = endpoint();
+    let mut cfg = daemon_config();
+    cfg.scheduler.enabled = false;
+    let daemon = start_daemon(&cfg, &ep).await;
+    let obs = Observer::new(&ep, "self", false).await;
+    let own = endpoint();
+    let ths = HeadingSentence::Ths;
+    let (udp, (bridge_stop, bridge)) =
+        start_bridge(&ep, &own, "127.0.0.1:0".parse().unwrap(), ths).await;
+    let (watcher, stats_sub) = watch_bridge_stats(&obs, &own).await;
+    let (ship_stop, ship) = spawn_nmea_ship(&cfg, 11, &ep, udp, ths);
+    let id = obs.trigger("clfrt").await.test.unwrap();
+    let r = obs
+        .wait_for("fdi/report", LIMIT, |r| r["test"] == id.as_str())
+        .await;
+    assert_eq!(r["outcome"], "completed", "{r}");
+    assert!(ran_to_analysis(&r), "{r}");
+    let stats = obs
+        .wait_for("bridge/stats", LIMIT, |s| {
+            s["samples"]["heading"].as_u64() > Some(1000)
+        })
+        .await;
+    let rejected: u64 = stats["rejected"]
+        .as_object()
+        .unwrap()
+        .values()
+        .map(|v| v.as_u64().unwrap())
+        .sum();
+    assert_eq!(rejected, 0, "{stats}");
+    ship_stop.cancel();
+    ship.await.unwrap().unwrap();
+    bridge_stop.cancel();
+    bridge.await.unwrap().unwrap();
+    stats_sub.undeclare().await.unwrap();
+    watcher.close().await.unwrap();
+    daemon.stop().await;
+    obs.close().await;
 }

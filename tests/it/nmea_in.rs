@@ -136,11 +136,8 @@ fn recorded_gyro_hdt_with_and_without_a_heading() {
     assert_eq!(out.len(), want.len(), "{out:?}");
     for (i, w) in out.iter().zip(want) {
         assert_eq!(i.stream(), Stream::Heading);
-        // f32 inside the nmea crate: within half an f32 step at 256-512 deg (1.5e-5 deg).
-        assert!(
-            (scalar(i) - w * PI / 180.0).abs() < 1.6e-5_f64.to_radians(),
-            "{i:?}"
-        );
+        // Read in double precision: within a few f64 steps of the degrees' own conversion.
+        assert!((scalar(i) - w * PI / 180.0).abs() < 1e-14, "{i:?}");
     }
     // Time of reception: the 5 first accepted lines are lines 0-3, then 12.
     assert_eq!(out[0].t(), 1000.0);
@@ -148,6 +145,97 @@ fn recorded_gyro_hdt_with_and_without_a_heading() {
     let s = dec.stats();
     assert_eq!(s.rejected(Reject::NoValue), 8, "{s:?}");
     assert_eq!(s.rejected_total(), 8, "{s:?}");
+}
+
+/// One line through a fresh decoder with `opts`: its samples and its stats.
+fn one(opts: DecodeOptions, l: &str) -> (Vec<Input>, helmwatch_core::nmea::DecodeStats) {
+    let mut dec = Decoder::new(opts);
+    let mut out = Vec::new();
+    dec.line(l.as_bytes(), 5.0, &mut out);
+    (out, dec.stats().clone())
+}
+
+#[test]
+fn proprietary_sentences_of_any_address_length_are_ignored_not_rejected() {
+    // A Kongsberg Seapath's PSXN, a Furuno's PFEC,GPatt, a Garmin's PGRME (valid checksums).
+    for body in [
+        "PSXN,23,0.02,-0.76,330.56,,",
+        "PFEC,GPatt,330.5,-0.8,0.0",
+        "PGRME,15.0,M,45.0,M,25.0,M",
+        "PSXN,20,1,0,0,1",
+    ] {
+        let l = line(body);
+        let (out, s) = one(DecodeOptions::default(), &l);
+        assert!(out.is_empty(), "{l}: {out:?}");
+        assert_eq!((s.ignored, s.rejected_total()), (1, 0), "{l}: {s:?}");
+    }
+    // A proprietary address is P and three to eight more letters or digits.
+    let (_, s) = one(DecodeOptions::default(), &line("PSX,1"));
+    assert_eq!(s.rejected(Reject::Framing), 1, "{s:?}");
+    let (_, s) = one(DecodeOptions::default(), &line("PABCDEFGHIJ,1"));
+    assert_eq!(s.rejected(Reject::Framing), 1, "{s:?}");
+    // A standard sentence's address is still five characters.
+    let (_, s) = one(DecodeOptions::default(), &line("HEHD,1"));
+    assert_eq!(s.rejected(Reject::Framing), 1, "{s:?}");
+}
+
+#[test]
+fn ths_is_a_heading_in_mode_a_only_and_hdt_is_read_in_double_precision() {
+    let ths = DecodeOptions {
+        heading: HeadingSentence::Ths,
+        ..DecodeOptions::default()
+    };
+    let (out, s) = one(ths.clone(), &line("HETHS,359.99,A"));
+    assert_eq!(out.len(), 1, "{s:?}");
+    assert_eq!(out[0].stream(), Stream::Heading);
+    assert_eq!(scalar(&out[0]), 359.99_f64.to_radians());
+    for (mode, reason) in [
+        ("E", Reject::Status),
+        ("M", Reject::Status),
+        ("S", Reject::Status),
+        ("V", Reject::Status),
+        ("", Reject::BadField),
+        ("X", Reject::BadField),
+    ] {
+        let (out, s) = one(ths.clone(), &line(&format!("HETHS,12.5,{mode}")));
+        assert!(out.is_empty(), "mode {mode:?}: {out:?}");
+        assert_eq!(s.rejected(reason), 1, "mode {mode:?}: {s:?}");
+    }
+    let (_, s) = one(ths.clone(), &line("HETHS,,A"));
+    assert_eq!(s.rejected(Reject::NoValue), 1, "{s:?}");
+    let (_, s) = one(ths.clone(), &line("HETHS,361.0,A"));
+    assert_eq!(s.rejected(Reject::OutOfRange), 1, "{s:?}");
+    let mut bad = line("HETHS,12.5,A");
+    bad.replace_range(bad.len() - 2.., "00");
+    let (_, s) = one(ths.clone(), &bad);
+    assert_eq!(s.rejected(Reject::Checksum), 1, "{s:?}");
+    // With HDT configured, THS is a valid sentence not used, and HDT is the heading.
+    let (out, s) = one(DecodeOptions::default(), &line("HETHS,12.5,A"));
+    assert_eq!((out.len(), s.ignored), (0, 1));
+    let (_, s) = one(ths, &line("HEHDT,12.5,T"));
+    assert_eq!(s.ignored, 1);
+    // HDT's value in double precision (the nmea crate reads it as f32: 1.7e-7 rad off).
+    let (out, _) = one(DecodeOptions::default(), &line("HEHDT,359.99,T"));
+    assert_eq!(scalar(&out[0]), 359.99_f64.to_radians());
+}
+
+#[test]
+fn a_long_garbled_line_is_too_long_and_an_rsa_without_status_is_a_status() {
+    let garbled: String = "$\u{1}".repeat(65);
+    assert!(garbled.len() >= 130);
+    let (_, s) = one(DecodeOptions::default(), &garbled);
+    assert_eq!(s.rejected(Reject::TooLong), 1, "{s:?}");
+    // With a tag block, the sentence after it is what is measured.
+    let tagged = format!("{}{}", tag("c:1"), line("HEHDT,123.4,T"));
+    let (out, _) = one(DecodeOptions::default(), &tagged);
+    assert_eq!(out.len(), 1);
+    for body in ["IIRSA,5.0", "IIRSA,5.0,", "IIRSA,5.0,V,,"] {
+        let (out, s) = one(DecodeOptions::default(), &line(body));
+        assert!(out.is_empty());
+        assert_eq!(s.rejected(Reject::Status), 1, "{body}: {s:?}");
+    }
+    let (out, _) = one(DecodeOptions::default(), &line("IIRSA,5.0,A"));
+    assert_eq!(scalar(&out[0]), 5.0_f64.to_radians());
 }
 
 #[test]
@@ -372,7 +460,7 @@ fn the_simulated_ships_datagram_decodes_to_its_samples() {
     ];
     let (ms, t_wire) = tag_time_ms(t);
     assert_eq!(ms, 1_234_568);
-    let d = datagram("SI0001", ms, &tick_sentences(&inputs));
+    let d = datagram("SI0001", ms, &tick_sentences(&inputs, HeadingSentence::Hdt));
     assert!(d.starts_with(b"UdPbC\0\\s:SI0001,c:1234568*"));
     let mut dec = Decoder::new(DecodeOptions {
         time_source: TimeSource::TagBlockMs,
@@ -455,7 +543,12 @@ fn fuzz_lines(lines: usize) {
                 "{}{}",
                 tag(&format!(
                     "s:FZ0001,c:{}",
-                    rng.gen_range(0..2_000_000_000u64)
+                    // Mostly the next tenth of a second; now and then a wild time.
+                    if rng.gen_bool(0.01) {
+                        rng.gen_range(0..2_000_000_000u64)
+                    } else {
+                        1_700_000_000_000 + 100 * sent as u64 + rng.gen_range(0..50)
+                    }
                 )),
                 line(tpl)
             )
@@ -509,6 +602,9 @@ fn fuzz_lines(lines: usize) {
         // A quarter of the lines are not mutated: most of those give samples.
         assert!(s.used as usize > lines / 2 / 8, "{s:?}");
         assert!(s.rejected(Reject::TooLong) > 0 && s.rejected(Reject::Checksum) > 0);
+        if time_source == TimeSource::TagBlockMs {
+            assert!(s.rejected(Reject::TimeJump) > 0, "{s:?}");
+        }
         assert!(lb.is_empty(), "the last line ended");
     }
 }
@@ -544,4 +640,57 @@ fn every_rejection_reason_and_bridge_metric_is_documented() {
         );
         assert_eq!(json["rejected"][r.name()], 0);
     }
+}
+
+#[test]
+fn a_tag_block_time_off_its_streams_timeline_is_rejected_until_a_new_one_holds() {
+    let opts = DecodeOptions {
+        time_source: TimeSource::TagBlockMs,
+        ..DecodeOptions::default()
+    };
+    let (jump_ms, resync) = ((opts.time_jump_s * 1000.0) as i64, opts.resync_samples);
+    let mut dec = Decoder::new(opts);
+    let mut feed = |ms: i64, body: &str| {
+        let mut out = Vec::new();
+        dec.line(
+            format!("{}{}", tag(&format!("c:{ms}")), line(body)).as_bytes(),
+            5.0,
+            &mut out,
+        );
+        out.first().map(|i| i.t())
+    };
+    let t0 = 1_700_000_000_000;
+    assert_eq!(feed(t0, "HEHDT,10.0,T"), Some(t0 as f64 / 1000.0));
+    // One line a year ahead: rejected; the stream goes on; the rudder keeps its own clock.
+    assert_eq!(feed(t0 + 365 * 86_400_000, "HEHDT,10.0,T"), None);
+    assert_eq!(
+        feed(t0 + 100, "HEHDT,10.0,T"),
+        Some((t0 + 100) as f64 / 1000.0)
+    );
+    assert_eq!(
+        feed(t0 + 365 * 86_400_000, "AGRSA,1.0,A"),
+        Some((t0 + 365 * 86_400_000) as f64 / 1000.0)
+    );
+    // A step within the bound is the next sample; a repeated time passes (whole seconds).
+    assert!(feed(t0 + 100 + jump_ms, "HEHDT,10.0,T").is_some());
+    assert!(feed(t0 + 100 + jump_ms, "HEHDT,10.0,T").is_some());
+    // The sender's clock steps back an hour: `resync` lines in a row make the new timeline.
+    let back = t0 - 3_600_000;
+    let got: Vec<bool> = (0..resync as i64 + 1)
+        .map(|k| feed(back + 100 * k, "HEHDT,10.0,T").is_some())
+        .collect();
+    let mut want = vec![false; resync as usize - 1];
+    want.extend([true, true]);
+    assert_eq!(got, want);
+    let s = dec.stats();
+    assert_eq!(s.rejected(Reject::TimeJump), 1 + resync as u64 - 1, "{s:?}");
+    assert_eq!(s.rejected_total(), s.rejected(Reject::TimeJump));
+    // With the time of reception, no tag-block clock is kept.
+    let mut dec = Decoder::new(DecodeOptions::default());
+    let mut out = Vec::new();
+    for ms in [t0, t0 + 365 * 86_400_000, t0] {
+        let l = format!("{}{}", tag(&format!("c:{ms}")), line("HEHDT,10.0,T"));
+        dec.line(l.as_bytes(), 5.0, &mut out);
+    }
+    assert_eq!(out.len(), 3);
 }

@@ -237,7 +237,10 @@ impl Daemon {
         let metrics_listener = if cfg.metrics_listen.is_empty() {
             None
         } else {
-            Some(crate::shells::metrics::http::bind(&cfg.metrics_listen).await?)
+            Some(
+                crate::shells::metrics::http::bind("daemon.metrics-listen", &cfg.metrics_listen)
+                    .await?,
+            )
         };
         let mut metrics = Metrics::new();
         let state = match &cfg.state_dir {

@@ -419,6 +419,7 @@ pub(super) fn serve_metrics(
     let addr = listener
         .local_addr()
         .map_err(|e| crate::shells::metrics::http::MetricsError {
+            key: "daemon.metrics-listen",
             addr: cfg.metrics_listen.clone(),
             reason: e.to_string(),
         })?;

@@ -1,4 +1,4 @@
-//! The metrics endpoint: binds `daemon.metrics-listen` (or the bridge's) and serves
+//! The metrics endpoint: binds `daemon.metrics-listen` or `bridge.metrics-listen` and serves
 //! `GET /metrics` over HTTP/1.
 
 use super::{encode, CONTENT_TYPE};
@@ -11,17 +11,21 @@ use std::time::Duration;
 
 /// Why the metrics endpoint could not start.
 #[derive(Debug, thiserror::Error)]
-#[error("cannot listen for metrics on daemon.metrics-listen = {addr:?}: {reason}")]
+#[error("cannot listen for metrics on {key} = {addr:?}: {reason}")]
 pub struct MetricsError {
+    /// The key that set the address (`daemon.metrics-listen`, `bridge.metrics-listen`).
+    pub key: &'static str,
     /// The configured address.
     pub addr: String,
     /// The operating system's message.
     pub reason: String,
 }
 
-/// Binds the metrics listener on `addr` (`IP:PORT`; port 0 picks a free one).
-pub async fn bind(addr: &str) -> Result<tokio::net::TcpListener, MetricsError> {
+/// Binds the metrics listener on `addr` (`IP:PORT`; port 0 picks a free one), the value of
+/// `key`.
+pub async fn bind(key: &'static str, addr: &str) -> Result<tokio::net::TcpListener, MetricsError> {
     let err = |reason: String| MetricsError {
+        key,
         addr: addr.to_string(),
         reason,
     };
@@ -95,4 +99,23 @@ fn respond<B>(registry: &Registry, req: &hyper::Request<B>) -> hyper::Response<F
         resp.headers_mut().insert(hyper::header::CONTENT_TYPE, v);
     }
     resp
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_error_names_the_key_that_set_the_address() {
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
+        for key in ["daemon.metrics-listen", "bridge.metrics-listen"] {
+            let e = rt.block_on(super::bind(key, "not an address")).unwrap_err();
+            assert!(
+                e.to_string()
+                    .starts_with(&format!("cannot listen for metrics on {key} = ")),
+                "{e}"
+            );
+        }
+    }
 }

@@ -124,13 +124,14 @@ pub(super) async fn subscribe_alive(
 /// carries it (the excitation to wait for has it). Otherwise returns `t`.
 pub(super) async fn send_nmea(
     nmea: Option<&(tokio::net::UdpSocket, std::net::SocketAddr)>,
+    heading: helmwatch_core::nmea::HeadingSentence,
     t: f64,
     inputs: &[Input],
 ) -> f64 {
     match nmea {
         Some((sock, addr)) => {
             let (ms, t_wire) = helmwatch_core::nmea::tag_time_ms(t);
-            let sentences = helmwatch_core::nmea::tick_sentences(inputs);
+            let sentences = helmwatch_core::nmea::tick_sentences(inputs, heading);
             let d = helmwatch_core::nmea::datagram("SI0001", ms, &sentences);
             if let Err(e) = sock.send_to(&d, addr).await {
                 tracing::warn!("sending NMEA to {addr}: {e}");

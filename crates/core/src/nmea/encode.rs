@@ -2,7 +2,7 @@
 //! with the checksum and framing the decoder in the parent module checks.
 
 use super::framing::xor;
-use super::{KMH_MPS, KNOT_MPS, UDPBC};
+use super::{HeadingSentence, KMH_MPS, KNOT_MPS, UDPBC};
 use crate::wire::Input;
 
 /// `$<talker><id>,<fields>*hh` (no line ending).
@@ -24,10 +24,10 @@ pub fn tag_time_ms(t: f64) -> (i64, f64) {
 }
 
 /// The sentences of one tick of samples, as instruments send them: RSA (rudder), VHW
-/// (speed), HTD (autopilot state and target, when the state is among `inputs`), HDT
-/// (heading) last. Three decimals of a degree and of a knot. `HTD`'s mode: `auto` -> S,
-/// anything else -> M.
-pub fn tick_sentences(inputs: &[Input]) -> Vec<String> {
+/// (speed), HTD (autopilot state and target, when the state is among `inputs`), the heading
+/// last as `heading` says (HDT; THS in mode `A`; HDG with no deviation and no variation).
+/// Three decimals of a degree and of a knot. `HTD`'s mode: `auto` -> S, anything else -> M.
+pub fn tick_sentences(inputs: &[Input], heading_sentence: HeadingSentence) -> Vec<String> {
     let mut out = Vec::with_capacity(4);
     let mut state = None;
     let mut target = None;
@@ -63,7 +63,12 @@ pub fn tick_sentences(inputs: &[Input]) -> Vec<String> {
         ));
     }
     if let Some(h) = heading {
-        out.push(sentence("HE", "HDT", &format!("{:.3},T", h.to_degrees())));
+        let d = h.to_degrees();
+        out.push(match heading_sentence {
+            HeadingSentence::Hdt => sentence("HE", "HDT", &format!("{d:.3},T")),
+            HeadingSentence::Ths => sentence("HE", "THS", &format!("{d:.3},A")),
+            HeadingSentence::Hdg => sentence("HC", "HDG", &format!("{d:.3},0.0,E,0.0,E")),
+        });
     }
     out
 }

@@ -3,7 +3,7 @@
 
 use super::Reject;
 use crate::angle::{deg, wrap_2pi};
-use crate::wire::{Input, Scalar, StateValue};
+use crate::wire::{Input, Scalar, StateValue, Stream};
 
 /// A sentence's value before its time is known.
 pub(super) enum Value {
@@ -14,6 +14,16 @@ pub(super) enum Value {
 }
 
 impl Value {
+    /// The stream whose time this value's line carries (an HTD's state and target share it).
+    pub(super) fn stream(&self) -> Stream {
+        match self {
+            Value::Heading(_) => Stream::Heading,
+            Value::Rudder(_) => Stream::Rudder,
+            Value::Speed(_) => Stream::Speed,
+            Value::Autopilot(..) => Stream::AutopilotState,
+        }
+    }
+
     /// The samples of this value at `t`, appended to `out`.
     pub(super) fn push(self, t: f64, out: &mut Vec<Input>) {
         let sc = |value: f64| Scalar { t, value };
@@ -41,6 +51,28 @@ pub(super) fn heading_rad(d: f64) -> Result<f64, Reject> {
     } else {
         Err(Reject::OutOfRange)
     }
+}
+
+/// HDT: heading true [deg], `T`; read in double precision (the `nmea` crate's is single).
+pub(super) fn hdt(data: &str) -> Result<f64, Reject> {
+    let f: Vec<&str> = data.split(',').collect();
+    if f.len() < 2 || !f[1].starts_with('T') {
+        return Err(Reject::BadField);
+    }
+    heading_rad(number(f[0])?.ok_or(Reject::NoValue)?)
+}
+
+/// THS: heading true [deg], mode indicator. Only `A` (autonomous: measured) is a heading;
+/// `E` (estimated, dead reckoning), `M` (manual input), `S` (simulator) and `V` (not valid)
+/// are rejected as a status, an empty or unknown mode as a bad field.
+pub(super) fn ths(data: &str) -> Result<f64, Reject> {
+    let f: Vec<&str> = data.split(',').collect();
+    match f.get(1).copied() {
+        Some("A") => {}
+        Some("E" | "M" | "S" | "V") => return Err(Reject::Status),
+        _ => return Err(Reject::BadField),
+    }
+    heading_rad(number(f[0])?.ok_or(Reject::NoValue)?)
 }
 
 /// A numeric field: empty is `None`; anything but a plain decimal (digits, one point, a

@@ -58,7 +58,9 @@ pub(super) fn split_tag_block(text: &str) -> Result<(Tags<'_>, &str), Reject> {
     Ok((tags, sentence))
 }
 
-/// `$` or `!`, five header characters, fields, `*`, two hex digits, nothing after.
+/// `$` or `!`, an address, fields, `*`, two hex digits, nothing after. The address is five
+/// letters or digits (talker and sentence type), or for a proprietary sentence (`$P`) `P`
+/// and the maker's three-letter mnemonic with up to five more (`$PSXN`, `$PFEC`, `$PGRME`).
 pub(super) fn check_framing(s: &str) -> Result<(), Reject> {
     let b = s.as_bytes();
     if b.len() < 9 || !(b[0] == b'$' || b[0] == b'!') {
@@ -68,8 +70,16 @@ pub(super) fn check_framing(s: &str) -> Result<(), Reject> {
     if b[star] != b'*' || hex_byte(&b[star + 1..]).is_none() {
         return Err(Reject::Framing);
     }
-    let header = &b[1..6];
-    if !header.iter().all(|c| c.is_ascii_alphanumeric()) || b[6] != b',' {
+    let comma = b[1..star]
+        .iter()
+        .position(|c| *c == b',')
+        .ok_or(Reject::Framing)?;
+    let address = &b[1..1 + comma];
+    let length_ok = match (b[0], address.first()) {
+        (b'$', Some(b'P')) => (4..=9).contains(&address.len()),
+        _ => address.len() == 5,
+    };
+    if !length_ok || !address.iter().all(|c| c.is_ascii_alphanumeric()) {
         return Err(Reject::Framing);
     }
     if b[1..star]

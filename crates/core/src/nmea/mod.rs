@@ -11,28 +11,35 @@
 //! |---|---|---|
 //! | HDT | heading | heading true [deg] -> [rad] in [0, 2 pi) (when `heading = "hdt"`) |
 //! | HDG | heading | magnetic sensor heading + deviation + variation (E positive) -> true [rad] (when `heading = "hdg"`); no variation, no true heading |
+//! | THS | heading | true heading [deg] -> [rad] when its mode is `A` (autonomous) (when `heading = "ths"`); other modes are a `status` rejection |
 //! | RSA | rudder | starboard (or single) rudder when its status is A, else the port rudder when its status is A; negative = bow to port [deg] -> [rad] |
 //! | VHW | speed | speed through water [kn] -> [m/s] (the km/h field when the knots field is empty) (when `speed = "vhw"`) |
 //! | VBW | speed | longitudinal water speed [kn] -> [m/s] when the water status is A (when `speed = "vbw"`) |
 //! | HTD | autopilot state, target | steering mode S or H -> `auto`, T -> `route`, M -> `standby`, R -> `directControl`; override A -> `standby`; heading-to-steer [deg] -> [rad] when the heading reference is T |
 //! | ZDA | - | sets the UTC offset of the receive clock (`time-source = "zda"`) |
 //!
-//! Framing, the checksum and the sentences the `nmea` crate parses (HDT, VHW, ZDA) go through
-//! that crate; HDG, RSA, VBW and HTD are parsed here from the crate's data field (the crate
-//! has no parser for them). The talker is not looked at (any two upper-case letters or
+//! Framing, the checksum and the sentences the `nmea` crate parses (VHW, ZDA) go through
+//! that crate; HDT (in double precision: the crate reads it as `f32`), HDG, RSA, VBW and HTD
+//! are read here from the crate's data field, THS (which the crate does not know) from the
+//! sentence. Proprietary sentences (`$P` and a 4- to 9-character address) and `!`
+//! encapsulation are valid and ignored. The talker is not looked at (any two upper-case letters or
 //! digits) unless `talkers` lists the accepted ones.
 //!
 //! Time of a sample ([`TimeSource`]): the time of reception; the tag block's `c:` (UNIX
-//! seconds, or milliseconds); or the time of reception plus the offset to UTC that the last
-//! ZDA gave.
+//! seconds, or milliseconds), held per stream to its own timeline by the daemon's rule
+//! ([`crate::timeline`]: a jump beyond `time-jump-s` is a `time_jump` rejection until
+//! `resync-samples` in a row make a new timeline); or the time of reception plus the offset
+//! to UTC that the last ZDA gave.
 //!
 //! Invariants: a line longer than [`MAX_LINE_BYTES`] is never looked into; the decoder holds
-//! no per-line state (its memory does not grow with its input); a [`LineBuffer`] never holds
+//! a fixed state (the ZDA offset, one tag-block clock per stream, counters: its memory does
+//! not grow with its input); a [`LineBuffer`] never holds
 //! more than [`MAX_LINE_BYTES`] bytes; every line is counted exactly once: as a sample
 //! source (`used`), `ignored` (a sentence the bridge does not use), or rejected by reason.
 
 use crate::angle::deg;
-use crate::wire::Input;
+use crate::timeline::{Clocks, Jump};
+use crate::wire::{Input, Stream};
 
 mod encode;
 mod fields;
@@ -41,7 +48,7 @@ mod lines;
 mod options;
 mod stats;
 pub use encode::{datagram, sentence, tag_block, tag_time_ms, tick_sentences};
-use fields::{hdg, heading_rad, htd, number, plain_numbers, Value};
+use fields::{hdg, hdt, htd, number, plain_numbers, ths, Value};
 use framing::{check_framing, framing_checksum_ok, split_tag_block, valid_talker, Tags};
 pub use lines::{Line, LineBuffer};
 pub use options::{DecodeOptions, HeadingSentence, SpeedSentence, TimeSource};
@@ -63,7 +70,18 @@ pub struct Decoder {
     opts: DecodeOptions,
     /// UTC minus the receive clock at the latest valid ZDA [s] (`time-source = "zda"`).
     zda_offset_s: Option<f64>,
+    /// Tag-block time: each stream's clock ([`crate::timeline`]) and its last accepted `t`.
+    clocks: Clocks,
+    last_t: [Option<f64>; Stream::ALL.len()],
     stats: DecodeStats,
+}
+
+/// A checked sentence: one the `nmea` crate parsed, or one it does not know that we read.
+enum Sentence<'a> {
+    /// Parsed by the `nmea` crate (its data field read here for HDG, RSA, VBW, HTD).
+    Crate(nmea::NmeaSentence<'a>),
+    /// THS, true heading and status: its data field.
+    Ths(&'a str),
 }
 
 /// A line's outcome before counting.
@@ -80,6 +98,8 @@ impl Decoder {
         Self {
             opts,
             zda_offset_s: None,
+            clocks: Clocks::default(),
+            last_t: [None; Stream::ALL.len()],
             stats: DecodeStats::default(),
         }
     }
@@ -143,10 +163,17 @@ impl Decoder {
         recv_s: f64,
         out: &mut Vec<Input>,
     ) -> Result<Outcome, Reject> {
-        let Some((tags, parsed)) = self.sentence(line)? else {
+        let Some((tags, sentence)) = self.sentence(line)? else {
             return Ok(Outcome::Ignored);
         };
         use nmea::SentenceType as S;
+        let parsed = match sentence {
+            Sentence::Ths(data) if self.opts.heading == HeadingSentence::Ths => {
+                return self.push(Value::Heading(ths(data)?), &tags, recv_s, out);
+            }
+            Sentence::Ths(_) => return Ok(Outcome::Ignored),
+            Sentence::Crate(p) => p,
+        };
         let kind = parsed.message_id;
         let wanted = match kind {
             S::HDT => self.opts.heading == HeadingSentence::Hdt,
@@ -171,19 +198,62 @@ impl Decoder {
         let Some(value) = self.value(parsed)? else {
             return Ok(Outcome::Ignored);
         };
-        let t = self.time(&tags, recv_s)?;
+        self.push(value, &tags, recv_s, out)
+    }
+
+    /// A line's value, at the time its source gives, appended to `out`.
+    fn push(
+        &mut self,
+        value: Value,
+        tags: &Tags<'_>,
+        recv_s: f64,
+        out: &mut Vec<Input>,
+    ) -> Result<Outcome, Reject> {
+        let t = self.time(tags, recv_s)?;
+        if matches!(
+            self.opts.time_source,
+            TimeSource::TagBlockS | TimeSource::TagBlockMs
+        ) {
+            self.continues(value.stream(), t)?;
+        }
         value.push(t, out);
         Ok(Outcome::Used)
+    }
+
+    /// Whether a tag-block time `t` continues its stream's timeline ([`crate::timeline`],
+    /// `time-jump-s`, `resync-samples`): a jump ahead or back is rejected until it is a
+    /// timeline of its own. A repeated time passes (a tag block in whole seconds repeats at
+    /// 10 Hz); the daemon counts duplicates.
+    fn continues(&mut self, stream: Stream, t: f64) -> Result<(), Reject> {
+        let last = &mut self.last_t[stream.index()];
+        let (jump, resync) = (self.opts.time_jump_s, self.opts.resync_samples);
+        match self.clocks.check(stream, t, *last, jump, resync) {
+            Ok(_) => {
+                *last = Some(t);
+                Ok(())
+            }
+            Err(Jump::Duplicate) => Ok(()),
+            Err(Jump::Backwards { .. } | Jump::Ahead { .. }) => Err(Reject::TimeJump),
+        }
     }
 
     /// A line's tag block and its sentence, parsed and checked (framing, source, checksum,
     /// talker); `None` for a valid sentence that is not ours (encapsulation, proprietary, a
     /// type the `nmea` crate does not know).
-    fn sentence<'a>(
-        &self,
-        line: &'a [u8],
-    ) -> Result<Option<(Tags<'a>, nmea::NmeaSentence<'a>)>, Reject> {
+    fn sentence<'a>(&self, line: &'a [u8]) -> Result<Option<(Tags<'a>, Sentence<'a>)>, Reject> {
         if line.len() > MAX_LINE_BYTES {
+            return Err(Reject::TooLong);
+        }
+        // Length before content: the sentence after an optional tag block is held to the
+        // `nmea` crate's 102 characters before its bytes are looked at.
+        let body = match line.strip_prefix(b"\\") {
+            Some(rest) => rest
+                .iter()
+                .position(|b| *b == b'\\')
+                .map_or(line, |end| &rest[end + 1..]),
+            None => line,
+        };
+        if body.len() > nmea::SENTENCE_MAX_LEN {
             return Err(Reject::TooLong);
         }
         if !line.iter().all(|b| (0x20..0x7f).contains(b)) {
@@ -204,25 +274,28 @@ impl Decoder {
             // Encapsulation (AIS) and proprietary sentences: valid, not ours.
             return Ok(None);
         }
-        if sentence.len() > nmea::SENTENCE_MAX_LEN {
-            return Err(Reject::TooLong);
-        }
         let talker = &sentence.as_bytes()[1..3];
-        let parsed = match nmea::parse_nmea_sentence(sentence) {
-            Ok(p) => p,
-            // Framing was checked above: what the crate refuses is a sentence type it does
-            // not know (e.g. `$IIXYZ`) - unless the checksum is wrong, which is checked first.
-            Err(_) => {
-                return if framing_checksum_ok(sentence) {
-                    Ok(None)
-                } else {
-                    Err(Reject::Checksum)
-                };
+        let parsed = if &sentence[3..6] == "THS" {
+            // True heading and status: the `nmea` crate does not know it.
+            if !framing_checksum_ok(sentence) {
+                return Err(Reject::Checksum);
+            }
+            Sentence::Ths(&sentence[7..sentence.len() - 3])
+        } else {
+            match nmea::parse_nmea_sentence(sentence) {
+                Ok(p) if p.checksum != p.calc_checksum() => return Err(Reject::Checksum),
+                Ok(p) => Sentence::Crate(p),
+                // Framing was checked above: what the crate refuses is a sentence type it
+                // does not know (e.g. `$IIXYZ`) - unless the checksum is wrong, checked first.
+                Err(_) => {
+                    return if framing_checksum_ok(sentence) {
+                        Ok(None)
+                    } else {
+                        Err(Reject::Checksum)
+                    };
+                }
             }
         };
-        if parsed.checksum != parsed.calc_checksum() {
-            return Err(Reject::Checksum);
-        }
         if !valid_talker(talker)
             || (!self.opts.talkers.is_empty()
                 && !self.opts.talkers.iter().any(|t| t.as_bytes() == talker))
@@ -245,10 +318,7 @@ impl Decoder {
             _ => {}
         }
         let value = match kind {
-            S::HDT => {
-                let h = nmea::sentences::parse_hdt(parsed).map_err(|_| Reject::BadField)?;
-                Value::Heading(heading_rad(f64::from(h.heading.ok_or(Reject::NoValue)?))?)
-            }
+            S::HDT => Value::Heading(hdt(data)?),
             S::HDG => Value::Heading(hdg(data)?),
             S::VHW => {
                 let v = nmea::sentences::parse_vhw(parsed).map_err(|_| Reject::BadField)?;
@@ -306,15 +376,13 @@ impl Decoder {
     }
 
     /// RSA: starboard (or single) rudder, status, port rudder, status; negative = bow to
-    /// port.
+    /// port. A missing status field is no valid status.
     fn rsa(&self, data: &str) -> Result<f64, Reject> {
         let f: Vec<&str> = data.split(',').collect();
-        if f.len() < 4 {
-            return Err(Reject::BadField);
-        }
-        let pick = if f[1] == "A" {
+        let valid = |i: usize| f.get(i) == Some(&"A");
+        let pick = if valid(1) {
             f[0]
-        } else if f[3] == "A" {
+        } else if valid(3) {
             f[2]
         } else {
             return Err(Reject::Status);

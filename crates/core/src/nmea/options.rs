@@ -2,7 +2,7 @@
 //! talkers and sources, the value limits (the decoding part of `[bridge]`).
 
 use super::framing::valid_talker;
-use crate::config::{check_range_open_low, fail, ConfigError};
+use crate::config::{check_count, check_range_open_low, fail, ConfigError};
 use serde::{Deserialize, Serialize};
 
 /// Where a sample's `t` comes from.
@@ -31,6 +31,9 @@ pub enum HeadingSentence {
     Hdt,
     /// HDG, magnetic sensor heading with deviation and variation.
     Hdg,
+    /// THS, true heading and status (gyros and INS that send it instead of HDT); only mode
+    /// `A` is a heading.
+    Ths,
 }
 
 /// Which sentence gives the speed through water.
@@ -61,6 +64,12 @@ pub struct DecodeOptions {
     pub max_rudder_deg: f64,
     /// Largest |speed through water| accepted [m/s].
     pub max_speed_mps: f64,
+    /// Tag-block time: a step larger than this from a stream's last accepted time is a jump
+    /// [s] (as the daemon's `input.time-jump-s`).
+    pub time_jump_s: f64,
+    /// Tag-block time: consecutive samples of a new timeline that re-synchronise a stream on
+    /// it (as the daemon's `input.resync-samples`).
+    pub resync_samples: u32,
 }
 
 impl Default for DecodeOptions {
@@ -73,6 +82,8 @@ impl Default for DecodeOptions {
             sources: Vec::new(),
             max_rudder_deg: 45.0,
             max_speed_mps: 30.0,
+            time_jump_s: 60.0,
+            resync_samples: 5,
         }
     }
 }
@@ -91,6 +102,18 @@ impl DecodeOptions {
             self.max_speed_mps,
             0.0,
             100.0,
+        )?;
+        check_range_open_low(
+            &format!("{section}.time-jump-s"),
+            self.time_jump_s,
+            0.0,
+            86400.0,
+        )?;
+        check_count(
+            &format!("{section}.resync-samples"),
+            self.resync_samples,
+            2,
+            1000,
         )?;
         for (i, t) in self.talkers.iter().enumerate() {
             if !valid_talker(t.as_bytes()) {

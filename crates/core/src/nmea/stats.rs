@@ -29,11 +29,14 @@ pub enum Reject {
     OutOfRange,
     /// The configured time source has no time for this line (no `c:`, no ZDA yet).
     NoTime,
+    /// A tag-block time that jumps ahead or back of its stream's timeline by more than
+    /// `time-jump-s` (until `resync-samples` of them make a timeline of their own).
+    TimeJump,
 }
 
 impl Reject {
     /// Every reason, in the order of the counters.
-    pub const ALL: [Reject; 12] = [
+    pub const ALL: [Reject; 13] = [
         Reject::TooLong,
         Reject::Framing,
         Reject::Checksum,
@@ -46,6 +49,7 @@ impl Reject {
         Reject::BadField,
         Reject::OutOfRange,
         Reject::NoTime,
+        Reject::TimeJump,
     ];
 
     /// The reason's name in `bridge/stats` and the metrics.
@@ -63,6 +67,7 @@ impl Reject {
             Reject::BadField => "bad_field",
             Reject::OutOfRange => "out_of_range",
             Reject::NoTime => "no_time",
+            Reject::TimeJump => "time_jump",
         }
     }
 
@@ -86,7 +91,7 @@ pub struct DecodeStats {
     /// Samples made, by [`Stream::index`].
     pub samples: [u64; 6],
     /// Lines rejected, by [`Reject::ALL`] order (a bad datagram header counts once).
-    pub rejected: [u64; 12],
+    pub rejected: [u64; Reject::ALL.len()],
 }
 
 impl DecodeStats {
