@@ -362,11 +362,48 @@ async fn one_test(obs: &Observer, method: &str) -> Value {
     panic!("three {method} tests aborted in a row");
 }
 
+/// `helmwatch status --vessel self --json` run every 0.25 s on a thread of its own: what it
+/// answered, with the time since `from` at which each call started.
+struct StatusPoll {
+    stop: Arc<std::sync::atomic::AtomicBool>,
+    thread: std::thread::JoinHandle<Vec<(Duration, Value)>>,
+}
+
+impl StatusPoll {
+    fn start(router: &str, from: Instant) -> Self {
+        let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let (s, router) = (stop.clone(), router.to_string());
+        let thread = std::thread::spawn(move || {
+            let mut seen = Vec::new();
+            while !s.load(std::sync::atomic::Ordering::Relaxed) {
+                let at = from.elapsed();
+                let out = Command::new(env!("CARGO_BIN_EXE_helmwatch"))
+                    .args(["status", "--vessel", "self", "--json", "--timeout-s", "1"])
+                    .args(["--connect", &router])
+                    .output()
+                    .unwrap();
+                if let Ok(v) = serde_json::from_slice::<Value>(&out.stdout) {
+                    seen.push((at, v));
+                }
+                std::thread::sleep(Duration::from_millis(250));
+            }
+            seen
+        });
+        Self { stop, thread }
+    }
+
+    fn stop(self) -> Vec<(Duration, Value)> {
+        self.stop.store(true, std::sync::atomic::Ordering::Relaxed);
+        self.thread.join().unwrap()
+    }
+}
+
 /// Kills `holder` (SIGKILL) while the vessel is in alarm; waits until `standby` took over:
 /// the alarm published again and a heading answered after the kill. Returns the wall time
 /// from the kill to both, and checks the next report is against the commissioned reference.
 async fn kill_and_take_over(
     dir: &Path,
+    router: &str,
     obs: &Observer,
     owners: &Ownership,
     holder: &mut Child,
@@ -377,6 +414,7 @@ async fn kill_and_take_over(
     let killed = Instant::now();
     holder.kill().unwrap();
     holder.wait().unwrap();
+    let poll = StatusPoll::start(router, killed);
     let deadline = killed + LIMIT;
     // Excitations the dead holder sent may still arrive for a moment: those of the new holder
     // are counted from its announcement on.
@@ -415,6 +453,27 @@ async fn kill_and_take_over(
         alarm_at.unwrap(),
         answer_at.unwrap()
     );
+    // `helmwatch status --json`, polled every 0.25 s from the kill: once the standby answers
+    // as the holder it shows the alarm, never `alarm: null`, and it does so within 4 s.
+    tokio::time::sleep(Duration::from_secs(3)).await;
+    let seen = poll.stop();
+    let held: Vec<&(Duration, Value)> = seen
+        .iter()
+        .filter(|(_, s)| s["holders"] == serde_json::json!([standby]))
+        .collect();
+    assert!(
+        !held.is_empty(),
+        "status never showed {standby} holding: {seen:?}"
+    );
+    for (at, s) in &held {
+        assert_eq!(s["alarm"], "alarm", "{at:?} after the kill: {s}");
+    }
+    println!(
+        "status shows {standby} holding, in alarm, {:?} after the kill ({} polls)",
+        held[0].0,
+        seen.len()
+    );
+    assert!(held[0].0 <= Duration::from_secs(4), "{seen:?}");
     let r = one_test(obs, "hbt").await;
     assert_eq!(r["residuals"]["reference"]["kind"], "commissioned", "{r}");
     assert!(
@@ -531,7 +590,7 @@ async fn the_standby_takes_over_an_alarm_with_the_state_after_sigkill_both_ways(
     .await;
 
     // a is killed: b takes over.
-    let first = kill_and_take_over(&dir, &obs, &owners, &mut a, "b").await;
+    let first = kill_and_take_over(&dir, &router_ep, &obs, &owners, &mut a, "b").await;
     // a comes back and stands by; b is killed: a takes over.
     let mut a = spawn_daemon(&dir, "a", &toml("a"));
     let n_owner = owners.seen.lock().unwrap().len();
@@ -549,7 +608,7 @@ async fn the_standby_takes_over_an_alarm_with_the_state_after_sigkill_both_ways(
         assert!(Instant::now() < deadline, "{}", log(&dir, "a"));
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
-    let second = kill_and_take_over(&dir, &obs, &owners, &mut b, "a").await;
+    let second = kill_and_take_over(&dir, &router_ep, &obs, &owners, &mut b, "a").await;
     assert!(
         first < Duration::from_secs(20) && second < Duration::from_secs(20),
         "takeovers took {first:?} and {second:?}"

@@ -273,7 +273,7 @@ impl VesselTask {
     }
 
     /// Adds a report or notification to the history, if kept (durable when this returns).
-    fn record(&self, kind: Kind, t: f64, payload: &impl serde::Serialize) {
+    pub(super) fn record(&self, kind: Kind, t: f64, payload: &impl serde::Serialize) {
         if let Some(h) = &self.history {
             if let Err(e) = tokio::task::block_in_place(|| h.add(&self.name, kind, t, payload)) {
                 tracing::error!(vessel = %self.name, "history: {e}");

@@ -6,13 +6,13 @@
 use super::*;
 
 impl VesselTask {
-    /// Publishes the restored alarm notification again, if any.
-    pub(super) async fn publish_restored(&mut self) {
+    /// Publishes the restored alarm notification again, if any, as soon as someone listens
+    /// or after `wait` (a restart: the listeners may still be connecting; a takeover: they
+    /// are there).
+    pub(super) async fn publish_restored(&mut self, wait: Duration) {
         if let Some(n) = self.restored.take() {
-            // An alarm stays an alarm across a restart: publish it again as soon as someone
-            // listens (at most a couple of seconds' wait; published regardless after that).
-            crate::shells::net::wait_matching(&self.pubs.notification, Duration::from_secs(2))
-                .await;
+            // An alarm stays an alarm across a restart and a takeover.
+            crate::shells::net::wait_matching(&self.pubs.notification, wait).await;
             tracing::warn!(vessel = %self.name, state = ?n.state, "restored notification: {}", n.message);
             match serde_json::to_vec(&n) {
                 Ok(b) => {
@@ -93,6 +93,16 @@ impl VesselTask {
                 .and_then(|dir| restore(dir, &self.name, &mut m))
         };
         self.monitor = m;
+        if from_replica {
+            if let Some(n) = &restored {
+                // The holder's alarm is in this daemon's history too, at the end of the test
+                // that raised it: `status` and `fdi/history` show it from the first moment
+                // this daemon answers for the vessel.
+                let t = self.monitor.saved_state().last_test_end.unwrap_or(f64::NAN);
+                self.record(Kind::Notification, t, n);
+                self.last_report_t = t;
+            }
+        }
         self.seen_aborts = self.monitor.stats().aborts.clone();
         self.shared.metrics.alarm(self.monitor.alarm_state());
         self.last_heading = None;
@@ -103,7 +113,11 @@ impl VesselTask {
         tracing::info!(vessel = %self.name, daemon = %self.daemon_id, "driving the vessel");
         // Ready: the state is taken up. The restored alarm waits (briefly) for a listener.
         self.signal_settled();
-        self.publish_restored().await;
+        let wait = match from_replica {
+            true => Duration::from_millis(500),
+            false => Duration::from_secs(2),
+        };
+        self.publish_restored(wait).await;
         self.save_state();
         self.publish_state().await;
     }
