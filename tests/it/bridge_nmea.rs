@@ -115,17 +115,51 @@ fn tag(params: &str) -> String {
     format!("\\{params}*{cs:02X}\\")
 }
 
+/// A daemon (scheduler off) on `ep`, an observer, a bridge reading `heading` that publishes to
+/// the daemon, and a watcher of the bridge's stats (on the bridge's own endpoint).
+struct Rig {
+    ep: String,
+    cfg: Config,
+    daemon: helmwatch::shells::daemon::Daemon,
+    obs: Observer,
+    udp: SocketAddr,
+    bridge: Task<DecodeStats, BridgeError>,
+    watcher: (zenoh::Session, zenoh::pubsub::Subscriber<()>),
+}
+
+impl Rig {
+    async fn start(heading: HeadingSentence) -> Self {
+        let ep = endpoint();
+        let mut cfg = daemon_config();
+        cfg.scheduler.enabled = false;
+        let daemon = start_daemon(&cfg, &ep).await;
+        let obs = Observer::new(&ep, "self", false).await;
+        let own = endpoint();
+        let (udp, bridge) = start_bridge(&ep, &own, "127.0.0.1:0".parse().unwrap(), heading).await;
+        let watcher = watch_bridge_stats(&obs, &own).await;
+        Self {
+            ep,
+            cfg,
+            daemon,
+            obs,
+            udp,
+            bridge,
+            watcher,
+        }
+    }
+}
+
 #[tokio::test(flavor = "multi_thread")]
 async fn an_nmea_only_ship_runs_a_test_end_to_end_and_bad_sentences_are_counted() {
-    let ep = endpoint();
-    let mut cfg = daemon_config();
-    cfg.scheduler.enabled = false;
-    let daemon = start_daemon(&cfg, &ep).await;
-    let obs = Observer::new(&ep, "self", false).await;
-    let own = endpoint();
-    let (udp, (bridge_stop, bridge)) =
-        start_bridge(&ep, &own, "127.0.0.1:0".parse().unwrap(), HDT).await;
-    let (watcher, stats_sub) = watch_bridge_stats(&obs, &own).await;
+    let Rig {
+        ep,
+        cfg,
+        daemon,
+        obs,
+        udp,
+        bridge: (bridge_stop, bridge),
+        watcher: (watcher, stats_sub),
+    } = Rig::start(HDT).await;
     let (ship_stop, ship) = spawn_nmea_ship(&cfg, 7, &ep, udp, HDT);
 
     let id = obs.trigger("hbt").await.test.unwrap();
@@ -531,17 +565,10 @@ async fn tcp_and_serial_streams_are_cut_into_lines_and_reopened() {
 /// completes on its heading.
 #[tokio::test(flavor = "multi_thread")]
 async fn a_ths_only_gyro_feeds_a_test_that_completes() {
-    let ep = endpoint();
-    let mut cfg = daemon_config();
-    cfg.scheduler.enabled = false;
-    let daemon = start_daemon(&cfg, &ep).await;
-    let obs = Observer::new(&ep, "self", false).await;
-    let own = endpoint();
     let ths = HeadingSentence::Ths;
-    let (udp, (bridge_stop, bridge)) =
-        start_bridge(&ep, &own, "127.0.0.1:0".parse().unwrap(), ths).await;
-    let (watcher, stats_sub) = watch_bridge_stats(&obs, &own).await;
-    let (ship_stop, ship) = spawn_nmea_ship(&cfg, 11, &ep, udp, ths);
+    let rig = Rig::start(ths).await;
+    let (ship_stop, ship) = spawn_nmea_ship(&rig.cfg, 11, &rig.ep, rig.udp, ths);
+    let obs = &rig.obs;
     let id = obs.trigger("clfrt").await.test.unwrap();
     let r = obs
         .wait_for("fdi/report", LIMIT, |r| r["test"] == id.as_str())
@@ -562,10 +589,12 @@ async fn a_ths_only_gyro_feeds_a_test_that_completes() {
     assert_eq!(rejected, 0, "{stats}");
     ship_stop.cancel();
     ship.await.unwrap().unwrap();
+    let (bridge_stop, bridge) = rig.bridge;
     bridge_stop.cancel();
     bridge.await.unwrap().unwrap();
+    let (watcher, stats_sub) = rig.watcher;
     stats_sub.undeclare().await.unwrap();
     watcher.close().await.unwrap();
-    daemon.stop().await;
-    obs.close().await;
+    rig.daemon.stop().await;
+    rig.obs.close().await;
 }
