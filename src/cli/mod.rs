@@ -41,7 +41,7 @@ pub fn main() -> i32 {
         Err(e) => {
             let _ = e.print();
             return match e.use_stderr() {
-                true => Failure::usage(anyhow::anyhow!("{e}")).exit_code(),
+                true => Failure::usage(e).exit_code(),
                 false => 0,
             };
         }

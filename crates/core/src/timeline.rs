@@ -62,7 +62,7 @@ struct Candidate {
 /// stream.
 #[derive(Debug, Clone, Default)]
 pub struct Clocks {
-    candidates: [Option<Candidate>; 6],
+    candidates: [Option<Candidate>; Stream::ALL.len()],
 }
 
 impl Clocks {

@@ -311,11 +311,9 @@ impl Decoder {
         let kind = parsed.message_id;
         let data = parsed.data;
         // The crate reads numbers with Rust's parser, which takes `inf`, `NaN` and `1e3`:
-        // its sentences' numeric fields are held to plain decimals first, as ours are.
-        match kind {
-            S::HDT => plain_numbers(data, &[0])?,
-            S::VHW => plain_numbers(data, &[0, 2, 4, 6])?,
-            _ => {}
+        // VHW's numeric fields are held to plain decimals first, as ours are.
+        if kind == S::VHW {
+            plain_numbers(data, &[0, 2, 4, 6])?;
         }
         let value = match kind {
             S::HDT => Value::Heading(hdt(data)?),
