@@ -40,6 +40,7 @@ mod nmea_in;
 mod plot;
 mod relay_sea;
 mod residual_docs;
+mod router_acl;
 mod servo_check;
 mod sim;
 mod sizes;

@@ -81,11 +81,12 @@ fn log(dir: &Path, name: &str) -> String {
     std::fs::read_to_string(dir.join(format!("{name}.log"))).unwrap_or_default()
 }
 
-/// A daemon `id` for vessel `self`, a client of `router`, with its own state directory.
+/// A daemon `id` for vessel `self`, a client of `router`, with its own state directory
+/// (`daemon.takeover-s` its default, 2 s).
 fn daemon_toml(dir: &Path, id: &str, router: &str, extra: &str) -> String {
     let state = dir.join(format!("state-{id}"));
     format!(
-        "[daemon]\nvessels = [\"self\"]\nid = \"{id}\"\ntick-s = 0.1\ntakeover-s = 2.0\nstate-dir = \"{}\"\n\n[zenoh]\nmode = \"client\"\nlisten = []\nconnect = [\"{router}\"]\nmulticast-scouting = false\n\n{extra}",
+        "[daemon]\nvessels = [\"self\"]\nid = \"{id}\"\ntick-s = 0.1\nstate-dir = \"{}\"\n\n[zenoh]\nmode = \"client\"\nlisten = []\nconnect = [\"{router}\"]\nmulticast-scouting = false\n\n{extra}",
         state.display()
     )
 }
@@ -449,7 +450,7 @@ async fn kill_and_take_over(
     }
     let took = alarm_at.unwrap().max(answer_at.unwrap());
     println!(
-        "{standby} took over: alarm again after {:?}, headings answered after {:?} (takeover-s 2)",
+        "{standby} took over: alarm again after {:?}, headings answered after {:?} (takeover-s 2, the default)",
         alarm_at.unwrap(),
         answer_at.unwrap()
     );
@@ -522,7 +523,7 @@ async fn the_standby_takes_over_after_sigkill_and_runs_the_next_test() {
         tokio::time::sleep(Duration::from_millis(10)).await;
     }
     println!(
-        "b answers headings {:?} after the kill (takeover-s 2)",
+        "b answers headings {:?} after the kill (takeover-s 2, the default)",
         killed.elapsed()
     );
     let r = one_test(&obs, "hbt").await;

@@ -82,7 +82,7 @@ impl Default for DaemonConfig {
             recordings_segment_s: 3600.0,
             id: String::new(),
             claim_s: 0.5,
-            takeover_s: 3.0,
+            takeover_s: 2.0,
         }
     }
 }
