@@ -42,15 +42,19 @@ pub(crate) fn print_features(f: &Features) {
     }
 }
 
-/// The networks' estimate, beside the speed log.
+/// The networks' estimate (raw) beside the speed log, and the estimate calibrated to the
+/// vessel when its reference is in force.
 pub(crate) fn print_estimate(r: &Report) {
     if let Some(e) = &r.estimate {
         println!(
-            "  estimate: speed {:.2} m/s, displacement {:.0} t (speed log {:.2} m/s)",
+            "  networks' estimate (raw): speed {:.2} m/s, displacement {:.0} t (speed log {:.2} m/s)",
             e.speed_mps,
             e.displacement_t,
             r.features.speed_log_mps().unwrap_or(f64::NAN)
         );
+    }
+    if let Some(c) = &r.calibrated_estimate {
+        println!("  {}", c.sentence());
     }
 }
 

@@ -69,6 +69,16 @@ async fn commissioning_survives_a_restart_then_a_fault_raises_the_alarm() {
     let reports = run_tests(&cfg, &healthy, 0.0, &ep, &obs, &methods).await;
     for (i, r) in reports.iter().enumerate() {
         assert_eq!(r["residuals"]["reference"]["kind"], "commissioning", "{r}");
+        // No vessel reference yet: no calibrated estimate, and the message says the
+        // networks' estimate is raw.
+        assert!(r["calibrated_estimate"].is_null(), "{r}");
+        assert!(
+            r["message"]
+                .as_str()
+                .unwrap()
+                .contains("(raw: no vessel reference)"),
+            "{r}"
+        );
         assert_ne!(r["decision"], "fault", "{r}");
         let complete = r["message"]
             .as_str()
@@ -115,6 +125,40 @@ async fn commissioning_survives_a_restart_then_a_fault_raises_the_alarm() {
     assert!(
         (f(&res["parameters"]["displacement_t"]) - want_d).abs() < 1e-6,
         "{res}"
+    );
+    // The estimate calibrated to the vessel: the networks' reading less the validation bias
+    // and the reference's offset, i.e. the log plus the raw residual less the offset. It
+    // reads the displacement the ship now has (30 % over the declared) and the log's speed.
+    let cal = &reports[0]["calibrated_estimate"];
+    let u_log = f(&res["raw"]["speed_log_mps"]);
+    let want_u = u_log + want_u;
+    let want_d = d_nom + want_d;
+    assert!((f(&cal["speed_mps"]) - want_u).abs() < 1e-9, "{cal} {res}");
+    assert!(
+        (f(&cal["displacement_t"]) - want_d).abs() < 1e-6,
+        "{cal} {res}"
+    );
+    assert_eq!(cal["reference"], "commissioned", "{cal}");
+    assert!(
+        (f(&cal["speed_mps"]) - u_log).abs() < 0.5,
+        "{cal}: log {u_log}"
+    );
+    let ratio = f(&cal["displacement_t"]) / (1.3 * d_nom);
+    assert!(
+        (0.9..1.1).contains(&ratio),
+        "{cal}: {ratio} of the true 1.3 D_nom"
+    );
+    for (lo_hi, v) in [
+        ("speed_interval_mps", "speed_mps"),
+        ("displacement_interval_t", "displacement_t"),
+    ] {
+        let [lo, hi] = [f(&cal[lo_hi][0]), f(&cal[lo_hi][1])];
+        assert!(lo < f(&cal[v]) && f(&cal[v]) < hi, "{cal}");
+    }
+    let message = reports[0]["message"].as_str().unwrap();
+    assert!(
+        message.contains("networks' estimate") && message.contains("calibrated to the vessel"),
+        "{message}"
     );
     let last = &reports[1];
     assert_eq!(last["decision"], "fault", "{last}");

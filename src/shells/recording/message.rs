@@ -74,6 +74,12 @@ impl Kind {
                     "features": {"type": "object"},
                     "estimate": {"type": ["object", "null"], "properties": {
                         "speed_mps": num, "displacement_t": num}},
+                    "calibrated_estimate": {"type": ["object", "null"], "properties": {
+                        "speed_mps": num,
+                        "speed_interval_mps": {"type": "array", "items": num},
+                        "displacement_t": num,
+                        "displacement_interval_t": {"type": "array", "items": num},
+                        "reference": {"type": "string", "enum": ["commissioned", "predicted"]}}},
                     "residuals": {"type": "object"},
                     "decision": {"type": "string", "enum": ["nominal", "fault", "inconclusive"]},
                     "isolation": {"type": "array", "items": {"type": "string"}},

@@ -1,12 +1,13 @@
 //! The Bode pair of a CLFRT report: the measured gain [dB] and phase [deg] at the tones with
-//! their 90 % intervals, over the nominal and the estimated ship's response.
+//! their 90 % intervals, over the nominal ship's response and the ships at the networks' raw estimate and at the
+//! estimate calibrated to the vessel.
 //!
 //! Ship response `G(j w) = b / (j w (j w + a))`: `|G| = b / (w sqrt(w^2 + a^2))`, `arg G =
 //! -pi/2 - atan(w / a)` (continuous in (-pi, -pi/2)).
 
 use super::style::{
-    draw_err, legend, legend_line, legend_square, log_grid, padded, tick, Area, ESTIMATED, FONT,
-    MEASURED, NOMINAL, POINT_PX,
+    draw_err, legend, legend_line, legend_square, log_grid, padded, tick, Area, Estimated,
+    CALIBRATED, ESTIMATED, FONT, MEASURED, NOMINAL, POINT_PX,
 };
 use super::PlotError;
 use helmwatch_core::wire::features::ToneFeatures;
@@ -50,7 +51,7 @@ pub(super) fn bode(
     title: &str,
     tones: &[ToneFeatures],
     nominal: (f64, f64),
-    estimated: Option<(f64, f64)>,
+    estimated: &Estimated,
 ) -> Result<(), PlotError> {
     let root = SVGBackend::with_string(svg, size).into_drawing_area();
     root.fill(&WHITE).map_err(draw_err)?;
@@ -59,8 +60,11 @@ pub(super) fn bode(
     let (lo, hi) = (w_min / 4.0, w_max * 4.0);
     let grid = log_grid(lo, hi, 200);
     let mut models = vec![("nominal ship", nominal, NOMINAL)];
-    if let Some(e) = estimated {
-        models.push(("estimated ship", e, ESTIMATED));
+    if let Some(e) = estimated.raw {
+        models.push(("networks' estimate (raw)", e, ESTIMATED));
+    }
+    if let Some(e) = estimated.calibrated {
+        models.push(("calibrated to the vessel", e, CALIBRATED));
     }
     let b = Bode {
         lo,

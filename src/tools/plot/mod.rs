@@ -2,14 +2,16 @@
 //!
 //! | input | picture |
 //! |---|---|
-//! | a CLFRT report | Bode pair: the measured gain [dB] and phase [deg] at the tones with their 90 % intervals, over the nominal and the estimated ship's `b / (j w (j w + a))` |
+//! | a CLFRT report | Bode pair: the measured gain [dB] and phase [deg] at the tones with their 90 % intervals, over the nominal ship's `b / (j w (j w + a))` and the ships at the networks' raw estimate and at the estimate calibrated to the vessel |
 //! | an HBT report | Nyquist plane: the loop the relay sees, servo describing function times ship `S(w) G(j w)` (solid), and the ship alone `G(j w)` (dashed), nominal and estimated, the relay's `-1/N(A)` locus, the measured limit cycle on it (a circle), the measured response `G(j w_u)` (a cross), the describing-function predictions (triangles) |
 //! | a report history | the residuals against `t_end`: chi2 (circles, one per report) with the sequential test's single-test limit (from `fdi.false-alarms-per-year`), and `z_speed`, `z_disp`, `z_rate` |
 //! | a recording | heading, rudder and excitation against time (an HBT limit cycle's time trace) |
 //! | a vessel's state file (`<state-dir>/vessels/<v>.json`) | the learned reference over speed: per method, the learned tests' `e_u` and `e_D` (circles), the predicted offset and its two-sigma band ([`reference`]) |
 //!
 //! The nominal ship is the configuration's `[ship]` at its nominal speed and displacement; the
-//! estimated one is the same model at the report's `estimate`; `(a, b)` from `(u, D)` through
+//! estimated ones are the same model at the report's `estimate` (the networks' raw reading,
+//! "networks' estimate (raw)") and at its `calibrated_estimate` ("calibrated to the vessel",
+//! once the vessel's reference is in force); `(a, b)` from `(u, D)` through
 //! [`helmwatch_core::model::ShipConfig::nomoto`]. The relay's height and hysteresis are the
 //! report's, as played (a test sized to the loop or to the sea plays another than `[hbt]`'s;
 //! the height clamped to `servo.max-angle-deg`, as the relay is).
@@ -273,9 +275,10 @@ pub fn plot_report(
 ) -> Result<(), PlotError> {
     let ship = &cfg.ship;
     let nominal = ship.nomoto(ship.nominal_speed_mps, ship.nominal_displacement_t);
-    let estimated = r
-        .estimate
-        .map(|e| ship.nomoto(e.speed_mps, e.displacement_t));
+    let estimated = style::Estimated {
+        raw: (r.estimate).map(|e| ship.nomoto(e.speed_mps, e.displacement_t)),
+        calibrated: (r.calibrated_estimate).map(|e| ship.nomoto(e.speed_mps, e.displacement_t)),
+    };
     match r.method {
         Method::Clfrt => {
             let f = r.features.clfrt().ok_or_else(|| {
@@ -293,7 +296,7 @@ pub fn plot_report(
                 return Err(data(format!("report {}: no tones", r.test)));
             }
             let title = format!("CLFRT {}: heading / rudder", r.test);
-            bode::bode(svg, size, &title, &f.tones, nominal, estimated)
+            bode::bode(svg, size, &title, &f.tones, nominal, &estimated)
         }
         Method::Hbt => {
             let f = r.features.hbt().ok_or_else(|| {
@@ -306,16 +309,6 @@ pub fn plot_report(
             let relay = nyquist::Relay {
                 height_rad: f.relay_height_rad.min(cfg.servo.max_angle_rad()),
                 hysteresis_rad: f.hysteresis_rad,
-            };
-            let predict = |ab: (f64, f64)| {
-                helmwatch_core::dsp::relay::limit_cycle_describing_function(
-                    ab.0,
-                    ab.1,
-                    relay.height_rad,
-                    relay.hysteresis_rad,
-                    &cfg.servo,
-                )
-                .ok()
             };
             let title = format!("HBT {}: limit cycle (describing function)", r.test);
             nyquist::nyquist(
@@ -330,8 +323,6 @@ pub fn plot_report(
                     response: f.response_gain.zip(f.response_phase_rad),
                     nominal,
                     estimated,
-                    predicted_nominal: predict(nominal),
-                    predicted_estimated: estimated.and_then(predict),
                 },
             )
         }

@@ -8,8 +8,8 @@
 
 use super::bode::response;
 use super::style::{
-    draw_err, legend, legend_line, legend_square, log_grid, padded, tick, ESTIMATED, FONT,
-    MEASURED, NOMINAL, POINT_PX,
+    draw_err, legend, legend_line, legend_square, log_grid, padded, tick, Estimated, CALIBRATED,
+    ESTIMATED, FONT, MEASURED, NOMINAL, POINT_PX,
 };
 use super::PlotError;
 use plotters::coord::types::RangedCoordf64;
@@ -49,10 +49,7 @@ pub(super) struct NyquistInput {
     /// Measured ship response at omega_u: `(|G|, arg G [rad])`.
     pub response: Option<(f64, f64)>,
     pub nominal: (f64, f64),
-    pub estimated: Option<(f64, f64)>,
-    /// The describing function's `(omega_u, A)` for the nominal and the estimated ship.
-    pub predicted_nominal: Option<(f64, f64)>,
-    pub predicted_estimated: Option<(f64, f64)>,
+    pub estimated: Estimated,
 }
 
 /// A ship drawn: (legend, `(a, b)`, colour, the describing function's `(omega_u, A)`).
@@ -86,9 +83,23 @@ pub(super) fn nyquist(
     let root = SVGBackend::with_string(svg, size).into_drawing_area();
     root.fill(&WHITE).map_err(draw_err)?;
     let measured = n.relay.minus_inverse_df(n.amplitude_rad);
-    let mut models = vec![("nominal ship", n.nominal, NOMINAL, n.predicted_nominal)];
-    if let Some(e) = n.estimated {
-        models.push(("estimated ship", e, ESTIMATED, n.predicted_estimated));
+    // Each ship with the describing function's `(omega_u, A)` for it.
+    let predict = |ab: (f64, f64)| {
+        helmwatch_core::dsp::relay::limit_cycle_describing_function(
+            ab.0,
+            ab.1,
+            n.relay.height_rad,
+            n.relay.hysteresis_rad,
+            &n.servo,
+        )
+        .ok()
+    };
+    let mut models = vec![("nominal ship", n.nominal, NOMINAL, predict(n.nominal))];
+    if let Some(e) = n.estimated.raw {
+        models.push(("networks' estimate (raw)", e, ESTIMATED, predict(e)));
+    }
+    if let Some(e) = n.estimated.calibrated {
+        models.push(("calibrated to the vessel", e, CALIBRATED, predict(e)));
     }
     let frame = frame(n, &models, measured);
     let x_range = padded(frame.iter().map(|p| p.0), 0.08, 1e-6);

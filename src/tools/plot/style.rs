@@ -17,7 +17,19 @@ pub(super) fn draw_err<E: std::fmt::Display>(e: E) -> PlotError {
 
 pub(super) const FONT: &str = "sans-serif";
 pub(super) const NOMINAL: RGBColor = BLUE;
+/// The ships drawn beside the nominal one, as Nomoto `(a, b)`: at the networks' raw estimate
+/// (the report's `estimate`) and at the estimate calibrated to the vessel
+/// (`calibrated_estimate`).
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct Estimated {
+    pub raw: Option<(f64, f64)>,
+    pub calibrated: Option<(f64, f64)>,
+}
+
+/// The networks' raw estimate.
 pub(super) const ESTIMATED: RGBColor = RED;
+/// The estimate calibrated to the vessel (green, darker than plotters' GREEN to read on white).
+pub(super) const CALIBRATED: RGBColor = RGBColor(0, 150, 0);
 pub(super) const MEASURED: RGBColor = BLACK;
 /// Radius of a measured point's circle [px].
 pub(super) const POINT_PX: i32 = 4;

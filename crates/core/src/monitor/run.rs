@@ -5,7 +5,7 @@
 
 use super::*;
 use crate::fdi::Assessment;
-use crate::wire::Estimate;
+use crate::wire::{CalibratedEstimate, Estimate};
 
 /// How a test ended, for its report: the outcome, the abort's reason, the features, the
 /// message, and for a completed test the estimate and the FDI's assessment.
@@ -90,6 +90,9 @@ impl Monitor {
             reason: reason.clone(),
             features,
             estimate,
+            calibrated_estimate: assessment
+                .as_ref()
+                .and_then(|a| CalibratedEstimate::from_residuals(&a.residuals)),
             residuals: assessment
                 .as_ref()
                 .map_or_else(Default::default, |a| a.residuals.clone()),
@@ -193,11 +196,15 @@ impl Monitor {
                         Some((&e, est.as_ref(), scratch)),
                         d_nom_t,
                     );
-                    (
-                        format!("estimate {:.2} m/s, {:.0} t", e.speed_mps, e.displacement_t),
-                        Some(e),
-                        a,
-                    )
+                    let raw = format!(
+                        "networks' estimate {:.2} m/s, {:.0} t",
+                        e.speed_mps, e.displacement_t
+                    );
+                    let text = match CalibratedEstimate::from_residuals(&a.residuals) {
+                        Some(c) => format!("{raw}, {}", c.sentence()),
+                        None => format!("{raw} (raw: no vessel reference)"),
+                    };
+                    (text, Some(e), a)
                 }
                 Err(e) => (
                     format!("no estimate: {e}"),

@@ -35,7 +35,7 @@ pub use features::Features;
 mod input;
 mod report;
 pub use input::{decode, decode_value, DecodeError, Input, Scalar, StateValue};
-pub use report::{Cause, Decision, Estimate, Outcome, Report};
+pub use report::{CalibratedEstimate, Cause, Decision, Estimate, Outcome, Report};
 
 /// Key expressions of one vessel.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -70,6 +70,82 @@ pub struct Estimate {
     pub displacement_t: f64,
 }
 
+/// `calibrated_estimate` of a report (an addition to the contract): the networks' reading
+/// corrected by the vessel's learned offset at the test's operating point, with the 95 %
+/// interval of the vessel's healthy scatter there. The networks' own reading (`estimate`) is
+/// biased on any real hull, by as much as a third on one outside the training family; this
+/// is the number a person reads.
+///
+/// ```text
+/// speed        u_cal = u_est - m_u - mu_u(x)          = u_log + r_u        [m/s]
+/// displacement D_cal = D_est - (m_D + mu_D(x)) D_nom  = D_nom (1 + r_D)    [t]
+/// interval     value -+ 1.96 sd,   sd = sqrt(Sigma_jj)  (the residual's, under the reference)
+/// ```
+///
+/// `m` is the networks' validation bias, `mu(x)` the vessel's learned offset, `r` the
+/// residual against the reference in force (`residuals.parameters`). Only against the
+/// vessel's own reference (`commissioned` or `predicted`): before it (the design's, or
+/// commissioning's wide limits) there is no offset to correct by, and the report carries
+/// `null`. A speed-log fault leaves `u_cal` at the speed through the water the hull shows
+/// (the log cancels out of `u_log + r_u`).
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+pub struct CalibratedEstimate {
+    /// `u_cal` [m/s].
+    pub speed_mps: f64,
+    /// Its 95 % interval `[low, high]` [m/s].
+    pub speed_interval_mps: [f64; 2],
+    /// `D_cal` [t].
+    pub displacement_t: f64,
+    /// Its 95 % interval `[low, high]` [t].
+    pub displacement_interval_t: [f64; 2],
+    /// The reference the offset came from: `commissioned`, or `predicted` at an operating
+    /// point not yet learned (a wider interval).
+    pub reference: residuals::ReferenceKind,
+}
+
+/// The two-sided 95 % normal quantile.
+const Z95: f64 = 1.959_963_984_540_054;
+
+impl CalibratedEstimate {
+    /// From a report's residuals: `None` without a speed log, parameter residuals or the
+    /// vessel's own reference.
+    pub fn from_residuals(r: &residuals::Residuals) -> Option<Self> {
+        let reference = r.reference.as_ref()?.kind;
+        if !matches!(
+            reference,
+            residuals::ReferenceKind::Commissioned | residuals::ReferenceKind::Predicted
+        ) {
+            return None;
+        }
+        let p = r.parameters.as_ref()?;
+        let u = r.raw.as_ref()?.speed_log_mps + p.speed_mps;
+        let d = r.displacement_nominal_t? + p.displacement_t;
+        let interval = |x: f64, sd: f64| [x - Z95 * sd, x + Z95 * sd];
+        let c = Self {
+            speed_mps: u,
+            speed_interval_mps: interval(u, p.speed_sigma_mps),
+            displacement_t: d,
+            displacement_interval_t: interval(d, p.displacement_sigma_t),
+            reference,
+        };
+        (c.speed_interval_mps.iter())
+            .chain(&c.displacement_interval_t)
+            .all(|x| x.is_finite())
+            .then_some(c)
+    }
+
+    /// The message's words: `calibrated to the vessel 7.02 m/s (6.81..7.23), 7010 t
+    /// (6890..7130)`.
+    pub fn sentence(&self) -> String {
+        let [ul, uh] = self.speed_interval_mps;
+        let [dl, dh] = self.displacement_interval_t;
+        format!(
+            "calibrated to the vessel {:.2} m/s ({ul:.2}..{uh:.2}), {:.0} t ({dl:.0}..{dh:.0})",
+            self.speed_mps, self.displacement_t
+        )
+    }
+}
+
 /// `fdi/report`, after every test, completed or aborted.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct Report {
@@ -87,8 +163,12 @@ pub struct Report {
     pub reason: Option<String>,
     /// Method-specific features (documented in docs/contract.md; `{}` for an aborted test).
     pub features: Features,
-    /// Estimated parameters, null for an aborted test or when no estimator is loaded.
+    /// The networks' estimate, raw: null for an aborted test or when no estimator is loaded.
     pub estimate: Option<Estimate>,
+    /// The estimate calibrated to the vessel (an addition): null until the vessel's own
+    /// reference is in force.
+    #[serde(default)]
+    pub calibrated_estimate: Option<CalibratedEstimate>,
     /// Residuals (documented in docs/contract.md; `{}` for an aborted test).
     #[serde(default)]
     pub residuals: residuals::Residuals,

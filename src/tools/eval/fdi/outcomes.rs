@@ -53,6 +53,7 @@ pub(super) fn write_outcomes(
                     "raw": t.raw.map(nan_null),
                     "sigma": t.sigma.map(nan_null),
                     "offset_sigma": t.offset_sigma.map(nan_null),
+                    "calibrated": t.calibrated.map(nan_null),
                 });
                 if let Err(e) = writeln!(w, "{line}") {
                     eprintln!("outcomes not written: {e}");

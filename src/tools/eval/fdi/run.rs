@@ -115,6 +115,10 @@ pub struct TestOutcome {
     /// The reference's predicted offset's standard deviations at the test's point
     /// (`residuals.reference.offset_*_sigma*`, the same units; NaN without).
     pub offset_sigma: [f64; 3],
+    /// The estimate calibrated to the vessel (`calibrated_estimate`): speed [m/s],
+    /// displacement [t], and the half-widths of their 95 % intervals (NaN without: before
+    /// the vessel's reference).
+    pub calibrated: [f64; 4],
 }
 
 /// One run: the drawn ship and its tests.
@@ -255,6 +259,15 @@ pub(super) fn outcome_of(r: &Report) -> TestOutcome {
                 x.offset_displacement_sigma_t.unwrap_or(nan)
                     / res.displacement_nominal_t.unwrap_or(nan),
                 x.offset_ln_gain_sigma.unwrap_or(nan),
+            ]
+        }),
+        calibrated: r.calibrated_estimate.map_or([nan; 4], |c| {
+            let half = |[lo, hi]: [f64; 2]| 0.5 * (hi - lo);
+            [
+                c.speed_mps,
+                c.displacement_t,
+                half(c.speed_interval_mps),
+                half(c.displacement_interval_t),
             ]
         }),
         inconsistent: says_inconsistent(r),

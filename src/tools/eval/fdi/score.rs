@@ -199,6 +199,74 @@ pub fn operating_point(runs: &[RunOutcome]) -> OperatingPoint {
     p
 }
 
+/// How far the estimate calibrated to the vessel (`calibrated_estimate`) lies from the truth
+/// a healthy ship's crew knows: the speed log, and the declared displacement; over the
+/// completed tests after commissioning of a healthy scenario's runs (a heading drift is
+/// healthy: it must move neither).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CalibratedFit {
+    /// Such tests with a calibrated estimate.
+    pub tests: usize,
+    /// Such tests without one (completed, after commissioning, no vessel reference).
+    pub missing: usize,
+    /// The 95th percentile of `|u_cal - u_log|` [m/s] (NaN: no test).
+    pub speed_p95_mps: f64,
+    /// The 95th percentile of `|D_cal / D_nom - 1|` (NaN: no test).
+    pub displacement_p95: f64,
+    /// Tests whose 95 % speed interval holds the log, and whose displacement interval holds
+    /// the declared displacement (`[speed, displacement]`): the intervals' honesty.
+    pub covered: [usize; 2],
+    /// Tests after a change of speed with a calibrated estimate.
+    pub after_speed_change: usize,
+    /// Their 95th percentile of `|u_cal - u_log|` [m/s] (NaN: none).
+    pub after_speed_change_p95_mps: f64,
+}
+
+/// The calibrated estimates of `runs` against the log and the declared displacement.
+pub fn calibrated_fit(runs: &[RunOutcome]) -> CalibratedFit {
+    let (mut du, mut dd, mut after) = (Vec::new(), Vec::new(), Vec::new());
+    let mut missing = 0;
+    let mut covered = [0; 2];
+    for r in runs {
+        let after_commissioning =
+            (r.tests.iter()).filter(|t| t.completed && t.phase != Phase::Commissioning);
+        for t in after_commissioning {
+            let [u, d, u_half, d_half] = t.calibrated;
+            if !(u.is_finite() && d.is_finite()) {
+                missing += 1;
+                continue;
+            }
+            let e = (u - t.speed_log_mps).abs();
+            du.push(e);
+            dd.push((d / t.displacement_nominal_t - 1.0).abs());
+            covered[0] += usize::from(e <= u_half);
+            covered[1] += usize::from((d - t.displacement_nominal_t).abs() <= d_half);
+            if r.speed_after_mps.is_finite() && t.phase == Phase::AfterChange {
+                after.push(e);
+            }
+        }
+    }
+    CalibratedFit {
+        tests: du.len(),
+        missing,
+        speed_p95_mps: quantile(&mut du, 0.95),
+        displacement_p95: quantile(&mut dd, 0.95),
+        covered,
+        after_speed_change: after.len(),
+        after_speed_change_p95_mps: quantile(&mut after, 0.95),
+    }
+}
+
+/// The `p` quantile of the finite values (nearest rank; NaN when none).
+fn quantile(v: &mut Vec<f64>, p: f64) -> f64 {
+    v.retain(|x| x.is_finite());
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    v[((v.len() as f64 * p).ceil() as usize).clamp(1, v.len()) - 1]
+}
+
 /// Figures of one commissioning scenario (the methods' tracks together, as the vessel's).
 #[derive(Debug, Clone, PartialEq)]
 pub struct CommissioningCell {

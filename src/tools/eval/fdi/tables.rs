@@ -4,7 +4,8 @@
 use super::outcomes::write_outcomes;
 use super::run::{run_one, RunOutcome};
 use super::score::{
-    operating_point, pct, quantiles, score, score_commissioning, score_envelope, Cell,
+    calibrated_fit, operating_point, pct, quantiles, score, score_commissioning, score_envelope,
+    Cell,
 };
 use super::RowFigures;
 use super::{FdiEvalOptions, Row};
@@ -95,6 +96,7 @@ pub(super) fn classic_table(
         notes.extend(z_note(&row.label, &runs));
         if sc.expected.is_none() {
             healthy_notes(&row.label, &runs, &mut notes);
+            notes.extend(calibrated_note(&row.label, &runs));
         }
         // The baseline's rows only when its estimate exists (features.baseline).
         let has_baseline = runs
@@ -170,6 +172,33 @@ fn healthy_notes(label: &str, runs: &[RunOutcome], notes: &mut Vec<String>) {
             ));
         }
     }
+}
+
+/// A healthy row's note on the estimate calibrated to the vessel: the 95th percentiles of
+/// its distance to the speed log and to the declared displacement after commissioning (and
+/// after a change of speed, where the row has one).
+fn calibrated_note(label: &str, runs: &[RunOutcome]) -> Option<String> {
+    let c = calibrated_fit(runs);
+    if c.tests + c.missing == 0 {
+        return None;
+    }
+    let after = if c.after_speed_change > 0 {
+        format!(
+            "; after the change of speed {:.3} m/s ({} tests)",
+            c.after_speed_change_p95_mps, c.after_speed_change
+        )
+    } else {
+        String::new()
+    };
+    Some(format!(
+        "{label}: calibrated estimate, 95th percentile of |u_cal - u_log| {:.3} m/s, of |D_cal / D_nom - 1| {:.2} %; its 95 % interval holds the log in {}, the declared D in {} ({} tests after commissioning, {} without a vessel reference){after}",
+        c.speed_p95_mps,
+        100.0 * c.displacement_p95,
+        pct(c.covered[0], c.tests),
+        pct(c.covered[1], c.tests),
+        c.tests,
+        c.missing
+    ))
 }
 
 /// One line of the classic table: the row's runs as `who` scores them (ours, or the
@@ -352,6 +381,9 @@ pub(super) fn envelope_table(
             "{}: speed log within {:.3} m/s of the scheduled speed ({} tests after commissioning){declared}",
             row.label, p.speed_error_max_mps, p.tests
         ));
+        if sc.expected.is_none() {
+            notes.extend(calibrated_note(&row.label, &runs));
+        }
     }
     out.push('\n');
     for n in notes {

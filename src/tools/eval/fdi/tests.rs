@@ -39,6 +39,7 @@ fn outcome(decision: Decision, raw0: f64) -> TestOutcome {
         cause_costs: [f64::NAN; 2],
         sigma: [f64::NAN; 3],
         offset_sigma: [f64::NAN; 3],
+        calibrated: [f64::NAN; 4],
         reference_kind: None,
         abort_reason: None,
     }
