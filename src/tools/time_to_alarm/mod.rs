@@ -25,8 +25,11 @@
 //!
 //! Rudder travel: `sum |delta_k - delta_(k-1)|` of the simulated *true* rudder angle (the
 //! blade, [`helmwatch_core::sim::Truth::delta_rad`]; the measured one carries white noise that would
-//! dominate the sum) over the window `[t_a, t_0]`, `t_a` the end of the first test, so the
-//! window holds whole test cycles (interval, steady wait, test). The same seed with the
+//! dominate the sum) over three windows of the healthy ship: commissioning `[t_a, t_0]`, `t_a`
+//! the end of the first test, so the window holds whole test cycles (interval, steady wait,
+//! test); its confirmation `[t_0, t_1]`, `t_1` when no scheduled method is establishing its
+//! reference ([`Monitor::establishing`](helmwatch_core::monitor::Monitor::establishing)); and
+//! `[t_1, t_1 + cap_s]` of the watch. The same seed with the
 //! scheduler off (the autopilot alone) over the same window gives the autopilot's own travel;
 //! the difference per hour is the travel the tests add [deg/h]. Without a test in the run
 //! (scheduler off) the window is the whole run.
@@ -178,6 +181,11 @@ pub struct SeedRun {
     pub alarms_before_onset: usize,
     /// Rudder travel over the commissioning window.
     pub travel: Travel,
+    /// Over the confirmation after it (the healthy ship, at the commissioning cadence until
+    /// no scheduled method is establishing its reference); `None` when not commissioned.
+    pub confirmation: Option<Travel>,
+    /// Over `cap_s` of the watch after the confirmation (the healthy ship at `interval-s`).
+    pub watch: Option<Travel>,
     /// Per fault of the bench, in order (empty when not commissioned).
     pub faults: Vec<FaultRun>,
 }
@@ -305,29 +313,7 @@ pub fn print(
         }
     }
     writeln!(out)?;
-    writeln!(
-        out,
-        "Rudder travel (sum of |d delta| of the true rudder) from the end of the first test to the end of commissioning, per ship hour:\n"
-    )?;
-    writeln!(
-        out,
-        "| interval [s] | window [h] (median) | tests per hour | autopilot alone [deg/h] | with the tests [deg/h] | added by the tests [deg/h] (median / max) |"
-    )?;
-    writeln!(out, "|---|---|---|---|---|---|")?;
-    for (ii, runs) in per.iter().enumerate() {
-        let tr: Vec<Travel> = runs.iter().map(|r| r.travel).collect();
-        let med = |v: Vec<f64>| quantiles(v).map_or(f64::NAN, |q| q.0);
-        writeln!(
-            out,
-            "| {:.0} | {:.1} | {:.3} | {:.0} | {:.0} | {} |",
-            o.intervals_s[ii],
-            med(tr.iter().map(|t| t.hours).collect()),
-            med(tr.iter().map(|t| t.tests as f64 / t.hours).collect()),
-            med(tr.iter().map(|t| t.autopilot_deg / t.hours).collect()),
-            med(tr.iter().map(|t| t.with_tests_deg / t.hours).collect()),
-            median_max(tr.iter().map(Travel::added_deg_per_h).collect(), 0),
-        )?;
-    }
+    print_travel(out, cfg, o, per, cap_h)?;
     let mut notes = Vec::new();
     for (ii, runs) in per.iter().enumerate() {
         for r in runs {
@@ -349,6 +335,58 @@ pub fn print(
         writeln!(out)?;
         for n in notes {
             writeln!(out, "- {n}")?;
+        }
+    }
+    Ok(())
+}
+
+/// The rudder travel table: per interval and phase of the healthy ship (commissioning, its
+/// confirmation, the watch), the travel per ship hour with the tests and without.
+fn print_travel(
+    out: &mut impl Write,
+    cfg: &Config,
+    o: &TimeToAlarmOptions,
+    per: &[Vec<SeedRun>],
+    cap_h: f64,
+) -> std::io::Result<()> {
+    writeln!(
+        out,
+        "Rudder travel (sum of |d delta| of the true rudder) per ship hour, by phase of the healthy ship: commissioning (from the end of the first test to both methods commissioned), its confirmation, and {cap_h} h of the watch after it; scheduled tests every scheduler.commissioning-interval-s ({:.0} s, or interval-s if shorter) in the first two:\n",
+        cfg.scheduler.commissioning_interval_s
+    )?;
+    writeln!(
+        out,
+        "| interval [s] | phase | window [h] (median) | tests per hour | autopilot alone [deg/h] | with the tests [deg/h] | added by the tests [deg/h] (median / max) | added per test [deg] (median) |"
+    )?;
+    writeln!(out, "|---|---|---|---|---|---|---|---|")?;
+    for (ii, runs) in per.iter().enumerate() {
+        let phases: [(&str, Vec<Travel>); 3] = [
+            ("commissioning", runs.iter().map(|r| r.travel).collect()),
+            (
+                "confirmation",
+                runs.iter().filter_map(|r| r.confirmation).collect(),
+            ),
+            ("watch", runs.iter().filter_map(|r| r.watch).collect()),
+        ];
+        for (phase, tr) in phases {
+            if tr.is_empty() {
+                continue;
+            }
+            let med = |v: Vec<f64>| quantiles(v).map_or(f64::NAN, |q| q.0);
+            writeln!(
+                out,
+                "| {:.0} | {phase} | {:.1} | {:.3} | {:.0} | {:.0} | {} | {:.0} |",
+                o.intervals_s[ii],
+                med(tr.iter().map(|t| t.hours).collect()),
+                med(tr.iter().map(|t| t.tests as f64 / t.hours).collect()),
+                med(tr.iter().map(|t| t.autopilot_deg / t.hours).collect()),
+                med(tr.iter().map(|t| t.with_tests_deg / t.hours).collect()),
+                median_max(tr.iter().map(Travel::added_deg_per_h).collect(), 0),
+                med(tr
+                    .iter()
+                    .map(|t| (t.with_tests_deg - t.autopilot_deg) / t.tests as f64)
+                    .collect()),
+            )?;
         }
     }
     Ok(())

@@ -110,40 +110,71 @@ pub fn run_seed(
     }
     let t_end = ls.time_s();
     let (t_a, travel_a) = window_start.unwrap_or((t_start, 0.0));
-    let with_tests_deg = (meter.total_rad - travel_a).to_degrees();
-    // The autopilot alone: the same ship, the scheduler off, over the same window.
+    let at_onset = ls.clone();
+    // The healthy ship on: the confirmation (at the commissioning cadence), then `cap_s` of
+    // the watch, each window's end with the meter's reading there and its reports.
+    let mut marks = vec![(t_a, travel_a), (t_end, meter.total_rad)];
+    let mut window_reports = Vec::new();
+    if onset_s.is_some() {
+        let mut n = 0;
+        while ls.monitor.establishing() && ls.time_s() < t_end + (t_cap - t_start) {
+            ls.tick(&mut out, false);
+            meter.sample(&ls);
+            n += out
+                .drain(..)
+                .filter(|o| matches!(o, Output::Report(_)))
+                .count();
+        }
+        marks.push((ls.time_s(), meter.total_rad));
+        window_reports.push(n);
+        let (t1, mut n) = (ls.time_s(), 0);
+        while ls.time_s() < t1 + cap_s {
+            ls.tick(&mut out, false);
+            meter.sample(&ls);
+            n += out
+                .drain(..)
+                .filter(|o| matches!(o, Output::Report(_)))
+                .count();
+        }
+        marks.push((ls.time_s(), meter.total_rad));
+        window_reports.push(n);
+    }
+    // The autopilot alone: the same ship, the scheduler off, read at the same moments.
     let mut off_cfg = cfg.clone();
     off_cfg.scheduler.enabled = false;
     let mut off = build(&off_cfg)?;
     let mut off_meter = TravelMeter::default();
     off_meter.sample(&off);
-    let mut off_at_a = 0.0;
-    while off.time_s() < t_end {
-        if off.time_s() <= t_a {
-            off_at_a = off_meter.total_rad;
+    let mut off_marks = Vec::with_capacity(marks.len());
+    for &(t, _) in &marks {
+        while off.time_s() < t {
+            off.tick(&mut out, false);
+            off_meter.sample(&off);
+            out.clear();
         }
-        off.tick(&mut out, false);
-        off_meter.sample(&off);
-        out.clear();
+        off_marks.push(off_meter.total_rad);
     }
-    let travel = Travel {
-        hours: (t_end - t_a) / 3600.0,
-        with_tests_deg,
-        autopilot_deg: (off_meter.total_rad - off_at_a).to_degrees(),
-        tests: reports.saturating_sub(1),
+    let window = |i: usize, tests: usize| Travel {
+        hours: (marks[i + 1].0 - marks[i].0) / 3600.0,
+        with_tests_deg: (marks[i + 1].1 - marks[i].1).to_degrees(),
+        autopilot_deg: (off_marks[i + 1] - off_marks[i]).to_degrees(),
+        tests,
     };
+    let travel = window(0, reports.saturating_sub(1));
     let mut run = SeedRun {
         seed,
         onset_s,
         commissioning_reports: reports,
         alarms_before_onset: alarms,
         travel,
+        confirmation: (marks.len() > 2).then(|| window(1, window_reports[0])),
+        watch: (marks.len() > 3).then(|| window(2, window_reports[1])),
         faults: Vec::new(),
     };
     if let Some(t0) = onset_s {
         run.faults = faults
             .iter()
-            .map(|f| run_fault(ls.clone(), f.fault, t0, cap_s))
+            .map(|f| run_fault(at_onset.clone(), f.fault, t0, cap_s))
             .collect();
     }
     Ok(run)
@@ -247,6 +278,49 @@ mod tests {
                 vec![Cause::DisplacementOrRudderEffectiveness]
             );
         }
+    }
+
+    /// Commissioning and its confirmation run at `commissioning-interval-s`, the watch after
+    /// them at `interval-s`. A cycle is at least the interval (the steady wait may run
+    /// within it) and at most the interval, the steady wait and `max-test-duration-s`; a
+    /// window's tests fit those bounds: whole cycles for commissioning and the confirmation
+    /// (both end at a report), the cycles begun for the watch.
+    #[test]
+    fn commissioning_and_its_confirmation_come_at_their_own_cadence() {
+        let mut cfg = Config::default();
+        cfg.fdi.commissioning_tests = 5;
+        let parts = Parts::new(&cfg).unwrap();
+        let run = run_seed(&cfg, &parts, &[], SeaState::Calm, 7, 8.0 * 3600.0).unwrap();
+        assert!(run.onset_s.is_some(), "not commissioned");
+        let sc = &cfg.scheduler;
+        let cycle = |interval: f64| {
+            let lo = interval.max(sc.steady_time_s);
+            (
+                lo,
+                interval + sc.steady_time_s + cfg.safety.max_test_duration_s,
+            )
+        };
+        let whole = |t: &Travel, interval: f64| {
+            let ((lo, hi), n, w) = (cycle(interval), t.tests as f64, t.hours * 3600.0);
+            assert!(
+                n * lo <= w + 1.0 && w <= n * hi + 1.0,
+                "({lo}, {hi}) s: {t:?}"
+            );
+        };
+        whole(&run.travel, sc.commissioning_interval_s);
+        let confirmation = run.confirmation.expect("a confirmation");
+        assert!(confirmation.tests >= 8, "{confirmation:?}");
+        whole(&confirmation, sc.commissioning_interval_s);
+        let watch = run.watch.expect("a watch");
+        let ((lo, hi), w) = (cycle(sc.interval_s), watch.hours * 3600.0);
+        let n = watch.tests as f64;
+        assert!(
+            (w / hi).floor() <= n && n <= (w / lo).ceil(),
+            "({lo}, {hi}) s: {watch:?}"
+        );
+        // The cadences differ: the commissioning's longest cycle is shorter than the watch's
+        // shortest.
+        assert!(cycle(sc.commissioning_interval_s).1 < cycle(sc.interval_s).0);
     }
 
     /// With the scheduler off the run and the autopilot-alone run are the same ship: the

@@ -287,6 +287,15 @@ impl Fdi {
             || self.commissioning[method_index(method)].phase == Phase::Learning
     }
 
+    /// `method`'s reference is being established: commissioning, or commissioned and its
+    /// confirmation still running (`changepoint::confirming`). Not when commissioning is off
+    /// or inconsistent (no reference until commissioned again).
+    pub fn establishing(&self, method: Method) -> bool {
+        let c = &self.commissioning[method_index(method)];
+        self.cfg.commissioning_tests > 0
+            && (c.phase == Phase::Commissioning || changepoint::confirming(c))
+    }
+
     /// One line per method: "CLFRT commissioning 2 of 5, HBT commissioned (...)".
     pub fn commissioning_text(&self) -> String {
         let s = self.settings();

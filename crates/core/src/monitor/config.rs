@@ -10,6 +10,18 @@ use crate::model::{SensorConfig, ServoConfig, ShipConfig};
 use crate::wire::Method;
 use serde::{Deserialize, Serialize};
 
+/// `scheduler.commissioning-interval-s`'s default [s], from a stated budget of added rudder
+/// travel: while commissioning, the tests may add at most the rudder travel the autopilot
+/// itself does in a calm sea (about 800 deg/h on the design's ship; a rougher sea only
+/// raises the autopilot's own), so commissioning at most doubles the steering gear's
+/// calm-sea work while it lasts. One scheduled test adds about 450 deg (the two methods'
+/// mean), and a cycle is the interval, `steady-time-s` (120 s) and the test (about 1220 s on
+/// average over the two methods): at most 800 / 450 = 1.78 tests per hour, a cycle of at
+/// least 2030 s, an interval of at least 2030 - 120 - 1220 = 690 s, rounded up to 12 minutes.
+/// `helmwatch bench --time-to-alarm` measures the travel added during commissioning and
+/// after it.
+pub const COMMISSIONING_INTERVAL_S: f64 = 720.0;
+
 /// When the monitor starts a test on its own.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields, rename_all = "kebab-case")]
@@ -20,6 +32,10 @@ pub struct SchedulerConfig {
     pub methods: Vec<Method>,
     /// Minimum time from the end of one test to the start of the next [s].
     pub interval_s: f64,
+    /// The same while the vessel's reference is being established: a scheduled method
+    /// commissioning, or confirming its commissioning (`Fdi::establishing`); the shorter of
+    /// the two applies [s]. Default 720 s: see [`COMMISSIONING_INTERVAL_S`].
+    pub commissioning_interval_s: f64,
     /// The course must be steady this long before a scheduled test [s].
     pub steady_time_s: f64,
     /// Steady: |heading error| below this [deg].
@@ -36,6 +52,7 @@ impl Default for SchedulerConfig {
             enabled: true,
             methods: vec![Method::Clfrt, Method::Hbt],
             interval_s: 3600.0,
+            commissioning_interval_s: COMMISSIONING_INTERVAL_S,
             steady_time_s: 120.0,
             steady_heading_error_deg: 3.0,
             steady_rudder_deg: 5.0,
@@ -55,6 +72,12 @@ impl SchedulerConfig {
             ));
         }
         check_range("scheduler.interval-s", self.interval_s, 0.0, 30.0 * 86400.0)?;
+        check_range(
+            "scheduler.commissioning-interval-s",
+            self.commissioning_interval_s,
+            0.0,
+            30.0 * 86400.0,
+        )?;
         check_range("scheduler.steady-time-s", self.steady_time_s, 0.0, 3600.0)?;
         check_range_open_low(
             "scheduler.steady-heading-error-deg",

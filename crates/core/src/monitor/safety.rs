@@ -108,7 +108,20 @@ impl Monitor {
                 .is_some_and(|since| t - since >= sc.steady_time_s)
             && self
                 .last_test_end
-                .is_none_or(|end| t - end >= sc.interval_s)
+                .is_none_or(|end| t - end >= self.scheduled_interval_s())
+    }
+
+    /// The interval before the next scheduled test: while a scheduled method's reference is
+    /// being established (commissioning, then its confirmation), `commissioning-interval-s`
+    /// or `interval-s`, the shorter (commissioning is never slower than the watch); else
+    /// `interval-s`.
+    pub(super) fn scheduled_interval_s(&self) -> f64 {
+        let sc = &self.cfg.scheduler;
+        if self.establishing() {
+            sc.commissioning_interval_s.min(sc.interval_s)
+        } else {
+            sc.interval_s
+        }
     }
 
     /// The safety checks of a running test at heading sample `t`. `Err(reason)` aborts.

@@ -105,6 +105,12 @@ impl Monitor {
         self.fdi.commissioned()
     }
 
+    /// A scheduled method's reference is being established (commissioning, or its
+    /// confirmation): the scheduler runs at `scheduler.commissioning-interval-s`.
+    pub fn establishing(&self) -> bool {
+        (self.cfg.scheduler.methods.iter()).any(|&m| self.fdi.establishing(m))
+    }
+
     /// `method` is commissioned (or commissioning is off).
     pub fn method_commissioned(&self, method: crate::wire::Method) -> bool {
         self.fdi.method_commissioned(method)
