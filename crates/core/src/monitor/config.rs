@@ -11,16 +11,16 @@ use crate::wire::Method;
 use serde::{Deserialize, Serialize};
 
 /// `scheduler.commissioning-interval-s`'s default [s], from a stated budget of added rudder
-/// travel: while commissioning, the tests may add at most the rudder travel the autopilot
-/// itself does in a calm sea (about 800 deg/h on the design's ship; a rougher sea only
-/// raises the autopilot's own), so commissioning at most doubles the steering gear's
-/// calm-sea work while it lasts. One scheduled test adds about 450 deg (the two methods'
-/// mean), and a cycle is the interval, `steady-time-s` (120 s) and the test (about 1220 s on
-/// average over the two methods): at most 800 / 450 = 1.78 tests per hour, a cycle of at
-/// least 2030 s, an interval of at least 2030 - 120 - 1220 = 690 s, rounded up to 12 minutes.
-/// `helmwatch bench --time-to-alarm` measures the travel added during commissioning and
-/// after it.
-pub const COMMISSIONING_INTERVAL_S: f64 = 720.0;
+/// travel: while the reference is established, the tests may add at most the rudder travel
+/// the autopilot itself does in a calm sea (about 800 deg/h on the design's ship; a rougher
+/// sea only raises the autopilot's own), so commissioning and its confirmation at most double
+/// the steering gear's calm-sea work while they last. One scheduled test adds at most about
+/// 470 deg (the two methods' mean, the confirmation's tests the larger), and a test with its
+/// steady wait takes about 1360 s on average over the two methods: at most 800 / 470 = 1.70
+/// tests per hour, a cycle of at least 2115 s, an interval of at least 2115 - 1360 = 755 s,
+/// rounded up to 13 minutes. `helmwatch bench --time-to-alarm` measures the travel added
+/// during commissioning, its confirmation and the watch.
+pub const COMMISSIONING_INTERVAL_S: f64 = 780.0;
 
 /// When the monitor starts a test on its own.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -34,7 +34,7 @@ pub struct SchedulerConfig {
     pub interval_s: f64,
     /// The same while the vessel's reference is being established: a scheduled method
     /// commissioning, or confirming its commissioning (`Fdi::establishing`); the shorter of
-    /// the two applies [s]. Default 720 s: see [`COMMISSIONING_INTERVAL_S`].
+    /// the two applies [s]. Default 780 s: see [`COMMISSIONING_INTERVAL_S`].
     pub commissioning_interval_s: f64,
     /// The course must be steady this long before a scheduled test [s].
     pub steady_time_s: f64,
