@@ -11,12 +11,17 @@
 //!
 //! 1. *Commissioning*: the healthy ship runs until both methods are commissioned
 //!    (`fdi.commissioning-tests` completed tests each,
-//!    [`Monitor::commissioned`](helmwatch_core::monitor::Monitor::commissioned)); the
-//!    report that completes it ends at the *onset* `t_0`.
+//!    [`Monitor::commissioned`](helmwatch_core::monitor::Monitor::commissioned)), then
+//!    through the confirmation (until no scheduled method is establishing its reference,
+//!    [`Monitor::establishing`](helmwatch_core::monitor::Monitor::establishing)), both at the
+//!    commissioning cadence; the report that ends the confirmation ends at the *onset* `t_0`,
+//!    the watch's start. The healthy ship runs on for `cap_s` of the watch (its rudder
+//!    travel); its alarms in all three are counted.
 //! 2. *Faults*: the run is cloned at `t_0` once per fault, the fault injected from `t_0`
 //!    ([`helmwatch_core::sim::Ship::inject`]), and each clone runs until the first notification in
 //!    state `alarm`, or `cap_s` of ship time after `t_0`. Every clone sees the same ship, sea
-//!    and noise up to `t_0` (what a separate run per fault with the same seed would see).
+//!    and noise up to `t_0` (what a separate run per fault with the same seed would see), and
+//!    tests at `interval-s`, the interval under study.
 //!
 //! Per fault and run: `tests` = completed reports (either method) from `t_0` to the alarm,
 //! the alarm's report included; `hours` = `(t_end of that report - t_0) / 3600`; the cause is
@@ -173,12 +178,13 @@ impl Travel {
 pub struct SeedRun {
     /// Ship seed.
     pub seed: u64,
-    /// Onset: end of the report that completed commissioning [s]; `None` if it never did.
-    pub onset_s: Option<f64>,
-    /// Tests reported before the onset (commissioning and any that did not count for it).
+    /// End of the report that completed commissioning [s]; `None` if it never did.
+    pub commissioned_s: Option<f64>,
+    /// Tests reported until then (commissioning and any that did not count for it).
     pub commissioning_reports: usize,
-    /// Alarm notifications before the onset (false alarms of the healthy ship).
-    pub alarms_before_onset: usize,
+    /// Alarm notifications of the healthy ship: commissioning, confirmation and watch (false
+    /// alarms).
+    pub healthy_alarms: usize,
     /// Rudder travel over the commissioning window.
     pub travel: Travel,
     /// Over the confirmation after it (the healthy ship, at the commissioning cadence until
@@ -186,6 +192,9 @@ pub struct SeedRun {
     pub confirmation: Option<Travel>,
     /// Over `cap_s` of the watch after the confirmation (the healthy ship at `interval-s`).
     pub watch: Option<Travel>,
+    /// The watch's start, the faults' onset: the end of the report that ended the
+    /// confirmation [s]; `None` if it did not end within the cap (no fault runs).
+    pub watch_start_s: Option<f64>,
     /// Per fault of the bench, in order (empty when not commissioned).
     pub faults: Vec<FaultRun>,
 }
@@ -258,7 +267,7 @@ pub fn print(
         "# Time to alarm and rudder travel per scheduler interval\n\n\
          seed {}, {} runs per interval, {} sea, ship at {} m/s and {} t; scheduler methods [{}] in turn, \
          steady-time-s {}, interval-s as below; fdi false-alarms-per-year {}, window-tests {}, \
-         commissioning-tests {} per method; estimator {}; faults from the end of commissioning, alarms counted within {cap_h} ship hours",
+         commissioning-tests {} per method; estimator {}; faults from the end of the confirmation (the watch's start), alarms counted within {cap_h} ship hours",
         o.seed,
         o.runs,
         o.sea.name(),
@@ -317,16 +326,22 @@ pub fn print(
     let mut notes = Vec::new();
     for (ii, runs) in per.iter().enumerate() {
         for r in runs {
-            if r.onset_s.is_none() {
+            if r.commissioned_s.is_none() {
                 notes.push(format!(
                     "interval {:.0} s, seed {}: not commissioned within {} reports; no fault runs",
                     o.intervals_s[ii], r.seed, r.commissioning_reports
                 ));
             }
-            if r.alarms_before_onset > 0 {
+            if r.commissioned_s.is_some() && r.watch_start_s.is_none() {
                 notes.push(format!(
-                    "interval {:.0} s, seed {}: {} alarm(s) of the healthy ship during commissioning",
-                    o.intervals_s[ii], r.seed, r.alarms_before_onset
+                    "interval {:.0} s, seed {}: the confirmation did not end within the cap; no fault runs",
+                    o.intervals_s[ii], r.seed
+                ));
+            }
+            if r.healthy_alarms > 0 {
+                notes.push(format!(
+                    "interval {:.0} s, seed {}: {} alarm(s) of the healthy ship (commissioning, confirmation, watch)",
+                    o.intervals_s[ii], r.seed, r.healthy_alarms
                 ));
             }
         }

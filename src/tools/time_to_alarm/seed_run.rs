@@ -1,6 +1,6 @@
 //! One seeded run of `helmwatch bench --time-to-alarm` at one scheduler interval: the healthy
-//! ship to the end of commissioning, its rudder travel against the autopilot alone, then each
-//! fault from the onset to the first alarm (the module `time_to_alarm` says how).
+//! ship through commissioning, its confirmation and a watch, its rudder travel against the
+//! autopilot alone, then each fault from the watch's start to the first alarm (the module `time_to_alarm` says how).
 
 use super::{Alarm, BenchFault, FaultRun, SeedRun, TimeToAlarmError, Travel};
 use crate::config::Config;
@@ -88,8 +88,8 @@ pub fn run_seed(
     let (mut reports, mut alarms) = (0usize, 0usize);
     // Window start: the first report's end, and the meter's reading there.
     let mut window_start: Option<(f64, f64)> = None;
-    let mut onset_s = None;
-    while onset_s.is_none() && ls.time_s() < t_cap {
+    let mut commissioned_s = None;
+    while commissioned_s.is_none() && ls.time_s() < t_cap {
         ls.tick(&mut out, false);
         meter.sample(&ls);
         for o in out.drain(..) {
@@ -99,8 +99,8 @@ pub fn run_seed(
                     if window_start.is_none() {
                         window_start = Some((ls.time_s(), meter.total_rad));
                     }
-                    if ls.monitor.commissioned() && onset_s.is_none() {
-                        onset_s = Some(ls.time_s());
+                    if ls.monitor.commissioned() && commissioned_s.is_none() {
+                        commissioned_s = Some(ls.time_s());
                     }
                 }
                 Output::Notification(n) if n.state == AlarmState::Alarm => alarms += 1,
@@ -110,32 +110,25 @@ pub fn run_seed(
     }
     let t_end = ls.time_s();
     let (t_a, travel_a) = window_start.unwrap_or((t_start, 0.0));
-    let at_onset = ls.clone();
     // The healthy ship on: the confirmation (at the commissioning cadence), then `cap_s` of
     // the watch, each window's end with the meter's reading there and its reports.
     let mut marks = vec![(t_a, travel_a), (t_end, meter.total_rad)];
     let mut window_reports = Vec::new();
-    if onset_s.is_some() {
-        let mut n = 0;
-        while ls.monitor.establishing() && ls.time_s() < t_end + (t_cap - t_start) {
-            ls.tick(&mut out, false);
-            meter.sample(&ls);
-            n += out
-                .drain(..)
-                .filter(|o| matches!(o, Output::Report(_)))
-                .count();
-        }
+    let mut watch_start = None;
+    if commissioned_s.is_some() {
+        let t_confirm_cap = t_end + (t_cap - t_start);
+        let (n, a) = run_healthy(&mut ls, &mut meter, |l| {
+            l.monitor.establishing() && l.time_s() < t_confirm_cap
+        });
+        alarms += a;
         marks.push((ls.time_s(), meter.total_rad));
         window_reports.push(n);
-        let (t1, mut n) = (ls.time_s(), 0);
-        while ls.time_s() < t1 + cap_s {
-            ls.tick(&mut out, false);
-            meter.sample(&ls);
-            n += out
-                .drain(..)
-                .filter(|o| matches!(o, Output::Report(_)))
-                .count();
+        if !ls.monitor.establishing() {
+            watch_start = Some((ls.time_s(), ls.clone()));
         }
+        let t1 = ls.time_s();
+        let (n, a) = run_healthy(&mut ls, &mut meter, |l| l.time_s() < t1 + cap_s);
+        alarms += a;
         marks.push((ls.time_s(), meter.total_rad));
         window_reports.push(n);
     }
@@ -163,21 +156,45 @@ pub fn run_seed(
     let travel = window(0, reports.saturating_sub(1));
     let mut run = SeedRun {
         seed,
-        onset_s,
+        commissioned_s,
         commissioning_reports: reports,
-        alarms_before_onset: alarms,
+        healthy_alarms: alarms,
         travel,
         confirmation: (marks.len() > 2).then(|| window(1, window_reports[0])),
         watch: (marks.len() > 3).then(|| window(2, window_reports[1])),
+        watch_start_s: None,
         faults: Vec::new(),
     };
-    if let Some(t0) = onset_s {
+    if let Some((t1, at_watch)) = watch_start {
+        run.watch_start_s = Some(t1);
         run.faults = faults
             .iter()
-            .map(|f| run_fault(at_onset.clone(), f.fault, t0, cap_s))
+            .map(|f| run_fault(at_watch.clone(), f.fault, t1, cap_s))
             .collect();
     }
     Ok(run)
+}
+
+/// Ticks the healthy ship `ls` while `go` holds, its rudder travel on `meter`; returns the
+/// reports and the alarm notifications it made meanwhile.
+fn run_healthy(
+    ls: &mut Lockstep,
+    meter: &mut TravelMeter,
+    go: impl Fn(&Lockstep) -> bool,
+) -> (usize, usize) {
+    let (mut out, mut reports, mut alarms) = (Vec::new(), 0, 0);
+    while go(ls) {
+        ls.tick(&mut out, false);
+        meter.sample(ls);
+        for o in out.drain(..) {
+            match o {
+                Output::Report(_) => reports += 1,
+                Output::Notification(n) if n.state == AlarmState::Alarm => alarms += 1,
+                _ => {}
+            }
+        }
+    }
+    (reports, alarms)
 }
 
 /// Injects `fault` into the commissioned run `ls` at `t0` and runs to the first alarm or
@@ -247,7 +264,7 @@ mod tests {
 
     /// A gross fault is over the sequential test's single-test limit: the alarm comes at
     /// the first test after the onset, whichever method runs it. The test starts at least
-    /// `interval-s` after the previous end (the end of commissioning) and ends within
+    /// `interval-s` after the previous end (the end of the confirmation) and ends within
     /// `steady-time-s` + `max-test-duration-s` of that.
     #[test]
     fn a_gross_fault_alarms_at_the_first_test_after_the_onset() {
@@ -255,8 +272,8 @@ mod tests {
             let cfg = short();
             let parts = Parts::new(&cfg).unwrap();
             let run = run_seed(&cfg, &parts, &[gross()], SeaState::Calm, 7, 12.0 * 3600.0).unwrap();
-            assert!(run.onset_s.is_some(), "not commissioned");
-            assert_eq!(run.alarms_before_onset, 0);
+            assert!(run.commissioned_s.is_some(), "not commissioned");
+            assert_eq!(run.healthy_alarms, 0);
             let fr = &run.faults[0];
             let alarm = fr.alarm.as_ref().expect("no alarm");
             let k = 1usize;
@@ -291,7 +308,7 @@ mod tests {
         cfg.fdi.commissioning_tests = 5;
         let parts = Parts::new(&cfg).unwrap();
         let run = run_seed(&cfg, &parts, &[], SeaState::Calm, 7, 8.0 * 3600.0).unwrap();
-        assert!(run.onset_s.is_some(), "not commissioned");
+        assert!(run.commissioned_s.is_some(), "not commissioned");
         let sc = &cfg.scheduler;
         let cycle = |interval: f64| {
             let lo = interval.max(sc.steady_time_s);
@@ -332,7 +349,7 @@ mod tests {
         off.scheduler.enabled = false;
         let parts = Parts::new(&off).unwrap();
         let run = run_seed(&off, &parts, &[gross()], SeaState::Calm, 7, 3600.0).unwrap();
-        assert_eq!(run.onset_s, None);
+        assert_eq!(run.commissioned_s, None);
         assert_eq!(run.commissioning_reports, 0);
         assert!(run.faults.is_empty());
         assert!(run.travel.hours > 1.0);
@@ -342,7 +359,7 @@ mod tests {
 
         let on = short();
         let run = run_seed(&on, &parts, &[], SeaState::Calm, 7, 3600.0).unwrap();
-        assert!(run.onset_s.is_some());
+        assert!(run.commissioned_s.is_some());
         assert_eq!(run.travel.tests, run.commissioning_reports - 1);
         assert!(run.travel.added_deg_per_h() > 0.0, "{:?}", run.travel);
     }
