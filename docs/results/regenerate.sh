@@ -17,6 +17,8 @@ eval_fdi --seed 1 --scenarios envelope --onset-after 16 --runs 10 --nominal-runs
 for sea in calm moderate; do
   "$hw" bench --time-to-alarm --seed 1 --runs 12 --sea "$sea" --results "$out" "${cmp[@]}" >/dev/null
 done
+# One test's Cramer-Rao bound on (u, D) from its features, beside the networks' spread.
+"$hw" eval --crb --family --runs 100 --seed 1 --results "$out" >/dev/null
 # The decision on its own model against the budget (and without the Hotelling calibration).
 "$hw" eval --budget --seed 7 --results "$out" >/dev/null
 # Each mechanism of the decision off in turn (docs/fdi.md, "Mechanisms"), every set, small;

@@ -232,7 +232,12 @@ pub(crate) struct EvalArgs {
     /// DIR/budget-seed<SEED>.md.
     #[arg(long, conflicts_with = "fdi")]
     pub(crate) budget: bool,
-    /// With --fdi: runs per fault scenario.
+    /// Compute one test's Cramer-Rao bound on (u, D) from its features instead, per method
+    /// and sea at the nominal point, beside the networks' spread (`--runs` seeded tests per
+    /// point, from `--seed`); with --results DIR, written to DIR/crb-seed<SEED>.md.
+    #[arg(long, conflicts_with_all = ["fdi", "budget"])]
+    pub(crate) crb: bool,
+    /// With --fdi: runs per fault scenario; with --crb: seeded tests per point.
     #[arg(long, default_value_t = 60)]
     pub(crate) runs: usize,
     /// With --fdi: runs per nominal scenario (each of `--tests` tests).
@@ -258,7 +263,7 @@ pub(crate) struct EvalArgs {
     /// commissioning; half the runs at the corners of the speed and displacement box).
     #[arg(long)]
     pub(crate) family: bool,
-    /// With --fdi --family: only members whose name contains this.
+    /// With --fdi --family or --crb --family: only members whose name contains this.
     #[arg(long, value_name = "TEXT")]
     pub(crate) member: Option<String>,
     /// Worker threads (default: every core).

@@ -66,6 +66,7 @@ pub fn main() -> i32 {
         Command::Replay(a) => offline::replay(&cfg, a),
         Command::Eval(a) if a.fdi => offline::eval_fdi(&cfg, &a),
         Command::Eval(a) if a.budget => offline::eval_budget(&a),
+        Command::Eval(a) if a.crb => offline::eval_crb(&cfg, &a),
         Command::Run(a) => service::run_daemon(&cfg, a),
         Command::Ship(a) => service::ship(&cfg, a),
         Command::Demo(a) => service::demo(&cfg, a),

@@ -252,6 +252,31 @@ pub(crate) fn eval_budget(a: &EvalArgs) -> Result<(), Failure> {
     Ok(())
 }
 
+/// `eval --crb`: one test's Cramer-Rao bound beside the networks' spread, printed and with
+/// `--results DIR` written to `DIR/crb-seed<SEED>.md`.
+pub(crate) fn eval_crb(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
+    let threads = a
+        .threads
+        .unwrap_or_else(crate::tools::training::database::default_threads)
+        .max(1);
+    let o = crate::tools::eval::crb::CrbOptions {
+        tests: a.runs,
+        seed: a.seed,
+        threads,
+        family: a.family,
+        member: a.member.clone(),
+    };
+    let body = crate::tools::eval::crb::crb_table(cfg, &o);
+    print!("{body}");
+    if let Some(dir) = &a.results {
+        let name = format!("crb-seed{}", a.seed);
+        let path = crate::tools::results::write(dir, &name, a.seed, &body)
+            .map_err(|e| Failure::io(dir, e))?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
 /// The mechanisms `--ablate` names, one set per comma (`a+b`: both off together; `all`:
 /// every one alone); exit 64 naming the allowed ones.
 fn mechanisms(list: &str) -> Result<Vec<Vec<helmwatch_core::fdi::ablation::Mechanism>>, Failure> {

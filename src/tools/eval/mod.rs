@@ -3,5 +3,6 @@
 //! model against the budget ([`budget`], `helmwatch eval --budget`).
 
 pub mod budget;
+pub mod crb;
 pub mod estimator;
 pub mod fdi;
