@@ -242,10 +242,15 @@ pub(crate) fn eval_budget(a: &EvalArgs) -> Result<(), Failure> {
         .unwrap_or_else(crate::tools::training::database::default_threads)
         .max(1);
     let body = crate::tools::eval::budget::budget_table(a.seed, threads);
+    print_and_write(a, "budget", &body)
+}
+
+/// Prints `body`, and with `--results DIR` writes it to `DIR/<what>-seed<SEED>.md`.
+fn print_and_write(a: &EvalArgs, what: &str, body: &str) -> Result<(), Failure> {
     print!("{body}");
     if let Some(dir) = &a.results {
-        let name = format!("budget-seed{}", a.seed);
-        let path = crate::tools::results::write(dir, &name, a.seed, &body)
+        let name = format!("{what}-seed{}", a.seed);
+        let path = crate::tools::results::write(dir, &name, a.seed, body)
             .map_err(|e| Failure::io(dir, e))?;
         eprintln!("wrote {}", path.display());
     }
@@ -267,14 +272,7 @@ pub(crate) fn eval_crb(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
         member: a.member.clone(),
     };
     let body = crate::tools::eval::crb::crb_table(cfg, &o);
-    print!("{body}");
-    if let Some(dir) = &a.results {
-        let name = format!("crb-seed{}", a.seed);
-        let path = crate::tools::results::write(dir, &name, a.seed, &body)
-            .map_err(|e| Failure::io(dir, e))?;
-        eprintln!("wrote {}", path.display());
-    }
-    Ok(())
+    print_and_write(a, "crb", &body)
 }
 
 /// The mechanisms `--ablate` names, one set per comma (`a+b`: both off together; `all`:

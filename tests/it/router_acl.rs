@@ -157,27 +157,17 @@ impl Link {
         let ep = || format!("127.0.0.1:{}", free_loopback_port().unwrap());
         let (shore_tcp, shore_tls, ship_tcp) = (ep(), ep(), ep());
 
+        let tls = "transport/link/tls";
         let mut shore = deploy("zenoh-shore.json5");
-        set(
-            &mut shore,
-            "listen/endpoints",
-            serde_json::json!([format!("tcp/{shore_tcp}"), format!("tls/{shore_tls}")]),
-        );
-        set(
-            &mut shore,
-            "transport/link/tls/root_ca_certificate",
-            path(&pki.ca),
-        );
-        set(
-            &mut shore,
-            "transport/link/tls/listen_certificate",
-            path(&pki.shore.0),
-        );
-        set(
-            &mut shore,
-            "transport/link/tls/listen_private_key",
-            path(&pki.shore.1),
-        );
+        let listen = serde_json::json!([format!("tcp/{shore_tcp}"), format!("tls/{shore_tls}")]);
+        set(&mut shore, "listen/endpoints", listen);
+        for (key, file) in [
+            ("root_ca_certificate", &pki.ca),
+            ("listen_certificate", &pki.shore.0),
+            ("listen_private_key", &pki.shore.1),
+        ] {
+            set(&mut shore, &format!("{tls}/{key}"), path(file));
+        }
         let shore_router = zenoh::open(shore).await.unwrap();
 
         let mut ship = deploy("zenoh-router.json5");
@@ -186,26 +176,15 @@ impl Link {
             "listen/endpoints",
             serde_json::json!([format!("tcp/{ship_tcp}")]),
         );
-        set(
-            &mut ship,
-            "connect/endpoints",
-            serde_json::json!([format!("tls/{shore_tls}")]),
-        );
-        set(
-            &mut ship,
-            "transport/link/tls/root_ca_certificate",
-            path(&pki.ca),
-        );
-        set(
-            &mut ship,
-            "transport/link/tls/connect_certificate",
-            path(&pki.ship.0),
-        );
-        set(
-            &mut ship,
-            "transport/link/tls/connect_private_key",
-            path(&pki.ship.1),
-        );
+        let connect = serde_json::json!([format!("tls/{shore_tls}")]);
+        set(&mut ship, "connect/endpoints", connect);
+        for (key, file) in [
+            ("root_ca_certificate", &pki.ca),
+            ("connect_certificate", &pki.ship.0),
+            ("connect_private_key", &pki.ship.1),
+        ] {
+            set(&mut ship, &format!("{tls}/{key}"), path(file));
+        }
         let mut acl: Value =
             serde_json::from_str(&ship.get_json("access_control").unwrap()).unwrap();
         edit(&mut acl);
@@ -455,34 +434,11 @@ async fn the_shipped_router_lets_shore_read_and_trigger_and_nothing_else() {
     .await
     .unwrap();
     let heard = write_everything(&other, &listener).await;
-    let puts: BTreeSet<&str> = heard
-        .iter()
-        .filter_map(|h| h.strip_prefix("put "))
-        .collect();
-    let tokens: BTreeSet<&str> = heard
-        .iter()
-        .filter_map(|h| h.strip_prefix("token "))
-        .collect();
-    assert_eq!(
-        puts,
-        WRITTEN
-            .iter()
-            .map(|k| key(k))
-            .collect::<BTreeSet<_>>()
-            .iter()
-            .map(String::as_str)
-            .collect()
-    );
-    assert_eq!(
-        tokens,
-        TOKENS
-            .iter()
-            .map(|k| key(k))
-            .collect::<BTreeSet<_>>()
-            .iter()
-            .map(String::as_str)
-            .collect()
-    );
+    for (kind, suffixes) in [("put ", &WRITTEN[..]), ("token ", &TOKENS[..])] {
+        let got: BTreeSet<&str> = heard.iter().filter_map(|h| h.strip_prefix(kind)).collect();
+        let want: BTreeSet<String> = suffixes.iter().map(|k| key(k)).collect();
+        assert_eq!(got, want.iter().map(String::as_str).collect(), "{kind}");
+    }
     for k in ["fdi/commission", "fdi/history"] {
         assert_eq!(
             ask(&other, k).await,

@@ -238,19 +238,10 @@ pub fn crb_table(cfg: &Config, o: &CrbOptions) -> String {
         "| ship | method | sea | tests | features | bound u [m/s] | networks u [m/s] | dE[u^]/du | ratio u | bound D [t] | networks D [t] | dE[D^]/dD | ratio D |"
     );
     let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|---|---|---|---|");
-    let mut ships = vec![("configured".to_string(), cfg.clone())];
+    let mut ships = vec![("configured", cfg.clone())];
     if o.family {
-        for m in helmwatch_core::sim::config::family().iter().skip(1) {
-            if o.member
-                .as_ref()
-                .is_some_and(|w| !m.name.contains(w.as_str()))
-            {
-                continue;
-            }
-            let mut c = cfg.clone();
-            m.apply(&mut c.structure, &mut c.autopilot);
-            ships.push((m.name.to_string(), c));
-        }
+        let members = super::fdi::family_members(cfg, o.member.as_deref());
+        ships.extend(members.into_iter().map(|(_, name, c)| (name, c)));
     }
     for (name, cfg) in &ships {
         ship_rows(&mut out, name, cfg, o);

@@ -141,6 +141,21 @@ pub(super) struct Row<'a> {
 const ENVELOPE_INDEX: usize = 1000;
 const COMMISSIONING_INDEX: usize = 2000;
 
+/// The family of real ships (but the first-order ship, index 0), each as `(index in the
+/// family, name, cfg with its structure and autopilot)`; with `member`, only those whose name
+/// contains it.
+pub fn family_members(cfg: &Config, member: Option<&str>) -> Vec<(usize, &'static str, Config)> {
+    let members = helmwatch_core::sim::config::family();
+    (members.iter().enumerate().skip(1))
+        .filter(|(_, m)| member.is_none_or(|w| m.name.contains(w)))
+        .map(|(mi, m)| {
+            let mut c = cfg.clone();
+            m.apply(&mut c.structure, &mut c.autopilot);
+            (mi, m.name, c)
+        })
+        .collect()
+}
+
 /// The rows of one set: on the first-order ship, or on every member of the family of real
 /// ships (but the first-order ship) when `o.family`.
 fn rows<'a>(
@@ -151,19 +166,10 @@ fn rows<'a>(
 ) -> Vec<Row<'a>> {
     let mut rows = Vec::new();
     if o.family {
-        let members = helmwatch_core::sim::config::family();
-        for (mi, m) in members.iter().enumerate().skip(1) {
-            if o.member
-                .as_ref()
-                .is_some_and(|w| !m.name.contains(w.as_str()))
-            {
-                continue;
-            }
-            let mut c = cfg.clone();
-            m.apply(&mut c.structure, &mut c.autopilot);
+        for (mi, name, c) in family_members(cfg, o.member.as_deref()) {
             for (si, sc) in scs.iter().enumerate() {
                 rows.push(Row {
-                    label: format!("{}: {}", m.name, sc.name),
+                    label: format!("{name}: {}", sc.name),
                     scenario: sc,
                     cfg: c.clone(),
                     index: offset + mi * 16 + si,
