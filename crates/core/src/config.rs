@@ -4,6 +4,30 @@
 //! Each section of the file is defined beside the code that owns it (see
 //! docs/architecture.md); the file as a whole is [`crate::config::Config`].
 
+/// A name that is none of the allowed ones (a method, a sea state, a command-line choice),
+/// from a `FromStr`: "unknown {what} `{got}`: allowed {allowed}".
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown {what} `{got}`: allowed {allowed}")]
+pub struct UnknownName {
+    /// What was named (`method`, `sea state`, ...).
+    pub what: &'static str,
+    /// The name given.
+    pub got: String,
+    /// The allowed names, as the message lists them.
+    pub allowed: &'static str,
+}
+
+impl UnknownName {
+    /// `got` is no `what`; `allowed` lists the names.
+    pub fn new(what: &'static str, got: &str, allowed: &'static str) -> Self {
+        Self {
+            what,
+            got: got.to_string(),
+            allowed,
+        }
+    }
+}
+
 /// A configuration value outside its allowed range, or a file that does not parse.
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {

@@ -249,15 +249,13 @@ impl SeaState {
 }
 
 impl std::str::FromStr for SeaState {
-    type Err = String;
+    type Err = crate::config::UnknownName;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         match s {
             "calm" => Ok(SeaState::Calm),
             "moderate" => Ok(SeaState::Moderate),
             "rough" => Ok(SeaState::Rough),
-            other => Err(format!(
-                "unknown sea state `{other}`: allowed calm, moderate, rough"
-            )),
+            other => Err(Self::Err::new("sea state", other, "calm, moderate, rough")),
         }
     }
 }

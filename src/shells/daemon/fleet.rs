@@ -137,9 +137,11 @@ pub(super) async fn serve_controls(
                 (Control::Trigger, None) => Some(to_json(&refusal(
                     "missing parameter method=hbt|clfrt".into(),
                 ))),
-                (Control::Trigger, Some(Err(reason))) => Some(to_json(&refusal(reason.clone()))),
+                (Control::Trigger, Some(Err(reason))) => {
+                    Some(to_json(&refusal(reason.to_string())))
+                }
                 (Control::Commission, Some(Err(reason))) => {
-                    Some(to_json(&serde_json::json!({ "error": reason })))
+                    Some(to_json(&serde_json::json!({ "error": reason.to_string() })))
                 }
                 (Control::Trigger, Some(Ok(m))) => {
                     ask_vessel(&fleet, i, *m).await.map(|r| to_json(&r))

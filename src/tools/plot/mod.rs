@@ -67,15 +67,17 @@ impl InputKind {
 }
 
 impl std::str::FromStr for InputKind {
-    type Err = String;
+    type Err = helmwatch_core::config::UnknownName;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         match s {
             "report" => Ok(InputKind::Report),
             "history" => Ok(InputKind::History),
             "recording" => Ok(InputKind::Recording),
             "reference" => Ok(InputKind::Reference),
-            other => Err(format!(
-                "unknown kind {other:?}: report, history, recording or reference"
+            other => Err(Self::Err::new(
+                "kind",
+                other,
+                "report, history, recording, reference",
             )),
         }
     }

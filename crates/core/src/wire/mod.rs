@@ -336,12 +336,12 @@ impl Method {
 }
 
 impl std::str::FromStr for Method {
-    type Err = String;
+    type Err = crate::config::UnknownName;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         match s {
             "hbt" => Ok(Method::Hbt),
             "clfrt" => Ok(Method::Clfrt),
-            other => Err(format!("unknown method `{other}`: allowed hbt, clfrt")),
+            other => Err(Self::Err::new("method", other, "hbt, clfrt")),
         }
     }
 }

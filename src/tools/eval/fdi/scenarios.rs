@@ -36,15 +36,17 @@ impl ScenarioSet {
 }
 
 impl std::str::FromStr for ScenarioSet {
-    type Err = String;
+    type Err = helmwatch_core::config::UnknownName;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         match s {
             "classic" => Ok(ScenarioSet::Classic),
             "envelope" => Ok(ScenarioSet::Envelope),
             "commissioning" => Ok(ScenarioSet::Commissioning),
             "all" => Ok(ScenarioSet::All),
-            other => Err(format!(
-                "unknown scenario set `{other}`: allowed classic, envelope, commissioning, all"
+            other => Err(Self::Err::new(
+                "scenario set",
+                other,
+                "classic, envelope, commissioning, all",
             )),
         }
     }
