@@ -84,40 +84,25 @@ pub fn run_seed(
     let t_cap = t_start + commissioning_cap_s(cfg);
     let mut meter = TravelMeter::default();
     meter.sample(&ls);
-    let mut out = Vec::new();
-    let (mut reports, mut alarms) = (0usize, 0usize);
-    // Window start: the first report's end, and the meter's reading there.
-    let mut window_start: Option<(f64, f64)> = None;
-    let mut commissioned_s = None;
-    while commissioned_s.is_none() && ls.time_s() < t_cap {
-        ls.tick(&mut out, false);
-        meter.sample(&ls);
-        for o in out.drain(..) {
-            match o {
-                Output::Report(_) => {
-                    reports += 1;
-                    if window_start.is_none() {
-                        window_start = Some((ls.time_s(), meter.total_rad));
-                    }
-                    if ls.monitor.commissioned() && commissioned_s.is_none() {
-                        commissioned_s = Some(ls.time_s());
-                    }
-                }
-                Output::Notification(n) if n.state == AlarmState::Alarm => alarms += 1,
-                _ => {}
-            }
-        }
-    }
+    // Commissioning: to the first report (the window's start), then to both methods
+    // commissioned; then the confirmation (at the commissioning cadence) and `cap_s` of the
+    // watch. Each window's end with the meter's reading there and its reports.
+    let (first, mut alarms) = run_healthy(&mut ls, &mut meter, |l, n| n == 0 && l.time_s() < t_cap);
+    let window_start = (first > 0).then(|| (ls.time_s(), meter.total_rad));
+    let (more, a) = run_healthy(&mut ls, &mut meter, |l, _| {
+        !l.monitor.commissioned() && l.time_s() < t_cap
+    });
+    alarms += a;
+    let reports = first + more;
+    let commissioned_s = (reports > 0 && ls.monitor.commissioned()).then(|| ls.time_s());
     let t_end = ls.time_s();
     let (t_a, travel_a) = window_start.unwrap_or((t_start, 0.0));
-    // The healthy ship on: the confirmation (at the commissioning cadence), then `cap_s` of
-    // the watch, each window's end with the meter's reading there and its reports.
     let mut marks = vec![(t_a, travel_a), (t_end, meter.total_rad)];
     let mut window_reports = Vec::new();
     let mut watch_start = None;
     if commissioned_s.is_some() {
         let t_confirm_cap = t_end + (t_cap - t_start);
-        let (n, a) = run_healthy(&mut ls, &mut meter, |l| {
+        let (n, a) = run_healthy(&mut ls, &mut meter, |l, _| {
             l.monitor.establishing() && l.time_s() < t_confirm_cap
         });
         alarms += a;
@@ -127,12 +112,13 @@ pub fn run_seed(
             watch_start = Some((ls.time_s(), ls.clone()));
         }
         let t1 = ls.time_s();
-        let (n, a) = run_healthy(&mut ls, &mut meter, |l| l.time_s() < t1 + cap_s);
+        let (n, a) = run_healthy(&mut ls, &mut meter, |l, _| l.time_s() < t1 + cap_s);
         alarms += a;
         marks.push((ls.time_s(), meter.total_rad));
         window_reports.push(n);
     }
     // The autopilot alone: the same ship, the scheduler off, read at the same moments.
+    let mut out = Vec::new();
     let mut off_cfg = cfg.clone();
     off_cfg.scheduler.enabled = false;
     let mut off = build(&off_cfg)?;
@@ -175,15 +161,15 @@ pub fn run_seed(
     Ok(run)
 }
 
-/// Ticks the healthy ship `ls` while `go` holds, its rudder travel on `meter`; returns the
-/// reports and the alarm notifications it made meanwhile.
+/// Ticks the healthy ship `ls` while `go(ls, reports so far)` holds, its rudder travel on
+/// `meter`; returns the reports and the alarm notifications it made meanwhile.
 fn run_healthy(
     ls: &mut Lockstep,
     meter: &mut TravelMeter,
-    go: impl Fn(&Lockstep) -> bool,
+    go: impl Fn(&Lockstep, usize) -> bool,
 ) -> (usize, usize) {
     let (mut out, mut reports, mut alarms) = (Vec::new(), 0, 0);
-    while go(ls) {
+    while go(ls, reports) {
         ls.tick(&mut out, false);
         meter.sample(ls);
         for o in out.drain(..) {

@@ -259,6 +259,7 @@ impl Fdi {
             self.last_notification = Some(n.clone());
         }
         Assessment {
+            calibrated_estimate: report::calibrated_estimate(&residuals),
             residuals,
             decision,
             isolation,

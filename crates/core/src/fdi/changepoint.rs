@@ -116,13 +116,13 @@ fn confirmation_sample(x: &MethodReference, env: &Envelope) -> Vec<Sample> {
         .collect()
 }
 
-/// Nothing forgotten (`reference::MEMORY_TESTS`): the commissioning tests come first.
 /// `x`'s confirmation still runs: commissioned, nothing forgotten, and its sample short of
 /// twice its commissioning tests (the confirmation's last evaluation is at `2 k`).
 pub fn confirming(x: &MethodReference) -> bool {
     x.phase == Phase::Learning && intact(x) && x.samples.len() < 2 * x.tests as usize
 }
 
+/// Nothing forgotten (`reference::MEMORY_TESTS`): the commissioning tests come first.
 fn intact(x: &MethodReference) -> bool {
     x.samples.len() == (x.tests + x.learned) as usize
 }

@@ -67,6 +67,9 @@ pub struct Assessment {
     pub decision: Decision,
     /// The report's `isolation`.
     pub isolation: Vec<Cause>,
+    /// The report's `calibrated_estimate`: the estimate corrected by the vessel's learned
+    /// offset (`None` before the vessel's own reference).
+    pub calibrated_estimate: Option<crate::wire::CalibratedEstimate>,
     /// A sentence for the report's message.
     pub summary: String,
     /// The notification to publish, when the vessel's alarm state changed.

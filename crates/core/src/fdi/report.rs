@@ -5,14 +5,16 @@ use super::fit::ModelFit;
 use super::limits::DecisionLimits;
 use super::measured::Measured;
 use super::raw::lerp;
-use super::stats::{dot, P};
+use super::stats::{dot, normal_isf, P};
 use crate::baseline::config::BaselineConfig;
 use crate::model::ShipConfig;
 use crate::monitor::config::CoreConfig;
 use crate::wire::residuals::{
-    BaselineReport, ModelMismatch, ParameterResiduals, Residuals, TrackState,
+    BaselineReport, ModelMismatch, ParameterResiduals, ReferenceKind, Residuals, TrackState,
 };
-use crate::wire::{AlarmState, Cause, Decision, Features, Method, Notification};
+use crate::wire::{
+    AlarmState, CalibratedEstimate, Cause, Decision, Features, Method, Notification,
+};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
@@ -335,4 +337,33 @@ pub(super) fn parameter_report(m: &Measured, z: [f64; P], d_nom_t: f64) -> Param
         dof: m.dim,
         noise_ratio: (m.noise_ratio > 1.0).then_some(m.noise_ratio),
     }
+}
+
+/// The report's `calibrated_estimate` from its `residuals` (`crate::wire::CalibratedEstimate`
+/// states the model): `None` without a speed log, parameter residuals or the vessel's own
+/// reference.
+pub(super) fn calibrated_estimate(r: &Residuals) -> Option<CalibratedEstimate> {
+    let reference = r.reference.as_ref()?.kind;
+    if !matches!(
+        reference,
+        ReferenceKind::Commissioned | ReferenceKind::Predicted
+    ) {
+        return None;
+    }
+    let p = r.parameters.as_ref()?;
+    let u = r.raw.as_ref()?.speed_log_mps + p.speed_mps;
+    let d = r.displacement_nominal_t? + p.displacement_t;
+    let z = normal_isf(0.025);
+    let interval = |x: f64, sd: f64| [x - z * sd, x + z * sd];
+    let c = CalibratedEstimate {
+        speed_mps: u,
+        speed_interval_mps: interval(u, p.speed_sigma_mps),
+        displacement_t: d,
+        displacement_interval_t: interval(d, p.displacement_sigma_t),
+        reference,
+    };
+    (c.speed_interval_mps.iter())
+        .chain(&c.displacement_interval_t)
+        .all(|x| x.is_finite())
+        .then_some(c)
 }

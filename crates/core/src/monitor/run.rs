@@ -5,7 +5,7 @@
 
 use super::*;
 use crate::fdi::Assessment;
-use crate::wire::{CalibratedEstimate, Estimate};
+use crate::wire::Estimate;
 
 /// How a test ended, for its report: the outcome, the abort's reason, the features, the
 /// message, and for a completed test the estimate and the FDI's assessment.
@@ -90,9 +90,7 @@ impl Monitor {
             reason: reason.clone(),
             features,
             estimate,
-            calibrated_estimate: assessment
-                .as_ref()
-                .and_then(|a| CalibratedEstimate::from_residuals(&a.residuals)),
+            calibrated_estimate: assessment.as_ref().and_then(|a| a.calibrated_estimate),
             residuals: assessment
                 .as_ref()
                 .map_or_else(Default::default, |a| a.residuals.clone()),
@@ -200,7 +198,7 @@ impl Monitor {
                         "networks' estimate {:.2} m/s, {:.0} t",
                         e.speed_mps, e.displacement_t
                     );
-                    let text = match CalibratedEstimate::from_residuals(&a.residuals) {
+                    let text = match &a.calibrated_estimate {
                         Some(c) => format!("{raw}, {}", c.sentence()),
                         None => format!("{raw} (raw: no vessel reference)"),
                     };

@@ -87,7 +87,8 @@ pub struct Estimate {
 /// vessel's own reference (`commissioned` or `predicted`): before it (the design's, or
 /// commissioning's wide limits) there is no offset to correct by, and the report carries
 /// `null`. A speed-log fault leaves `u_cal` at the speed through the water the hull shows
-/// (the log cancels out of `u_log + r_u`).
+/// (the log cancels out of `u_log + r_u`). Made by the FDI with the report's residuals
+/// (`crate::fdi::report::calibrated_estimate`).
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
 pub struct CalibratedEstimate {
     /// `u_cal` [m/s].
@@ -103,37 +104,7 @@ pub struct CalibratedEstimate {
     pub reference: residuals::ReferenceKind,
 }
 
-/// The two-sided 95 % normal quantile.
-const Z95: f64 = 1.959_963_984_540_054;
-
 impl CalibratedEstimate {
-    /// From a report's residuals: `None` without a speed log, parameter residuals or the
-    /// vessel's own reference.
-    pub fn from_residuals(r: &residuals::Residuals) -> Option<Self> {
-        let reference = r.reference.as_ref()?.kind;
-        if !matches!(
-            reference,
-            residuals::ReferenceKind::Commissioned | residuals::ReferenceKind::Predicted
-        ) {
-            return None;
-        }
-        let p = r.parameters.as_ref()?;
-        let u = r.raw.as_ref()?.speed_log_mps + p.speed_mps;
-        let d = r.displacement_nominal_t? + p.displacement_t;
-        let interval = |x: f64, sd: f64| [x - Z95 * sd, x + Z95 * sd];
-        let c = Self {
-            speed_mps: u,
-            speed_interval_mps: interval(u, p.speed_sigma_mps),
-            displacement_t: d,
-            displacement_interval_t: interval(d, p.displacement_sigma_t),
-            reference,
-        };
-        (c.speed_interval_mps.iter())
-            .chain(&c.displacement_interval_t)
-            .all(|x| x.is_finite())
-            .then_some(c)
-    }
-
     /// The message's words: `calibrated to the vessel 7.02 m/s (6.81..7.23), 7010 t
     /// (6890..7130)`.
     pub fn sentence(&self) -> String {
