@@ -16,6 +16,9 @@ eval_fdi --seed 1 --scenarios commissioning --runs 20 --nominal-runs 20 --tests 
 eval_fdi --seed 1 --scenarios envelope --onset-after 16 --runs 10 --nominal-runs 10 --tests 4
 for sea in calm moderate; do
   "$hw" bench --time-to-alarm --seed 1 --runs 12 --sea "$sea" --results "$out" "${cmp[@]}" >/dev/null
+  # What the class's prior buys: the same without it.
+  "$hw" bench --time-to-alarm --seed 1 --runs 12 --sea "$sea" --ablate class-prior \
+    --results "$out/ablation" >/dev/null
 done
 # One test's Cramer-Rao bound on (u, D) from its features, beside the networks' spread.
 "$hw" eval --crb --family --runs 100 --seed 1 --results "$out" >/dev/null

@@ -206,6 +206,11 @@ pub(crate) struct TrainArgs {
     /// damping, dead band, backlash, fixed-gain autopilot; docs/estimator.md).
     #[arg(long)]
     pub(crate) family: bool,
+    /// Keep the networks in `--out`: measure only their calibration's healthy scatter on the
+    /// class (seeded repeats at fixed points; docs/fdi.md, "The class's prior") and rewrite
+    /// its `calibration.json`.
+    #[arg(long)]
+    pub(crate) calibrate: bool,
 }
 
 #[derive(Debug, Args)]
@@ -419,6 +424,10 @@ pub(crate) struct BenchArgs {
     /// tables (the before-and-after pair).
     #[arg(long, value_name = "DIR")]
     pub(crate) compare: Option<PathBuf>,
+    /// With --time-to-alarm: switch these decision mechanisms off (`a+b`: both; the names
+    /// of `eval --fdi --ablate`); the file is named `...-<names>-off`.
+    #[arg(long, value_name = "MECHANISMS")]
+    pub(crate) ablate: Option<String>,
 }
 
 /// The simulated ship of one run.

@@ -64,6 +64,8 @@ pub struct TrainOptions {
     pub threads: Option<usize>,
     /// Draw every point's ship from the family of real ships.
     pub family: bool,
+    /// Measure only the calibration of the networks in `out`.
+    pub calibrate: bool,
 }
 
 /// Options of `helmwatch eval`.
@@ -141,6 +143,9 @@ fn print_failures(db: &Database) {
 pub(crate) fn train(cfg: &Config, o: &TrainOptions) -> Result<(), Failure> {
     let t0 = Instant::now();
     let threads = o.threads.unwrap_or_else(default_threads).max(1);
+    if o.calibrate {
+        return recalibrate(cfg, o, threads);
+    }
     let spec = DatabaseSpec {
         family: o.family,
         ..training_spec(o.seed, o.points)
@@ -173,17 +178,13 @@ pub(crate) fn train(cfg: &Config, o: &TrainOptions) -> Result<(), Failure> {
     // The calibration beside the networks (measured where the database can, the rest
     // carried from the shipped models'): tools::training::calibrate.
     let calibration = crate::tools::training::calibrate::calibrate(&db, &cfg.core().calibration);
-    let mut json = serde_json::to_string_pretty(&calibration).map_err(Failure::software)?;
-    json.push('\n');
-    for dir in &dirs {
-        let path = dir.join(helmwatch_core::estimator::CALIBRATION_FILE);
-        crate::tools::results::write_atomic(&path, json.as_bytes())
-            .map_err(|e| Failure::io(&path, e))?;
-    }
+    write_calibration(&dirs, &calibration)?;
     println!(
         "calibration: sea index anchors {:.4} / {:.4} deg (the median wave yaw in a calm / moderate sea)",
         calibration.sea_wave_yaw_deg[0], calibration.sea_wave_yaw_deg[1]
     );
+    // The healthy scatter through the networks just written (`--calibrate` alone redoes it).
+    recalibrate(cfg, o, threads)?;
     println!();
     println!("| model | trainer | inputs | epochs (kept) | stop | MSE train | MSE validation | MSE test | RMSE test | residual std calm / moderate | file |");
     println!("|---|---|---:|---:|---|---:|---:|---:|---:|---|---|");
@@ -490,4 +491,59 @@ fn print_family(
             }
         }
     }
+}
+
+/// Writes `calibration` into each of `dirs` (atomically).
+fn write_calibration(
+    dirs: &[PathBuf],
+    calibration: &helmwatch_core::fdi::config::Calibration,
+) -> Result<(), Failure> {
+    let mut json = serde_json::to_string_pretty(calibration).map_err(Failure::software)?;
+    json.push('\n');
+    for dir in dirs {
+        let path = dir.join(helmwatch_core::estimator::CALIBRATION_FILE);
+        crate::tools::results::write_atomic(&path, json.as_bytes())
+            .map_err(|e| Failure::io(&path, e))?;
+    }
+    Ok(())
+}
+
+/// `train --calibrate`: the healthy scatter of the networks in `o.out` on the class
+/// (`tools::training::calibrate::healthy_scatter`), into its `calibration.json`.
+fn recalibrate(cfg: &Config, o: &TrainOptions, threads: usize) -> Result<(), Failure> {
+    let t0 = Instant::now();
+    let estimator = Estimator::load_dir(&o.out, &cfg.core())?;
+    let mut calibration = estimator.calibration().clone();
+    let prior = crate::tools::training::calibrate::healthy_scatter(
+        cfg,
+        std::sync::Arc::new(estimator),
+        o.family,
+        o.seed,
+        threads,
+    )
+    .ok_or_else(|| {
+        Failure::software(anyhow::anyhow!(
+            "too few completed tests to measure the healthy scatter"
+        ))
+    })?;
+    calibration.healthy_scatter = Some(prior);
+    write_calibration(std::slice::from_ref(&o.out), &calibration)?;
+    for (name, c) in [("clfrt", prior.clfrt), ("hbt", prior.hbt)] {
+        let v = |p: [[f64; 3]; 3]| {
+            (0..3)
+                .map(|j| format!("{:.3}", p[j][j].sqrt()))
+                .collect::<Vec<_>>()
+        };
+        println!(
+            "healthy scatter {name}: sd in design spreads calm {:?}, moderate {:?}, weight {:?} dof",
+            v(c.calm),
+            v(c.moderate),
+            c.dof.map(|w| format!("{w:.1}"))
+        );
+    }
+    println!(
+        "healthy scatter measured in {:.1} s",
+        t0.elapsed().as_secs_f64()
+    );
+    Ok(())
 }

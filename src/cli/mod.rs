@@ -144,6 +144,7 @@ impl From<TrainArgs> for TrainOptions {
             restarts: a.restarts,
             threads: a.threads,
             family: a.family,
+            calibrate: a.calibrate,
         }
     }
 }

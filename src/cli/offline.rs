@@ -277,7 +277,9 @@ pub(crate) fn eval_crb(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
 
 /// The mechanisms `--ablate` names, one set per comma (`a+b`: both off together; `all`:
 /// every one alone); exit 64 naming the allowed ones.
-fn mechanisms(list: &str) -> Result<Vec<Vec<helmwatch_core::fdi::ablation::Mechanism>>, Failure> {
+pub(crate) fn mechanisms(
+    list: &str,
+) -> Result<Vec<Vec<helmwatch_core::fdi::ablation::Mechanism>>, Failure> {
     use helmwatch_core::fdi::ablation::Mechanism;
     if list == "all" {
         return Ok(Mechanism::ALL.iter().map(|&m| vec![m]).collect());

@@ -171,6 +171,7 @@ pub(crate) fn bench(cfg: &Config, config: Option<&Path>, a: BenchArgs) -> Result
 /// a run fails.
 fn time_to_alarm(cfg: &Config, a: &BenchArgs) -> Result<(), Failure> {
     use crate::tools::time_to_alarm::{bench_faults, print, run, TimeToAlarmOptions};
+    use std::io::Write as _;
     let usage = |e: helmwatch_core::config::ConfigError| Failure::Usage(e.into());
     for &i in &a.intervals {
         helmwatch_core::config::check_range("--intervals", i, 0.0, 30.0 * 86400.0)
@@ -194,13 +195,44 @@ fn time_to_alarm(cfg: &Config, a: &BenchArgs) -> Result<(), Failure> {
             .unwrap_or_else(crate::tools::training::database::default_threads)
             .max(1),
     };
+    let off = match &a.ablate {
+        Some(list) => {
+            let sets = super::offline::mechanisms(list)?;
+            match <[_; 1]>::try_from(sets) {
+                Ok([set]) => set,
+                Err(_) => {
+                    return Err(Failure::Usage(anyhow::anyhow!(
+                        "--ablate: one set of mechanisms (a+b), not a list"
+                    )))
+                }
+            }
+        }
+        None => Vec::new(),
+    };
+    helmwatch_core::fdi::ablation::switch_off(&off);
     let faults = bench_faults().map_err(|e| Failure::Software(anyhow::anyhow!(e)))?;
     let started = std::time::Instant::now();
-    let per = run(cfg, &o, &faults).map_err(Failure::software)?;
+    let per = run(cfg, &o, &faults).map_err(Failure::software);
+    helmwatch_core::fdi::ablation::switch_off(&[]);
+    let per = per?;
     let mut out = Vec::new();
+    if !off.is_empty() {
+        let names: Vec<&str> = off.iter().map(|m| m.name()).collect();
+        let _ = writeln!(out, "Mechanisms off: {}\n", names.join(", "));
+    }
     print(cfg, &o, &faults, &per, &mut out).map_err(|e| Failure::Write(e.into()))?;
     let mut text = String::from_utf8_lossy(&out).into_owned();
-    let name = format!("time-to-alarm-{}-seed{}", o.sea.name(), o.seed);
+    let suffix: String = off.iter().map(|m| format!("-{}", m.name())).collect();
+    let name = format!(
+        "time-to-alarm-{}-seed{}{}",
+        o.sea.name(),
+        o.seed,
+        if off.is_empty() {
+            String::new()
+        } else {
+            format!("{suffix}-off")
+        }
+    );
     if let Some(dir) = &a.compare {
         let path = dir.join(format!("{name}.md"));
         let before = std::fs::read_to_string(&path).map_err(|e| Failure::io(&path, e))?;

@@ -462,6 +462,7 @@ fn a_state_file_plots_the_learned_reference_with_one_point_per_learned_test() {
         speed_slope: [0.0; 3],
         loading_slope: [0.0; 3],
         meas: None,
+        log_slope: 0.0,
     };
     let wobble = [0.0, 0.03, -0.03, 0.02, -0.02, 0.01, -0.01, 0.015];
     // The vessel's test numbers order the samples (`MethodReference::add`'s third argument).

@@ -4,7 +4,7 @@
 //! (`core::fdi::budget::SCAN`).
 
 use helmwatch_core::fdi::ablation::{switch_off, Mechanism};
-use helmwatch_core::fdi::budget::{run, SCAN};
+use helmwatch_core::fdi::budget::{run, PriorCase, PRIOR_SCAN, PRIOR_WEIGHT, SCAN};
 use std::fmt::Write;
 
 /// The mechanisms switched off for the small-sample cells (K = 8, no floors): the one that
@@ -65,5 +65,48 @@ pub fn budget_table(seed: u64, threads: usize) -> String {
     for m in ABLATED {
         rows(&format!("{} off", m.name()), &[m], true, &mut out);
     }
+    prior_rows(seed, threads, &mut out);
     out
+}
+
+/// The cells with the class's prior for the scatter (`core::fdi::budget::PRIOR_SCAN`).
+fn prior_rows(seed: u64, threads: usize, out: &mut String) {
+    let _ = writeln!(
+        out,
+        "\n## With the class's prior for the scatter\n\n\
+         The prior of {PRIOR_WEIGHT:?} dof per component (e_u, e_D, e_b) about the scatter \
+         above. `from the prior`: each vessel's variances drawn from it (the model it \
+         states); `3x noisier`: every vessel three times the prior's centre, which the \
+         scatter test must find (prior dropped) or pay for in false alarms. Learning as the \
+         daemon learns; no floors.\n"
+    );
+    let _ = writeln!(
+        out,
+        "| vessels | K | budget / year | tests | alarms | ratio | 95 % interval |"
+    );
+    let _ = writeln!(out, "|---|---|---|---|---|---|---|");
+    for cell in PRIOR_SCAN {
+        let kind = match cell.prior {
+            PriorCase::Off => "no prior".to_string(),
+            PriorCase::Class => "from the prior".to_string(),
+            PriorCase::Noisier(k) => format!("{k}x noisier"),
+        };
+        let line = match run(&cell, seed, threads) {
+            Some(o) => {
+                let [lo, hi] = o.ratio_interval();
+                format!(
+                    "{} | {} | {:.3} | {lo:.2} .. {hi:.2}",
+                    o.decided,
+                    o.alarms,
+                    o.ratio()
+                )
+            }
+            None => "refused | - | - | -".into(),
+        };
+        let _ = writeln!(
+            out,
+            "| {kind} | {} | {} | {line} |",
+            cell.commissioning_tests, cell.budget_per_year
+        );
+    }
 }

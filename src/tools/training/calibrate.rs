@@ -9,10 +9,23 @@
 //! describe hulls and servos beyond the simulated class (the commissioning spreads, the
 //! servo's spread, the slope priors), which one class's simulations cannot measure.
 
-use super::database::Database;
+use super::database::{design, par_map, Database, DatabaseSpec, Point, Purpose};
+use crate::config::Config;
+use helmwatch_core::drivers::probe::{run_probe, ProbeOptions};
+use helmwatch_core::estimator::Estimator;
 use helmwatch_core::fdi::config::Calibration;
-use helmwatch_core::fdi::stats::median;
+use helmwatch_core::fdi::prior::{ClassScatter, PointVariance, ScatterPrior};
+use helmwatch_core::fdi::stats::{median, Cov, P};
 use helmwatch_core::model::SeaState;
+use helmwatch_core::monitor::Monitor;
+use helmwatch_core::sim::Scenario;
+use helmwatch_core::wire::{Method, Outcome};
+use std::sync::Arc;
+
+/// Operating points per sea the healthy scatter is measured at.
+pub const SCATTER_POINTS: usize = 60;
+/// Seeded repeats at each: the scatter of one vessel at one point.
+pub const SCATTER_REPEATS: usize = 10;
 
 /// The median wave yaw [deg] of the completed tests of `db` in `sea`, both methods.
 pub fn wave_yaw_deg(db: &Database, sea: SeaState) -> f64 {
@@ -53,6 +66,176 @@ pub fn calibrate(db: &Database, base: &Calibration) -> Calibration {
         c.sea_wave_yaw_deg = measured;
     }
     c
+}
+
+/// One healthy test's residual `e` and design spreads `s` (`None`: not completed, or a
+/// component missing).
+fn residual(
+    cfg: &Config,
+    point: &Point,
+    seed: u64,
+    opts: &ProbeOptions,
+) -> Option<([f64; P], [f64; P])> {
+    let sc = Scenario {
+        speed_mps: point.speed_mps,
+        displacement_t: point.displacement_t,
+        sea: point.sea,
+        faults: Vec::new(),
+        seed,
+    };
+    let mut sim = cfg.sim();
+    if let Some(m) = &point.ship {
+        m.apply(&mut sim.structure, &mut sim.autopilot);
+    }
+    let r = run_probe(&cfg.core(), &sim, &sc, opts).ok()?.report;
+    if r.outcome != Outcome::Completed {
+        return None;
+    }
+    let raw = r.residuals.raw?;
+    let e = [raw.speed_mps, raw.displacement, raw.ln_gain?];
+    let s = [
+        raw.speed_sigma_mps,
+        raw.displacement_sigma,
+        raw.displacement_sigma,
+    ];
+    e.iter().chain(&s).all(|v| v.is_finite()).then_some((e, s))
+}
+
+/// A point's tests in design-spread units: each residual over the point's median spread
+/// (the spreads follow each test's measured sea; the scatter at one point is that of `e`).
+fn normalised(tests: &[([f64; P], [f64; P])]) -> Vec<[f64; P]> {
+    let s: [f64; P] = std::array::from_fn(|j| {
+        let mut v: Vec<f64> = tests.iter().map(|t| t.1[j]).collect();
+        median(&mut v)
+    });
+    tests
+        .iter()
+        .map(|(e, _)| std::array::from_fn(|j| e[j] / s[j]))
+        .collect()
+}
+
+/// The scatter matrix about their mean and its dof of one point's repeats.
+fn scatter(zs: &[[f64; P]]) -> Option<(Cov, f64)> {
+    let n = zs.len();
+    if n < 3 {
+        return None;
+    }
+    let mean: [f64; P] = std::array::from_fn(|j| zs.iter().map(|z| z[j]).sum::<f64>() / n as f64);
+    let mut a = [[0.0; P]; P];
+    for z in zs {
+        for (i, row) in a.iter_mut().enumerate() {
+            for (j, v) in row.iter_mut().enumerate() {
+                *v += (z[i] - mean[i]) * (z[j] - mean[j]);
+            }
+        }
+    }
+    Some((Cov(a), (n - 1) as f64))
+}
+
+/// The class prior of one method and sea from each point's repeats (`fdi::prior`): `Psi`,
+/// the pooled within-point covariance, and its weight (`ClassScatter::weight`).
+fn pooled(points: &[Vec<[f64; P]>]) -> Option<(Cov, [f64; P])> {
+    let per: Vec<(&Vec<[f64; P]>, Cov, f64)> = points
+        .iter()
+        .filter_map(|z| scatter(z).map(|(a, d)| (z, a, d)))
+        .collect();
+    let total: f64 = per.iter().map(|p| p.2).sum();
+    if per.len() < 2 {
+        return None;
+    }
+    let psi = per
+        .iter()
+        .fold(Cov::default(), |acc, p| acc.plus(p.1))
+        .times(1.0 / total);
+    let components: [(Vec<PointVariance>, f64); P] = std::array::from_fn(|j| {
+        let vars: Vec<PointVariance> = per
+            .iter()
+            .map(|(z, a, d)| (a.at(j, j) / d, *d, z.len() as f64))
+            .collect();
+        // The excess kurtosis of the tests about their point, each in its point's own
+        // units (the points' scales differ).
+        let (mut m4, mut m2) = (0.0, 0.0);
+        for (z, a, d) in &per {
+            let v = a.at(j, j) / d;
+            let mean = z.iter().map(|x| x[j]).sum::<f64>() / z.len() as f64;
+            for x in z.iter() {
+                let u = (x[j] - mean).powi(2) / v;
+                m2 += u;
+                m4 += u * u;
+            }
+        }
+        // Less the normal's own at that many repeats (`3 (R - 1) / (R + 1)`: a point's
+        // kurtosis in its own units is biased low).
+        let n = per.iter().map(|p| p.0.len()).sum::<usize>() as f64;
+        let r = n / per.len() as f64;
+        (
+            vars,
+            (m4 / n) / (m2 / n).powi(2) - 3.0 * (r - 1.0) / (r + 1.0),
+        )
+    });
+    Some((psi, ClassScatter::weight(&components, total)))
+}
+
+/// The estimator's healthy scatter on the class (`helmwatch_core::fdi::prior`): per sea,
+/// [`SCATTER_POINTS`] operating points of their own Latin hypercube (each its own ship of
+/// the family with `family`), [`SCATTER_REPEATS`] seeded tests of each method at each;
+/// `Psi` the pooled within-point covariance of `z = e / s`, `nu_0` from how the points'
+/// scale moves (`ClassScatter::weight`), the smaller of the two seas'.
+pub fn healthy_scatter(
+    cfg: &Config,
+    estimator: Arc<Estimator>,
+    family: bool,
+    seed: u64,
+    threads: usize,
+) -> Option<ScatterPrior> {
+    let spec = DatabaseSpec {
+        seed,
+        purpose: Purpose::Scatter,
+        points_per_sea: SCATTER_POINTS,
+        seas: vec![SeaState::Calm, SeaState::Moderate],
+        methods: vec![Method::Clfrt, Method::Hbt],
+        faults: Vec::new(),
+        family,
+    };
+    let points = design(cfg, &spec);
+    let core = cfg.core();
+    let multisine = Monitor::design_multisine(&core).ok();
+    let per_method = |method: Method| -> Option<ClassScatter> {
+        let mut opts = ProbeOptions::new(&core, method);
+        opts.estimator = Some(estimator.clone());
+        opts.multisine = multisine.clone();
+        let jobs = points.len() * SCATTER_REPEATS;
+        let z = par_map(jobs, threads, |j| {
+            let p = &points[j / SCATTER_REPEATS];
+            let k = (j % SCATTER_REPEATS) as u64;
+            residual(cfg, p, p.seed.wrapping_add(k), &opts)
+        });
+        let sea = |s: SeaState| -> Option<(Cov, [f64; P])> {
+            let groups: Vec<Vec<[f64; P]>> = (0..points.len())
+                .filter(|&i| points[i].sea == s)
+                .map(|i| {
+                    let tests: Vec<([f64; P], [f64; P])> = z
+                        [i * SCATTER_REPEATS..(i + 1) * SCATTER_REPEATS]
+                        .iter()
+                        .flatten()
+                        .copied()
+                        .collect();
+                    normalised(&tests)
+                })
+                .collect();
+            pooled(&groups)
+        };
+        let (calm, moderate) = (sea(SeaState::Calm)?, sea(SeaState::Moderate)?);
+        Some(ClassScatter {
+            calm: calm.0 .0,
+            moderate: moderate.0 .0,
+            dof: std::array::from_fn(|j| calm.1[j].min(moderate.1[j])),
+        })
+    };
+    Some(ScatterPrior {
+        clfrt: per_method(Method::Clfrt)?,
+        hbt: per_method(Method::Hbt)?,
+    })
 }
 
 #[cfg(test)]

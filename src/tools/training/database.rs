@@ -47,6 +47,8 @@ pub enum Purpose {
     Training,
     /// A held-out evaluation database, independent of the training one.
     Evaluation,
+    /// The points the estimator's healthy scatter is measured at (`calibrate`).
+    Scatter,
 }
 
 impl Purpose {
@@ -54,6 +56,7 @@ impl Purpose {
         let p = match self {
             Purpose::Training => 1,
             Purpose::Evaluation => 2,
+            Purpose::Scatter => 3,
         };
         let s = match sea {
             SeaState::Calm => 1,

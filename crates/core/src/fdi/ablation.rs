@@ -28,6 +28,9 @@ pub enum Mechanism {
     EnvelopeSlopes,
     /// Off: the whitened residual is not mapped from Hotelling's tail onto the chi-square's.
     HotellingCalibration,
+    /// Off: no class prior for the scatter: the vessel's own tests alone (Hotelling-wide
+    /// after a few).
+    ClassPrior,
     /// Off: no test of the commissioning sample for a change inside it, neither when it
     /// completes nor as the tests after it are learned.
     CommissioningCheck,
@@ -48,7 +51,7 @@ pub enum Mechanism {
 
 impl Mechanism {
     /// Every mechanism, in the order of a test's evidence.
-    pub const ALL: [Mechanism; 14] = [
+    pub const ALL: [Mechanism; 15] = [
         Mechanism::SeaInterpolation,
         Mechanism::NetworkSlopes,
         Mechanism::GainChannel,
@@ -57,6 +60,7 @@ impl Mechanism {
         Mechanism::VesselReference,
         Mechanism::EnvelopeSlopes,
         Mechanism::HotellingCalibration,
+        Mechanism::ClassPrior,
         Mechanism::CommissioningCheck,
         Mechanism::Learning,
         Mechanism::WindowGlr,
@@ -75,6 +79,7 @@ impl Mechanism {
             Mechanism::VesselReference => "vessel-reference",
             Mechanism::EnvelopeSlopes => "envelope-slopes",
             Mechanism::HotellingCalibration => "hotelling-calibration",
+            Mechanism::ClassPrior => "class-prior",
             Mechanism::CommissioningCheck => "commissioning-check",
             Mechanism::Learning => "learning",
             Mechanism::WindowGlr => "window-glr",

@@ -16,9 +16,10 @@ use super::config::{Calibration, FdiConfig, ReferenceConfig};
 use super::decision::Sequential;
 use super::learning::{after_decision, Held, Pending};
 use super::limits::DecisionLimits;
+use super::prior::{ClassScatter, ScatterPrior};
 use super::raw::Raw;
 use super::reference::{self, MethodReference};
-use super::stats::dot;
+use super::stats::{dot, Cov};
 use super::window::{Entry, Source};
 use crate::wire::residuals::TrackState;
 use crate::wire::Method;
@@ -45,6 +46,50 @@ pub struct Cell {
     pub vessels: usize,
     /// Tests each vessel decides after commissioning.
     pub tests: usize,
+    /// The class's prior for the scatter, and the vessels against it.
+    pub prior: PriorCase,
+}
+
+/// How the cell's vessels stand to the class's prior for their scatter (`prior`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PriorCase {
+    /// No prior: the vessel's own tests alone (every vessel the same scatter).
+    Off,
+    /// The prior of [`PRIOR_WEIGHT`] dof about the scatter, each vessel's variances drawn
+    /// from it (the model the prior states).
+    Class,
+    /// The same prior; every vessel this many times noisier (variance) than its centre.
+    Noisier(f64),
+}
+
+/// The prior's weight per component in the Monte Carlo: about the shipped models' class
+/// (`calibration.json`'s `healthy-scatter`, 3 to 6 dof).
+pub const PRIOR_WEIGHT: [f64; 3] = [5.0, 3.0, 5.0];
+
+/// The prior cells `eval --budget` runs: every K from the smallest allowed to the default,
+/// vessels from the prior, then 3x noisier than it, at 30 a year.
+pub const PRIOR_SCAN: [Cell; 8] = [
+    with_prior(cell(5, [0.0, 0.0], true, 30.0, 600), PriorCase::Class),
+    with_prior(cell(6, [0.0, 0.0], true, 30.0, 600), PriorCase::Class),
+    with_prior(cell(8, [0.0, 0.0], true, 30.0, 600), PriorCase::Class),
+    with_prior(cell(12, [0.0, 0.0], true, 30.0, 600), PriorCase::Class),
+    with_prior(cell(16, [0.0, 0.0], true, 30.0, 600), PriorCase::Class),
+    with_prior(
+        cell(5, [0.0, 0.0], true, 30.0, 600),
+        PriorCase::Noisier(3.0),
+    ),
+    with_prior(
+        cell(8, [0.0, 0.0], true, 30.0, 600),
+        PriorCase::Noisier(3.0),
+    ),
+    with_prior(
+        cell(16, [0.0, 0.0], true, 30.0, 600),
+        PriorCase::Noisier(3.0),
+    ),
+];
+
+const fn with_prior(c: Cell, prior: PriorCase) -> Cell {
+    Cell { prior, ..c }
 }
 
 /// The scan `eval --budget` runs and the slow tier checks: K, the floors and learning, each
@@ -75,6 +120,7 @@ const fn cell(k: u32, floors: [f64; 2], learn: bool, budget: f64, vessels: usize
         budget_per_year: budget,
         vessels,
         tests: 100,
+        prior: PriorCase::Off,
     }
 }
 
@@ -120,27 +166,64 @@ fn settings(cell: &Cell) -> (DecisionLimits, reference::Settings) {
         resolve_speed_mps: 1e-9,
         resolve_displacement: 1e-9,
     };
+    let class = ClassScatter {
+        calm: psi().0,
+        moderate: psi().0,
+        dof: PRIOR_WEIGHT,
+    };
+    let cal = Calibration {
+        healthy_scatter: (cell.prior != PriorCase::Off).then_some(ScatterPrior {
+            clfrt: class,
+            hbt: class,
+        }),
+        ..Calibration::default()
+    };
     let s = reference::Settings {
         learn: cell.learn,
-        ..reference::Settings::new(&fdi, &reference, &Calibration::default(), &l)
+        ..reference::Settings::new(&fdi, &reference, &cal, &l)
     };
     (l, s)
 }
 
-/// One healthy test's raw residuals, drawn from the true scatter.
-fn draw(rng: &mut ChaCha8Rng) -> Raw {
+/// The design spreads of the drawn tests `(s_u [m/s], s_D, s_D)`.
+const SPREADS: [f64; 3] = [0.05, 0.002, 0.002];
+
+/// The true scatter's loadings on three standard normals: `e_u` 0.2 m/s, `e_D` 0.01
+/// correlated -0.9 with it, `e_b` 0.005 half with `e_D`'s own part.
+fn loadings() -> [[f64; 3]; 3] {
     let (su, sd, rho) = (0.2, 0.01, -0.9);
-    let a: f64 = rng.sample(StandardNormal);
-    let b: f64 = rng.sample(StandardNormal);
-    let c: f64 = rng.sample(StandardNormal);
-    let g = 0.005 * (0.5 * b + 0.75f64.sqrt() * c);
+    let q = (1.0f64 - rho * rho).sqrt();
+    [
+        [su, 0.0, 0.0],
+        [sd * rho, sd * q, 0.0],
+        [0.0, 0.005 * 0.5, 0.005 * 0.75f64.sqrt()],
+    ]
+}
+
+/// The true scatter in design-spread units: the prior's centre.
+fn psi() -> Cov {
+    let m = loadings();
+    Cov(std::array::from_fn(|i| {
+        std::array::from_fn(|j| {
+            (0..3).map(|k| m[i][k] * m[j][k]).sum::<f64>() / (SPREADS[i] * SPREADS[j])
+        })
+    }))
+}
+
+/// One healthy test's raw residuals, drawn from the true scatter, each component's
+/// deviation scaled by `sqrt(scale_j)`.
+fn draw(rng: &mut ChaCha8Rng, scale: [f64; 3]) -> Raw {
+    let e: [f64; 3] = std::array::from_fn(|_| rng.sample(StandardNormal));
+    let m = loadings();
+    let dev: [f64; 3] =
+        std::array::from_fn(|i| scale[i].sqrt() * (0..3).map(|k| m[i][k] * e[k]).sum::<f64>());
     Raw {
-        ln_gain: Some(-5.0 + g),
+        ln_gain: Some(-5.0 + dev[2]),
         ln_damping: None,
-        speed_mps: 1.0 + su * a,
-        displacement: -0.2 + sd * (rho * a + (1.0f64 - rho * rho).sqrt() * b),
-        speed_sigma_mps: 0.05,
-        displacement_sigma: 0.002,
+        speed_mps: 1.0 + dev[0],
+        displacement: -0.2 + dev[1],
+        speed_sigma_mps: SPREADS[0],
+        displacement_sigma: SPREADS[1],
         speed_log_mps: 7.0,
         displacement_declared_t: 7000.0,
         excitation_scale: 1.0,
@@ -148,6 +231,23 @@ fn draw(rng: &mut ChaCha8Rng) -> Raw {
         speed_slope: [0.0; 3],
         loading_slope: [0.0; 3],
         meas: None,
+        log_slope: 0.0,
+    }
+}
+
+/// A vessel's scale of each component's variance against the prior's centre.
+fn vessel_scale(cell: &Cell, rng: &mut ChaCha8Rng) -> [f64; 3] {
+    match cell.prior {
+        PriorCase::Off => [1.0; 3],
+        PriorCase::Noisier(k) => [k; 3],
+        // A scaled inverse chi-square of `w_j` dof: `w_j / chi2_w_j` (whole dof).
+        PriorCase::Class => std::array::from_fn(|j| {
+            let w = PRIOR_WEIGHT[j];
+            let chi: f64 = (0..w as usize)
+                .map(|_| rng.sample::<f64, _>(StandardNormal).powi(2))
+                .sum();
+            w / chi
+        }),
     }
 }
 
@@ -165,29 +265,30 @@ fn vessel(
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     rng.set_stream(v);
     let k = cell.commissioning_tests as usize;
-    let sample = |rng: &mut ChaCha8Rng| {
-        let raws: Vec<Raw> = (0..k).map(|_| draw(rng)).collect();
-        MethodReference::commissioned_on(settings, &raws)
+    let scale = vessel_scale(cell, &mut rng);
+    let sample = |rng: &mut ChaCha8Rng, m: usize| {
+        let raws: Vec<Raw> = (0..k).map(|_| draw(rng, scale)).collect();
+        MethodReference::commissioned_on(&settings.method(m), &raws)
     };
-    let mut c = [sample(&mut rng)?, sample(&mut rng)?];
+    let mut c = [sample(&mut rng, 0)?, sample(&mut rng, 1)?];
     let (mut s, mut pending) = (Sequential::default(), Pending::default());
     let mut alarms = 0;
     for t in 0..cell.tests {
         let m = t % 2;
         let method = [Method::Clfrt, Method::Hbt][m];
-        let raw = draw(&mut rng);
+        let raw = draw(&mut rng, scale);
         // The window against the references as they are now, as the daemon does.
         s.remeasure(|e| {
             let src = e.source?;
             let j = usize::from(e.method == Method::Hbt);
-            let (_, n) = c[j].measure(settings, &src.raw);
+            let (_, n) = c[j].measure(&settings.method(j), &src.raw);
             Some(Entry {
                 z: n.whitened(),
                 offset_var: n.offset_var,
                 ..*e
             })
         });
-        let (_, meas) = c[m].measure(settings, &raw);
+        let (_, meas) = c[m].measure(&settings.method(m), &raw);
         let z = meas.whitened();
         let before = s.state;
         let st = s.update(
@@ -222,7 +323,7 @@ fn vessel(
             .into_iter()
             .flatten()
         {
-            c[h.method].add(settings, &h.raw, 0);
+            c[h.method].add(&settings.method(h.method), &h.raw, 0);
         }
     }
     Some((alarms, cell.tests))
@@ -272,6 +373,7 @@ mod tests {
             budget_per_year: 300.0,
             vessels: 6,
             tests: 20,
+            prior: PriorCase::Off,
         };
         let one = run(&cell, 3, 1).unwrap();
         assert_eq!(run(&cell, 3, 4).unwrap(), one);

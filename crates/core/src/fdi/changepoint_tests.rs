@@ -48,6 +48,7 @@ fn sample(rng: &mut ChaCha8Rng, shift: [f64; 2], u: f64, sd: f64, order: u64) ->
         loading_slope: [0.0; 3],
         order,
         meas: None,
+        log_slope: 0.0,
     }
 }
 

@@ -150,6 +150,45 @@ pub struct Calibration {
     pub slope_excitation: [f64; 2],
     /// Prior sd of the slope in the sea [per unit of ln of the sea index].
     pub slope_sea: [f64; 2],
+    /// The estimator's healthy scatter on the class, per method and sea, and its weight
+    /// (`crate::fdi::prior`; absent: a vessel's own tests alone set its scatter).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub healthy_scatter: Option<ScatterPrior>,
+}
+
+/// One method's healthy scatter on the models' class, in design-spread units
+/// (`crate::fdi::prior`; rows and columns `e_u`, `e_D`, `e_b`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, rename_all = "kebab-case")]
+pub struct ClassScatter {
+    /// `Psi` in a calm sea.
+    pub calm: [[f64; 3]; 3],
+    /// `Psi` in a moderate sea.
+    pub moderate: [[f64; 3]; 3],
+    /// `w_j`: the prior's weight per component [dof].
+    pub dof: [f64; 3],
+}
+
+/// Both methods' (`calibration.json`'s `healthy-scatter`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, rename_all = "kebab-case")]
+pub struct ScatterPrior {
+    /// CLFRT's.
+    pub clfrt: ClassScatter,
+    /// HBT's.
+    pub hbt: ClassScatter,
+}
+
+/// Symmetric and positive definite (Sylvester's leading minors).
+fn positive_definite(m: &[[f64; 3]; 3]) -> bool {
+    let sym =
+        (0..3).all(|i| (0..3).all(|j| (m[i][j] - m[j][i]).abs() <= 1e-9 * (1.0 + m[i][j].abs())));
+    let d1 = m[0][0];
+    let d2 = m[0][0] * m[1][1] - m[0][1] * m[1][0];
+    let d3 = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+        - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    m.iter().flatten().all(|v| v.is_finite()) && sym && d1 > 0.0 && d2 > 0.0 && d3 > 0.0
 }
 
 /// The calibration of the models shipped in `models/` (the embedded default).
@@ -261,7 +300,25 @@ impl Calibration {
             self.slope_excitation,
             [100.0, 10.0],
         )?;
-        pair("calibration.slope-sea", self.slope_sea, [10.0, 1.0])
+        pair("calibration.slope-sea", self.slope_sea, [10.0, 1.0])?;
+        if let Some(h) = &self.healthy_scatter {
+            for (name, c) in [("clfrt", h.clfrt), ("hbt", h.hbt)] {
+                let key = format!("calibration.healthy-scatter.{name}");
+                for w in c.dof {
+                    check_range(&format!("{key}.dof"), w, 0.0, 10_000.0)?;
+                }
+                for (sea, psi) in [("calm", c.calm), ("moderate", c.moderate)] {
+                    if !positive_definite(&psi) {
+                        return Err(fail(
+                            &format!("{key}.{sea}"),
+                            format!("{psi:?}"),
+                            "a symmetric positive definite 3 x 3 matrix",
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(())
     }
 }
 

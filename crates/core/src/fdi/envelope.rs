@@ -491,6 +491,7 @@ impl From<&Raw> for Sample {
             loading_slope: r.loading_slope,
             order: 0,
             meas: r.meas,
+            log_slope: r.log_slope,
         }
     }
 }

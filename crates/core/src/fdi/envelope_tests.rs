@@ -29,6 +29,7 @@ fn smp(e: [f64; 2], u: f64, d: f64) -> Sample {
         loading_slope: [0.0; 3],
         order: 0,
         meas: None,
+        log_slope: 0.0,
     }
 }
 

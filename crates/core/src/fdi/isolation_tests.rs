@@ -164,6 +164,7 @@ fn the_wander_is_read_through_changes_of_speed() {
         loading_slope: [0.0; P],
         order,
         meas: None,
+        log_slope: 0.0,
     };
     // 200 tests, the passage's speed changing every 20th by 1.5 m/s.
     let samples: Vec<Sample> = (1..=200u64)

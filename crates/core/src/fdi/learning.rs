@@ -154,7 +154,7 @@ impl Learner<'_> {
                 // (`decision`: there a misfit model reads the ship so, from its first test).
                 Basis::Commissioning { .. } => {
                     let order = reference::next_order(self.commissioning);
-                    added = self.commissioning[i].add(settings, &r, order);
+                    added = self.commissioning[i].add(&settings.method(i), &r, order);
                     if added == Added::Completed {
                         self.generation[i] += 1;
                         if !ablation::off(Mechanism::CommissioningCheck)
@@ -181,7 +181,7 @@ impl Learner<'_> {
             {
                 if h.generation == self.generation[h.method] {
                     let order = reference::next_order(self.commissioning);
-                    self.commissioning[h.method].add(settings, &h.raw, order);
+                    self.commissioning[h.method].add(&settings.method(h.method), &h.raw, order);
                     if !ablation::off(Mechanism::CommissioningCheck)
                         && changepoint::confirm(self.commissioning, h.method, settings).is_some()
                     {
@@ -239,6 +239,7 @@ mod tests {
                 speed_slope: [0.0; 3],
                 loading_slope: [0.0; 3],
                 meas: None,
+                log_slope: 0.0,
             },
         }
     }

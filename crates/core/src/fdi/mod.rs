@@ -35,12 +35,15 @@ pub mod limits;
 pub mod measured;
 pub mod noise;
 pub mod point;
+pub mod prior;
 pub mod raw;
 pub mod reference;
 mod report;
+pub mod resolve;
 pub mod sensitivity;
 pub mod shape;
 pub mod stats;
+pub mod summary;
 pub mod window;
 
 use crate::baseline::config::BaselineConfig;

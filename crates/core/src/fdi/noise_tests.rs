@@ -139,6 +139,7 @@ fn raw(e: [f64; P], sea: f64, m: [f64; P]) -> Raw {
         speed_slope: [0.0; P],
         loading_slope: [0.0; P],
         meas: Some(Cov::diag(m)),
+        log_slope: 0.0,
     }
 }
 
@@ -195,6 +196,7 @@ fn a_spoiled_test_is_read_with_its_own_interval() {
     let clean = raw([1.5, 0.0, -5.0], 0.2, [0.1, 0.001, 0.001]);
     let spoiled = Raw {
         meas: Some(Cov::diag([2.0, 0.001, 0.001])),
+        log_slope: 0.0,
         ..clean
     };
     let chi2 = |s: &RefSettings, r: &Raw| {

@@ -42,6 +42,9 @@ pub struct Sample {
     /// or in a state saved before it was kept.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub meas: Option<Cov>,
+    /// How `e_D` moves per m/s of a speed-log bias (`crate::fdi::raw::Raw::log_slope`).
+    #[serde(default)]
+    pub log_slope: f64,
 }
 
 fn as_designed() -> f64 {

@@ -264,6 +264,7 @@ pub fn nn_raw(
         ln_gain,
         ln_damping: sensitivity::ln_damping(features).map(|a| a - u_log.ln()),
         meas: measurement_cov(method, features, est, scratch, d_nom_t),
+        log_slope: g / d_nom_t,
     };
     let ok = [raw.speed_mps, raw.displacement, g]
         .iter()
@@ -328,6 +329,10 @@ pub struct Raw {
     /// features do not say).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub meas: Option<Cov>,
+    /// How `e_D` moves per m/s of a speed-log bias: `dD_est / du_log / D_nom` [fraction per
+    /// m/s] (0 in a state saved before it was kept).
+    #[serde(default)]
+    pub log_slope: f64,
 }
 
 impl Raw {

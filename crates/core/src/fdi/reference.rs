@@ -7,20 +7,16 @@
 //! - commissioning or inconsistent (or no prediction possible): the design spreads widened to
 //!   `calibration.commissioning-spread-*`, `(e_u, e_D)` only, no offset share (wide limits);
 //! - commissioned: `r = e - mu(x)`, its covariance the local shape pooled with an
-//!   inverse-Wishart prior of [`PRIOR_DOF`] dof and carried by the design spreads, plus
-//!   `Omega(x)`, the floors and a CLFRT test's own excess error (`noise`). At a loading,
-//!   excitation or sea over a bandwidth from every learned test the dof are at most the
-//!   kernel weight there less one.
+//!   inverse-Wishart prior of [`PRIOR_DOF`] dof and carried by the design spreads, then with
+//!   the class's prior where the vessel's scatter is the class's (`prior`), plus `Omega(x)`,
+//!   the floors and a CLFRT test's own excess error (`noise`). At a loading, excitation or
+//!   sea over a bandwidth from every learned test the dof are at most the kernel weight
+//!   there less one.
 //!
 //! [`MethodReference::add`] takes only finite tests with positive spreads and displacement, none
 //! with commissioning off, and keeps at most [`MEMORY_TESTS`] (`envelope::forget`). The sample
 //! ends at `K = fdi.commissioning-tests`, or from `min(K, MIN_TESTS)` tests once it resolves
-//! `reference.resolve-*` (`h_1` the single-test alarm limit, `s_j` the mean design spread):
-//!
-//! ```text
-//! resolve_j >= (sqrt(t_j) + RESOLVE_POWER_Z) sd_j,    sd_j^2 = s_j^2 S~_jj (1 + 1/n) + f_j^2
-//! t_j = nu_j (exp(h_1 / (nu_j - 1)) - 1),             nu_j = nu sd_j^2 / (sd_j^2 - f_j^2)
-//! ```
+//! `reference.resolve-*` (`resolve`).
 //!
 //! A completed sample goes to the change-point test (`changepoint`).
 
@@ -30,6 +26,7 @@ use super::limits::DecisionLimits;
 use super::measured::{kappa, Basis, Measured};
 use super::noise;
 use super::point::{self, Sample};
+use super::prior::{ClassScatter, Verdict};
 use super::raw::Raw;
 use super::stats::{Cov, P};
 use serde::{Deserialize, Serialize};
@@ -43,9 +40,6 @@ pub const MEMORY_TESTS: usize = 200;
 /// exists. The calibration keeps the shape's own dof: the prior's centre is the sample's
 /// variances.
 pub const PRIOR_DOF: f64 = P as f64 + 2.0;
-
-/// The one-sided normal quantile of the power commissioning resolves its faults with (95 %).
-pub const RESOLVE_POWER_Z: f64 = 1.645;
 
 /// Where one method's reference stands.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
@@ -98,6 +92,12 @@ pub struct Settings {
     pub confirm_alpha: f64,
     /// Read a CLFRT test with its own measurement error beyond the vessel's typical.
     pub own_noise: bool,
+    /// Per method (CLFRT, HBT), the class's prior for the scatter (`prior`).
+    pub priors: [Option<ClassScatter>; 2],
+    /// The method's whose reference these settings are for ([`Settings::method`]).
+    pub prior: Option<ClassScatter>,
+    /// The sea index's calm and moderate anchors [deg].
+    pub sea_anchors: [f64; 2],
 }
 
 impl Settings {
@@ -128,6 +128,20 @@ impl Settings {
             single_limit: limits.param[P],
             change_alpha: budget / looks,
             confirm_alpha: budget / confirm,
+            priors: std::array::from_fn(|i| {
+                let off = super::ablation::off(super::ablation::Mechanism::ClassPrior);
+                cal.healthy_scatter.filter(|_| !off).map(|h| h.of(i))
+            }),
+            prior: None,
+            sea_anchors: cal.sea_wave_yaw_deg,
+        }
+    }
+
+    /// The settings for method `i`'s reference (0 CLFRT, 1 HBT): its class prior.
+    pub fn method(&self, i: usize) -> Self {
+        Self {
+            prior: self.priors.get(i).copied().flatten(),
+            ..*self
         }
     }
 
@@ -161,36 +175,7 @@ pub struct MethodReference {
     pub reference: Option<Reference>,
 }
 
-/// A summary of the vessel's own reference of one method (status, plots).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct Reference {
-    /// Tests it was commissioned on (K).
-    pub tests: u32,
-    /// Tests it has learned in all (commissioning included).
-    pub learned: u32,
-    /// Offset of `e_u` at the learned tests' mean operating point [m/s].
-    pub speed_offset_mps: f64,
-    /// Offset of `e_D` there [fraction of D_nom].
-    pub displacement_offset: f64,
-    /// Level of `e_b`, the ln of the high-frequency gain, there [ln 1/s^2].
-    pub ln_gain: f64,
-    /// The scatter's covariance at the learned tests' mean design spreads (rows `e_u` [m/s],
-    /// `e_D` [fraction], `e_b` [ln]).
-    pub covariance: Cov,
-    /// Its effective degrees of freedom.
-    pub dof: f64,
-    /// Mean design spread of the speed over the learned tests [m/s].
-    pub speed_design_sigma_mps: f64,
-    /// Mean design spread of the displacement [fraction].
-    pub displacement_design_sigma: f64,
-    /// Mean speed log of the learned tests [m/s].
-    pub speed_log_mps: f64,
-    /// Slowest and fastest learned speed log [m/s].
-    pub speed_range_mps: [f64; 2],
-    /// Lightest and heaviest learned declared displacement [t].
-    pub displacement_range_t: [f64; 2],
-}
+pub use super::summary::Reference;
 
 /// What adding a test did.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -269,6 +254,9 @@ impl MethodReference {
                     cov: local.cov.times(k).plus(prior.times(1.0 - k)),
                     ..local
                 };
+                // With the class's prior where the vessel's scatter is the class's (`prior`).
+                let frac = super::raw::sea_fraction(s.sea_anchors, raw.sea_index);
+                let (shape, class_dofs) = self.with_class(s, shape, frac);
                 let Some(p) =
                     envelope::predict_for(&self.samples, &s.envelope, &shape, &at, &own.slopes())
                 else {
@@ -306,10 +294,17 @@ impl MethodReference {
                     // At a declared loading, an excitation or a sea not yet visited the
                     // prediction is known only as well as the tests near it vouch for it
                     // (module doc); at a new speed only the offset is new, in `p.cov`.
-                    dof: if known_conditions {
-                        shape.dof
-                    } else {
-                        shape.dof.min(p.support - 1.0)
+                    dof: {
+                        // With the class's prior, the dof along this residual (`prior::along`).
+                        let dof = match (class_dofs, cov.solve(r)) {
+                            (Some(d), Some(y)) => super::prior::along(d, learned, y),
+                            _ => shape.dof,
+                        };
+                        if known_conditions {
+                            dof
+                        } else {
+                            dof.min(p.support - 1.0)
+                        }
                     },
                     learned,
                     dim,
@@ -384,31 +379,32 @@ impl MethodReference {
         })
     }
 
-    /// Whether the sample resolves the faults commissioning must (see the module doc).
+    /// The scatter test of the vessel's shape against its class's prior (`prior::verdict`).
+    pub fn class_verdict(&self, s: &Settings) -> Option<Verdict> {
+        super::prior::verdict(s.prior, self.shape, &self.samples, s.sea_anchors)
+    }
+
+    /// `shape` with the class's prior at sea fraction `frac`, and each component's dof, where
+    /// the scatter test keeps it (`prior::with_class`).
+    pub fn with_class(&self, s: &Settings, shape: Shape, frac: f64) -> (Shape, Option<[f64; P]>) {
+        super::prior::with_class(s.prior, self.class_verdict(s), shape, frac)
+    }
+
+    /// Whether the sample resolves the faults commissioning must (`resolve`).
     fn resolved(&self, s: &Settings) -> bool {
         let Some(sh) = self.shape else { return false };
-        let n = self.samples.len() as f64;
-        let mean_s = |j: usize| self.samples.iter().map(|x| x.s[j]).sum::<f64>() / n;
-        // A fault of `resolve_j` in component j alone: its test's variance there, and the
-        // statistic it must reach for the calibrated one to cross the single-test limit.
-        let multiple = |j: usize, var: f64, floor: f64| {
-            let learned = mean_s(j).powi(2) * var * (1.0 + 1.0 / n);
-            let sd = (learned + floor * floor).sqrt();
-            let nu = if learned > 0.0 {
-                sh.dof * (1.0 + floor * floor / learned)
-            } else {
-                f64::INFINITY
-            };
-            let t = if nu.is_finite() {
-                nu * (s.single_limit / (nu - 1.0)).exp_m1()
-            } else {
-                s.single_limit
-            };
-            (t.sqrt() + RESOLVE_POWER_Z) * sd
+        let (sh, class_dofs) = self.with_class(
+            s,
+            sh,
+            super::prior::mean_sea_fraction(&self.samples, s.sea_anchors),
+        );
+        let need = super::resolve::Faults {
+            speed_mps: s.resolve_speed_mps,
+            displacement: s.resolve_displacement,
+            floors: s.floors(),
+            single_limit: s.single_limit,
         };
-        let v = sh.cov.variances();
-        s.resolve_speed_mps >= multiple(0, v[0], s.floor_speed_mps)
-            && s.resolve_displacement >= multiple(1, v[1], s.floor_displacement)
+        need.resolved(&self.samples, sh.cov, class_dofs.unwrap_or([sh.dof; P]))
     }
 
     /// Updates the summary from the learned tests.
@@ -426,6 +422,12 @@ impl MethodReference {
                     [r[0].min(v), r[1].max(v)]
                 })
         };
+        let verdict = self.class_verdict(s);
+        let (sh, _) = self.with_class(
+            s,
+            sh,
+            super::prior::mean_sea_fraction(&self.samples, s.sea_anchors),
+        );
         let s_u = mean(&|x| x.s[0]);
         let s_d = mean(&|x| x.s[1]);
         let s_b = mean(&|x| x.s[2]);
@@ -453,6 +455,8 @@ impl MethodReference {
             speed_log_mps: u,
             speed_range_mps: range(&|x| x.speed_mps),
             displacement_range_t: range(&|x| x.displacement_t),
+            class_scatter_ratio: verdict.map(|v| v.ratio),
+            class_prior: verdict.is_some_and(|v| v.used),
         });
     }
 
@@ -523,8 +527,12 @@ impl MethodReference {
                 self.tests
             ),
             (_, Phase::Learning, Some(r)) => format!(
-                "commissioned ({} tests, {} learned, {:.1}-{:.1} m/s)",
-                r.tests, r.learned, r.speed_range_mps[0], r.speed_range_mps[1]
+                "commissioned ({} tests, {} learned, {:.1}-{:.1} m/s{})",
+                r.tests,
+                r.learned,
+                r.speed_range_mps[0],
+                r.speed_range_mps[1],
+                super::prior::describe(r.class_scatter_ratio, r.class_prior)
             ),
             (_, Phase::Learning, None) => "commissioned".into(),
         }

@@ -45,6 +45,7 @@ fn raw_at(e_u: f64, e_d: f64, u: f64, d: f64) -> Raw {
         speed_slope: [0.0; 3],
         loading_slope: [0.0; 3],
         meas: None,
+        log_slope: 0.0,
     }
 }
 
@@ -211,6 +212,58 @@ fn commissioning_is_wide_and_ends_as_soon_as_the_sample_resolves_its_faults() {
     }
 }
 
+/// With the class's prior (its centre this vessel's own scatter, 30 dof a component) six
+/// tests resolve the faults eight do not resolve alone; a vessel three times as noisy (sd)
+/// is outside its class: the scatter test drops the prior, and commissioning runs to K.
+#[test]
+fn the_class_prior_ends_commissioning_early_unless_the_vessel_is_outside_its_class() {
+    let base = Settings {
+        floor_speed_mps: 0.05,
+        floor_displacement: 0.004,
+        ..settings(8)
+    };
+    let unit = [0.0, 1.2, -1.2, 0.6, -0.6, 0.9, -0.9, 0.3];
+    let other = [0.9, -0.3, 0.6, -1.2, 0.0, 1.0, -0.5, 0.2];
+    let test = |k: f64, i: usize| raw(1.0 + k * 0.06 * unit[i], -0.2 + k * 0.004 * other[i]);
+    let completes = |s: &Settings, k: f64| {
+        let mut c = MethodReference::default();
+        let at = (0..8).position(|i| c.add(s, &test(k, i), 0) == Added::Completed);
+        (at, c)
+    };
+    let (alone, own) = completes(&base, 1.0);
+    assert_eq!(alone, Some(7));
+    let psi = own.shape.unwrap().cov;
+    let class = crate::fdi::prior::ClassScatter {
+        calm: psi.0,
+        moderate: psi.0,
+        dof: [30.0; 3],
+    };
+    let s = Settings {
+        prior: Some(class),
+        ..base
+    };
+    let (early, c) = completes(&s, 1.0);
+    assert_eq!(early, Some(5));
+    let r = c.reference.unwrap();
+    assert!(r.class_prior, "{r:?}");
+    assert!(
+        (0.5..2.0).contains(&r.class_scatter_ratio.unwrap()),
+        "{r:?}"
+    );
+    let (noisy_at, noisy) = completes(&s, 3.0);
+    assert_eq!(noisy_at, Some(7));
+    let r = noisy.reference.unwrap();
+    assert!(
+        !r.class_prior && r.class_scatter_ratio.unwrap() > 4.0,
+        "{r:?}"
+    );
+    assert!(
+        noisy.describe(&s).contains("outside its class"),
+        "{}",
+        noisy.describe(&s)
+    );
+}
+
 #[test]
 fn a_change_inside_the_commissioning_sample_sets_no_reference() {
     let s = settings(8);
@@ -247,7 +300,12 @@ fn a_change_inside_the_commissioning_sample_sets_no_reference() {
 /// left alone.
 #[test]
 fn the_change_is_the_vessels_in_both_samples_that_overlap_in_time() {
-    let s = settings(8);
+    // Faults no sample resolves: every method's sample is all 8 tests.
+    let s = Settings {
+        resolve_speed_mps: 1e-9,
+        resolve_displacement: 1e-9,
+        ..settings(8)
+    };
     let scatter = [0.0, 0.02, -0.02, 0.01, -0.01, 0.0, 0.015, -0.015];
     let run = |c: &mut MethodReference, m: u64, from: u64, shift_at: u64| -> Added {
         let mut last = Added::Nothing;

@@ -146,6 +146,7 @@ fn raw_7(e_u: f64) -> super::raw::Raw {
         speed_slope: [0.0; 3],
         loading_slope: [0.0; 3],
         meas: None,
+        log_slope: 0.0,
     }
 }
 
@@ -336,6 +337,7 @@ fn a_commissioning_test_beyond_the_wide_limits_joins_the_sample() {
         speed_slope: [0.0; 3],
         loading_slope: [0.0; 3],
         meas: None,
+        log_slope: 0.0,
     };
     let (basis, m) = fdi.commissioning[1].measure(&s, &raw);
     assert!(

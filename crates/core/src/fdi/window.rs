@@ -179,7 +179,7 @@ pub fn measure_entry(
     epoch: u32,
     z_rate: Option<f64>,
 ) -> (Basis, Measured, Entry) {
-    let (basis, m) = c.measure(settings, &source.raw);
+    let (basis, m) = c.measure(&settings.method(method_index(method)), &source.raw);
     // Against the vessel's reference a speed-log bias also moves the reference's predicted
     // offset, by its slope in speed: the similarity law's (the slope prior's mean, `envelope`).
     let mut directions = source.directions;
