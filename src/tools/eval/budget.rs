@@ -39,18 +39,7 @@ pub fn budget_table(seed: u64, threads: usize) -> String {
             if small_only && !(k == 8 && floors == [0.0, 0.0]) {
                 continue;
             }
-            let line = match run(&cell, seed, threads) {
-                Some(o) => {
-                    let [lo, hi] = o.ratio_interval();
-                    format!(
-                        "{} | {} | {:.3} | {lo:.2} .. {hi:.2}",
-                        o.decided,
-                        o.alarms,
-                        o.ratio()
-                    )
-                }
-                None => "refused | - | - | -".into(),
-            };
+            let line = measured(&cell, seed, threads);
             let _ = writeln!(
                 out,
                 "| {name} | {k} | {} / {} | {} | {budget} | {line} |",
@@ -67,6 +56,22 @@ pub fn budget_table(seed: u64, threads: usize) -> String {
     }
     prior_rows(seed, threads, &mut out);
     out
+}
+
+/// A cell's measured columns: tests, alarms, ratio and its interval.
+fn measured(cell: &helmwatch_core::fdi::budget::Cell, seed: u64, threads: usize) -> String {
+    match run(cell, seed, threads) {
+        Some(o) => {
+            let [lo, hi] = o.ratio_interval();
+            format!(
+                "{} | {} | {:.3} | {lo:.2} .. {hi:.2}",
+                o.decided,
+                o.alarms,
+                o.ratio()
+            )
+        }
+        None => "refused | - | - | -".into(),
+    }
 }
 
 /// The cells with the class's prior for the scatter (`core::fdi::budget::PRIOR_SCAN`).
@@ -91,18 +96,7 @@ fn prior_rows(seed: u64, threads: usize, out: &mut String) {
             PriorCase::Class => "from the prior".to_string(),
             PriorCase::Noisier(k) => format!("{k}x noisier"),
         };
-        let line = match run(&cell, seed, threads) {
-            Some(o) => {
-                let [lo, hi] = o.ratio_interval();
-                format!(
-                    "{} | {} | {:.3} | {lo:.2} .. {hi:.2}",
-                    o.decided,
-                    o.alarms,
-                    o.ratio()
-                )
-            }
-            None => "refused | - | - | -".into(),
-        };
+        let line = measured(&cell, seed, threads);
         let _ = writeln!(
             out,
             "| {kind} | {} | {} | {line} |",
