@@ -232,17 +232,6 @@ pub fn along(dofs: [f64; P], learned: Cov, y: [f64; P]) -> f64 {
     }
 }
 
-/// `tr(psi^-1 cov) / p`; `None` unless `psi` is positive definite.
-pub fn trace_ratio(psi: Cov, cov: Cov) -> Option<f64> {
-    let mut t = 0.0;
-    for j in 0..P {
-        let col: [f64; P] = std::array::from_fn(|i| cov.0[i][j]);
-        t += psi.solve(col)?[j];
-    }
-    let q = t / P as f64;
-    q.is_finite().then_some(q)
-}
-
 /// `P(F(d1, d2) > x)`: the regularised incomplete beta `I_{d2 / (d2 + d1 x)}(d2 / 2, d1 / 2)`.
 pub fn f_sf(x: f64, d1: f64, d2: f64) -> f64 {
     if x.is_nan() || x <= 0.0 {
@@ -271,17 +260,15 @@ mod tests {
         assert!((f_sf(1.5, 8.0, 1e7) - chi).abs() < 1e-4);
     }
 
-    /// The pooled covariance is the dof-weighted mean, and the ratio of a covariance to
-    /// itself times k is k.
+    /// The pooled covariance is the dof-weighted mean, with the vessel's correlations.
     #[test]
-    fn pooling_and_the_trace_ratio_are_what_they_say() {
+    fn pooling_is_what_it_says() {
         let psi = Cov([[1.0, -0.5, 0.0], [-0.5, 2.0, 0.3], [0.0, 0.3, 0.5]]);
         let c = ClassScatter {
             calm: psi.0,
             moderate: psi.times(3.0).0,
             dof: [20.0, 20.0, 5.0],
         };
-        assert!((trace_ratio(psi, psi.times(2.5)).unwrap() - 2.5).abs() < 1e-12);
         let (p, n) = c.pool(psi, psi.times(4.0), 5.0);
         assert_eq!(n, [25.0, 25.0, 10.0]);
         assert!((p.at(1, 1) - 2.0 * (20.0 + 20.0) / 25.0).abs() < 1e-12);

@@ -423,8 +423,9 @@ impl MethodReference {
                 })
         };
         let verdict = self.class_verdict(s);
-        let (sh, _) = self.with_class(
-            s,
+        let (sh, _) = super::prior::with_class(
+            s.prior,
+            verdict,
             sh,
             super::prior::mean_sea_fraction(&self.samples, s.sea_anchors),
         );
