@@ -236,10 +236,18 @@ fn time_to_alarm(cfg: &Config, a: &BenchArgs) -> Result<(), Failure> {
     if let Some(dir) = &a.compare {
         let path = dir.join(format!("{name}.md"));
         let before = std::fs::read_to_string(&path).map_err(|e| Failure::io(&path, e))?;
-        // The earlier file's tables, without its header, their titles two levels down.
+        // The earlier file's tables, without its header and its own before-section, their
+        // titles two levels down; named by the commit its header gives.
+        let commit = before
+            .lines()
+            .find_map(|l| l.strip_prefix("Commit: "))
+            .unwrap_or("(not given)")
+            .trim()
+            .to_string();
         let body = before
             .find("\n# ")
             .map_or(before.as_str(), |i| &before[i + 1..]);
+        let body = body.find("\n## Before").map_or(body, |i| &body[..i]);
         let body: Vec<String> = body
             .lines()
             .map(|l| match l.starts_with('#') {
@@ -248,8 +256,9 @@ fn time_to_alarm(cfg: &Config, a: &BenchArgs) -> Result<(), Failure> {
             })
             .collect();
         text.push_str(&format!(
-            "\n## Before: {}\n\n{}\n",
-            path.display(),
+            "\n## Before: {} at commit {commit}\n\n{}\n",
+            path.file_name()
+                .map_or(path.display(), |f| std::path::Path::new(f).display()),
             body.join("\n")
         ));
     }

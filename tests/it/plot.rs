@@ -486,6 +486,7 @@ fn a_state_file_plots_the_learned_reference_with_one_point_per_learned_test() {
         next_method: 0,
         test_seq: 15,
         sea_wave_yaw_rad: None,
+        commissioning_gap_s: None,
         clfrt_heading_guard: false,
     };
     let text = serde_json::to_string_pretty(&state).unwrap();

@@ -178,6 +178,8 @@ impl Travel {
 pub struct SeedRun {
     /// Ship seed.
     pub seed: u64,
+    /// The run's start, before the first test's steady wait [s].
+    pub start_s: f64,
     /// End of the report that completed commissioning [s]; `None` if it never did.
     pub commissioned_s: Option<f64>,
     /// Tests reported until then (commissioning and any that did not count for it).
@@ -322,6 +324,7 @@ pub fn print(
         }
     }
     writeln!(out)?;
+    print_hours(out, o, per)?;
     print_travel(out, cfg, o, per, cap_h)?;
     let mut notes = Vec::new();
     for (ii, runs) in per.iter().enumerate() {
@@ -355,6 +358,54 @@ pub fn print(
     Ok(())
 }
 
+/// The hours to the vessel's own reference and to the confirmation's end, per interval:
+/// median, 90th percentile and max over the runs.
+fn print_hours(
+    out: &mut impl Write,
+    o: &TimeToAlarmOptions,
+    per: &[Vec<SeedRun>],
+) -> std::io::Result<()> {
+    writeln!(
+        out,
+        "\nShip hours of the healthy ship from the run's start (the first test's steady wait included) to the vessel's own reference (both methods commissioned), and from it to the confirmation's end (the watch's start):\n"
+    )?;
+    writeln!(
+        out,
+        "| interval [s] | runs commissioned | to the reference [h] (median / 90th pct / max) | confirmation [h] (median / 90th pct / max) |"
+    )?;
+    writeln!(out, "|---|---|---|---|")?;
+    let spread = |mut v: Vec<f64>| {
+        v.retain(|x| x.is_finite());
+        v.sort_by(f64::total_cmp);
+        let q = |p: f64| v[((v.len() - 1) as f64 * p).ceil() as usize];
+        if v.is_empty() {
+            "-".to_string()
+        } else {
+            format!("{:.1} / {:.1} / {:.1}", q(0.5), q(0.9), q(1.0))
+        }
+    };
+    for (ii, runs) in per.iter().enumerate() {
+        let to_ref: Vec<f64> = runs
+            .iter()
+            .filter_map(|r| r.commissioned_s.map(|c| (c - r.start_s) / 3600.0))
+            .collect();
+        let confirm: Vec<f64> = runs
+            .iter()
+            .filter_map(|r| Some((r.watch_start_s? - r.commissioned_s?) / 3600.0))
+            .collect();
+        writeln!(
+            out,
+            "| {:.0} | {} of {} | {} | {} |",
+            o.intervals_s[ii],
+            to_ref.len(),
+            runs.len(),
+            spread(to_ref),
+            spread(confirm)
+        )?;
+    }
+    writeln!(out)
+}
+
 /// The rudder travel table: per interval and phase of the healthy ship (commissioning, its
 /// confirmation, the watch), the travel per ship hour with the tests and without.
 fn print_travel(
@@ -366,7 +417,7 @@ fn print_travel(
 ) -> std::io::Result<()> {
     writeln!(
         out,
-        "Rudder travel (sum of |d delta| of the true rudder) per ship hour, by phase of the healthy ship: commissioning (from the end of the first test to both methods commissioned), its confirmation, and {cap_h} h of the watch after it; scheduled tests every scheduler.commissioning-interval-s ({:.0} s, or interval-s if shorter) in the first two:\n",
+        "Rudder travel (sum of |d delta| of the true rudder) per ship hour, by phase of the healthy ship: commissioning (from the end of the first test to both methods commissioned), its confirmation, and {cap_h} h of the watch after it; in the first two, scheduled tests after the gap the added-travel budget allows, at most scheduler.commissioning-interval-s ({:.0} s):\n",
         cfg.scheduler.commissioning_interval_s
     )?;
     writeln!(

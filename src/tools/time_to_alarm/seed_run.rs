@@ -142,6 +142,7 @@ pub fn run_seed(
     let travel = window(0, reports.saturating_sub(1));
     let mut run = SeedRun {
         seed,
+        start_s: t_start,
         commissioned_s,
         commissioning_reports: reports,
         healthy_alarms: alarms,
@@ -283,11 +284,12 @@ mod tests {
         }
     }
 
-    /// Commissioning and its confirmation run at `commissioning-interval-s`, the watch after
-    /// them at `interval-s`. A cycle is at least the interval (the steady wait may run
-    /// within it) and at most the interval, the steady wait and `max-test-duration-s`; a
-    /// window's tests fit those bounds: whole cycles for commissioning and the confirmation
-    /// (both end at a report), the cycles begun for the watch.
+    /// Commissioning and its confirmation run at their own cadence, a gap of at most
+    /// `commissioning-interval-s` (`monitor::cadence`), the watch after them at
+    /// `interval-s`. A cycle is at least the least gap (the steady wait may run within it)
+    /// and at most the most gap, the steady wait and `max-test-duration-s`; a window's tests
+    /// fit those bounds: whole cycles for commissioning and the confirmation (both end at a
+    /// report), the cycles begun for the watch.
     #[test]
     fn commissioning_and_its_confirmation_come_at_their_own_cadence() {
         let mut cfg = Config::default();
@@ -296,24 +298,25 @@ mod tests {
         let run = run_seed(&cfg, &parts, &[], SeaState::Calm, 7, 8.0 * 3600.0).unwrap();
         assert!(run.commissioned_s.is_some(), "not commissioned");
         let sc = &cfg.scheduler;
-        let cycle = |interval: f64| {
-            let lo = interval.max(sc.steady_time_s);
+        let between = |least: f64, most: f64| {
             (
-                lo,
-                interval + sc.steady_time_s + cfg.safety.max_test_duration_s,
+                least.max(sc.steady_time_s),
+                most + sc.steady_time_s + cfg.safety.max_test_duration_s,
             )
         };
-        let whole = |t: &Travel, interval: f64| {
-            let ((lo, hi), n, w) = (cycle(interval), t.tests as f64, t.hours * 3600.0);
+        let cycle = |interval: f64| between(interval, interval);
+        let establishing = between(0.0, sc.commissioning_interval_s);
+        let whole = |t: &Travel| {
+            let ((lo, hi), n, w) = (establishing, t.tests as f64, t.hours * 3600.0);
             assert!(
                 n * lo <= w + 1.0 && w <= n * hi + 1.0,
                 "({lo}, {hi}) s: {t:?}"
             );
         };
-        whole(&run.travel, sc.commissioning_interval_s);
+        whole(&run.travel);
         let confirmation = run.confirmation.expect("a confirmation");
         assert!(confirmation.tests >= 8, "{confirmation:?}");
-        whole(&confirmation, sc.commissioning_interval_s);
+        whole(&confirmation);
         let watch = run.watch.expect("a watch");
         let ((lo, hi), w) = (cycle(sc.interval_s), watch.hours * 3600.0);
         let n = watch.tests as f64;
@@ -323,7 +326,7 @@ mod tests {
         );
         // The cadences differ: the commissioning's longest cycle is shorter than the watch's
         // shortest.
-        assert!(cycle(sc.commissioning_interval_s).1 < cycle(sc.interval_s).0);
+        assert!(establishing.1 < cycle(sc.interval_s).0);
     }
 
     /// With the scheduler off the run and the autopilot-alone run are the same ship: the

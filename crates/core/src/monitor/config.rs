@@ -14,7 +14,8 @@ use serde::{Deserialize, Serialize};
 /// travel: while the reference is established, the tests may add at most the rudder travel
 /// the autopilot itself does in a calm sea (about 800 deg/h on the design's ship; a rougher
 /// sea only raises the autopilot's own), so commissioning and its confirmation at most double
-/// the steering gear's calm-sea work while they last. One scheduled test adds at most about
+/// the steering gear's calm-sea work while they last (`monitor::cadence` measures the budget
+/// after each test and shortens the gap where the tests add less). One scheduled test adds at most about
 /// 470 deg (the two methods' mean, the confirmation's tests the larger), and a test with its
 /// steady wait takes about 1360 s on average over the two methods: at most 800 / 470 = 1.70
 /// tests per hour, a cycle of at least 2115 s, an interval of at least 2115 - 1360 = 755 s,
@@ -32,9 +33,10 @@ pub struct SchedulerConfig {
     pub methods: Vec<Method>,
     /// Minimum time from the end of one test to the start of the next [s].
     pub interval_s: f64,
-    /// The same while the vessel's reference is being established: a scheduled method
-    /// commissioning, or confirming its commissioning (`Fdi::establishing`); the shorter of
-    /// the two applies [s]. Default 780 s: see [`COMMISSIONING_INTERVAL_S`].
+    /// The most while the vessel's reference is being established: a scheduled method
+    /// commissioning, or confirming its commissioning (`Fdi::establishing`); the gap is the
+    /// one the measured added-travel budget allows (`monitor::cadence`), at most this and at
+    /// most `interval-s` [s]. Default 780 s: see [`COMMISSIONING_INTERVAL_S`].
     pub commissioning_interval_s: f64,
     /// The course must be steady this long before a scheduled test [s].
     pub steady_time_s: f64,

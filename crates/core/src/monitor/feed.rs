@@ -128,6 +128,8 @@ impl Monitor {
     }
 
     fn on_rudder(&mut self, t: f64, rudder_rad: f64) {
+        let play = cadence::PLAY_SIGMAS * self.cfg.sensors.rudder_noise_deg.to_radians();
+        self.work.rudder(t, rudder_rad, play);
         let full = match &mut self.run {
             Some(run) => match &mut run.kind {
                 RunKind::Hbt(h) => h.push_rudder(t, rudder_rad).err(),

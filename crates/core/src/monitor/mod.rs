@@ -69,6 +69,7 @@
 //! | `config.rs` | the monitor's sections and [`CoreConfig`] |
 
 pub mod abort;
+pub mod cadence;
 mod clfrt;
 pub mod config;
 mod feed;
@@ -273,6 +274,10 @@ pub struct Monitor {
     run: Option<Run>,
     /// End of the last test (ship time), for the scheduler interval.
     last_test_end: Option<f64>,
+    /// The steering gear's work, measured: commissioning's cadence (`cadence`).
+    work: cadence::Work,
+    /// The gap the last test asked for under the added-travel budget [s] (`cadence`).
+    commissioning_gap_s: Option<f64>,
     /// Which scheduled method runs next (index into `scheduler.methods`).
     next_method: usize,
     /// The wave yaw on the heading the last completed test measured [rad]: the sea the
@@ -373,6 +378,8 @@ impl Monitor {
             steady: Steady::default(),
             run: None,
             last_test_end: None,
+            work: cadence::Work::default(),
+            commissioning_gap_s: None,
             next_method: 0,
             sea_wave_yaw_rad: None,
             clfrt_heading_guard: false,
@@ -524,6 +531,7 @@ impl Monitor {
             sent: Vec::new(),
         });
         self.stats.tests_started += 1;
+        self.work.test_started();
         self.steady.since = None;
         tracing::info!(vessel = %self.vessel, test = %id, method = method.name(), "test started ({why})");
         self.emit_status(t, MonitorState::Settling, Some(format!("started on {why}")));

@@ -59,6 +59,8 @@ impl Monitor {
     pub(super) fn finish(&mut self, t: f64, result: Result<Measured, AbortReason>) {
         let Some(run) = self.run.take() else { return };
         self.last_test_end = Some(t);
+        let most = self.cfg.scheduler.commissioning_interval_s;
+        self.commissioning_gap_s = Some(self.work.test_ended(t - run.t_start, most));
         self.update_heading_guard(&run, &result);
         let ending = match result {
             Ok(f) => self.completed(&run, f),

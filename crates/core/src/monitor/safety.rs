@@ -112,13 +112,17 @@ impl Monitor {
     }
 
     /// The interval before the next scheduled test: while a scheduled method's reference is
-    /// being established (commissioning, then its confirmation), `commissioning-interval-s`
-    /// or `interval-s`, the shorter (commissioning is never slower than the watch); else
+    /// being established (commissioning, then its confirmation), the gap the last test asked
+    /// for under the added-travel budget (`cadence`), at most `commissioning-interval-s`,
+    /// and at most `interval-s` (commissioning is never slower than the watch); else
     /// `interval-s`.
     pub(super) fn scheduled_interval_s(&self) -> f64 {
         let sc = &self.cfg.scheduler;
         if self.establishing() {
-            sc.commissioning_interval_s.min(sc.interval_s)
+            let most = sc.commissioning_interval_s;
+            self.commissioning_gap_s
+                .map_or(most, |g| g.min(most))
+                .min(sc.interval_s)
         } else {
             sc.interval_s
         }

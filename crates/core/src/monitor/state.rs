@@ -26,6 +26,10 @@ pub struct VesselState {
     /// [rad] (absent in states of earlier releases: not known).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sea_wave_yaw_rad: Option<f64>,
+    /// The gap the last test asked for under commissioning's added-travel budget [s]
+    /// (absent: not known, `scheduler.commissioning-interval-s`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub commissioning_gap_s: Option<f64>,
     /// The next CLFRT test's heading guard is armed (absent: not armed).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub clfrt_heading_guard: bool,
@@ -63,6 +67,7 @@ impl Monitor {
             next_method: self.next_method,
             test_seq: self.test_seq,
             sea_wave_yaw_rad: self.sea_wave_yaw_rad,
+            commissioning_gap_s: self.commissioning_gap_s,
             clfrt_heading_guard: self.clfrt_heading_guard,
         }
     }
@@ -85,6 +90,7 @@ impl Monitor {
         self.next_method = s.next_method % self.cfg.scheduler.methods.len().max(1);
         self.test_seq = s.test_seq;
         self.sea_wave_yaw_rad = s.sea_wave_yaw_rad.filter(|w| w.is_finite() && *w >= 0.0);
+        self.commissioning_gap_s = s.commissioning_gap_s.filter(|g| g.is_finite() && *g >= 0.0);
         self.clfrt_heading_guard = s.clfrt_heading_guard;
         Ok(discarded)
     }
@@ -106,7 +112,7 @@ impl Monitor {
     }
 
     /// A scheduled method's reference is being established (commissioning, or its
-    /// confirmation): the scheduler runs at `scheduler.commissioning-interval-s`.
+    /// confirmation): the scheduler runs at commissioning's cadence (`cadence`).
     pub fn establishing(&self) -> bool {
         (self.cfg.scheduler.methods.iter()).any(|&m| self.fdi.establishing(m))
     }
