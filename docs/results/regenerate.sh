@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Writes every file in docs/results/ (the figures the docs quote). Run from the checkout's
-# root after `cargo build --profile ci`; about an hour and three quarters on two cores.
+# root after `cargo build --profile ci`; about two hours on two cores.
 #   docs/results/regenerate.sh [OUT_DIR] [COMPARE_DIR]
 # COMPARE_DIR: an earlier OUT_DIR, whose figures each suite is put beside.
 set -euo pipefail
@@ -33,3 +33,8 @@ done
   --tests 4 --ablate own-noise,hotelling-calibration --results "$out/ablation" >/dev/null
 "$hw" eval --fdi --in-turn --family --member "120 m" --seed 5 --runs 8 --nominal-runs 4 \
   --tests 4 --ablate loop-shape,log-step --results "$out/ablation" >/dev/null
+# The time to alarm on the family's two surge-sway-yaw hulls, at the watch's default interval.
+for member in KVLCC2 Mariner; do for sea in calm moderate; do
+  "$hw" bench --time-to-alarm --seed 1 --runs 12 --sea "$sea" --intervals 3600 --member "$member" \
+    --results "$out" >/dev/null
+done; done

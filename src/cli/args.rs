@@ -428,6 +428,11 @@ pub(crate) struct BenchArgs {
     /// of `eval --fdi --ablate`); the file is named `...-<names>-off`.
     #[arg(long, value_name = "MECHANISMS")]
     pub(crate) ablate: Option<String>,
+    /// With --time-to-alarm: on the one member of the family of real ships (`eval --fdi
+    /// --family`) whose name contains this, its structure and autopilot on the configured
+    /// ship; the file is named `...-<member>`.
+    #[arg(long, value_name = "TEXT")]
+    pub(crate) member: Option<String>,
 }
 
 /// The simulated ship of one run.

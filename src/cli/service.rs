@@ -173,6 +173,26 @@ fn time_to_alarm(cfg: &Config, a: &BenchArgs) -> Result<(), Failure> {
     use crate::tools::time_to_alarm::{bench_faults, print, run, TimeToAlarmOptions};
     use std::io::Write as _;
     let usage = |e: helmwatch_core::config::ConfigError| Failure::Usage(e.into());
+    let member = match &a.member {
+        Some(text) => {
+            let found = crate::tools::eval::fdi::family_members(cfg, Some(text));
+            match <[_; 1]>::try_from(found) {
+                Ok([(_, name, c)]) => Some((name, c)),
+                Err(_) => {
+                    let names: Vec<&str> = (helmwatch_core::sim::config::family().iter())
+                        .skip(1)
+                        .map(|m| m.name)
+                        .collect();
+                    return Err(Failure::Usage(anyhow::anyhow!(
+                        "--member {text:?}: one member's name or part of it, of: {}",
+                        names.join("; ")
+                    )));
+                }
+            }
+        }
+        None => None,
+    };
+    let cfg = member.as_ref().map_or(cfg, |(_, c)| c);
     for &i in &a.intervals {
         helmwatch_core::config::check_range("--intervals", i, 0.0, 30.0 * 86400.0)
             .map_err(usage)?;
@@ -216,6 +236,9 @@ fn time_to_alarm(cfg: &Config, a: &BenchArgs) -> Result<(), Failure> {
     helmwatch_core::fdi::ablation::switch_off(&[]);
     let per = per?;
     let mut out = Vec::new();
+    if let Some((name, _)) = &member {
+        let _ = writeln!(out, "Ship: the family's {name}\n");
+    }
     if !off.is_empty() {
         let names: Vec<&str> = off.iter().map(|m| m.name()).collect();
         let _ = writeln!(out, "Mechanisms off: {}\n", names.join(", "));
@@ -223,8 +246,24 @@ fn time_to_alarm(cfg: &Config, a: &BenchArgs) -> Result<(), Failure> {
     print(cfg, &o, &faults, &per, &mut out).map_err(|e| Failure::Write(e.into()))?;
     let mut text = String::from_utf8_lossy(&out).into_owned();
     let suffix: String = off.iter().map(|m| format!("-{}", m.name())).collect();
+    let ship: String = member.map_or(String::new(), |(name, _)| {
+        let slug: String = name
+            .chars()
+            .map(|c| match c.is_ascii_alphanumeric() {
+                true => c.to_ascii_lowercase(),
+                false => '-',
+            })
+            .collect();
+        format!(
+            "-{}",
+            slug.split('-')
+                .filter(|w| !w.is_empty())
+                .collect::<Vec<_>>()
+                .join("-")
+        )
+    });
     let name = format!(
-        "time-to-alarm-{}-seed{}{}",
+        "time-to-alarm-{}-seed{}{ship}{}",
         o.sea.name(),
         o.seed,
         if off.is_empty() {

@@ -17,9 +17,12 @@
 //! while commissioning and its confirmation last). A cycle (the gap, with the steady wait in
 //! it, and the test) then lasts `C >= A / r`: the gap after the test is `A / r - T`, at least
 //! 0. It is at most `scheduler.commissioning-interval-s` (the fixed cadence that keeps the
-//! budget on the design's ship in a calm sea, `config::COMMISSIONING_INTERVAL_S`): in a calm
-//! sea it changes nothing; in a seaway, where the relay or the tones take over work the
+//! budget on the design's ship in a calm sea, `config::COMMISSIONING_INTERVAL_S`, over the
+//! two methods' mean test): in a calm sea a long CLFRT test has spent most of its budget in
+//! its own length and the gap after it is short, the HBT's is the most; in a seaway, where the relay or the tones take over work the
 //! autopilot does anyway, `A <= 0` and the tests follow each other after the steady wait.
+//! The most wins over the budget: with an autopilot quieter than the design's in a calm sea
+//! the tests add more than its own, and commissioning still takes hours, not days.
 //! Without a measured `r` (no autopilot-alone stretch yet, or a rudder that never leaves the
 //! play) the gap is `commissioning-interval-s`.
 
