@@ -158,4 +158,24 @@ mod tests {
         m.restore(s).unwrap();
         assert_eq!(m.saved_state().sea_wave_yaw_rad, None);
     }
+
+    /// Commissioning's gap (`cadence`) survives a restart; a state without it restores
+    /// with none (the most, `commissioning-interval-s`), and a negative or NaN one is refused.
+    #[test]
+    fn the_commissioning_gap_survives_a_restart() {
+        let cfg = CoreConfig::default();
+        let mut m = Monitor::new(&cfg, "self");
+        let mut s = m.saved_state();
+        assert!(!serde_json::to_string(&s)
+            .unwrap()
+            .contains("commissioning_gap_s"));
+        s.commissioning_gap_s = Some(120.0);
+        m.restore(s.clone()).unwrap();
+        assert_eq!(m.saved_state().commissioning_gap_s, Some(120.0));
+        for bad in [-1.0, f64::NAN] {
+            s.commissioning_gap_s = Some(bad);
+            m.restore(s.clone()).unwrap();
+            assert_eq!(m.saved_state().commissioning_gap_s, None);
+        }
+    }
 }
