@@ -167,6 +167,41 @@ pub(crate) fn bench(cfg: &Config, config: Option<&Path>, a: BenchArgs) -> Result
     Ok(())
 }
 
+/// The one member of the family whose name contains `text`, `cfg` with its structure and
+/// autopilot (`bench --time-to-alarm --member`); exit 64 naming the members otherwise.
+fn family_member(cfg: &Config, text: &str) -> Result<(&'static str, Config), Failure> {
+    let found = crate::tools::eval::fdi::family_members(cfg, Some(text));
+    match <[_; 1]>::try_from(found) {
+        Ok([(_, name, c)]) => Ok((name, c)),
+        Err(_) => {
+            let names: Vec<&str> = (helmwatch_core::sim::config::family().iter())
+                .skip(1)
+                .map(|m| m.name)
+                .collect();
+            Err(Failure::Usage(anyhow::anyhow!(
+                "--member {text:?}: one member's name or part of it, of: {}",
+                names.join("; ")
+            )))
+        }
+    }
+}
+
+/// `name` in a file name: lower case, each run of other characters than letters and digits
+/// one `-` ("KVLCC2 MMG 120 m": "kvlcc2-mmg-120-m").
+fn slug(name: &str) -> String {
+    let s: String = name
+        .chars()
+        .map(|c| match c.is_ascii_alphanumeric() {
+            true => c.to_ascii_lowercase(),
+            false => '-',
+        })
+        .collect();
+    s.split('-')
+        .filter(|w| !w.is_empty())
+        .collect::<Vec<_>>()
+        .join("-")
+}
+
 /// `helmwatch bench --time-to-alarm`: exit 64 for a bad interval, run count or cap, 70 when
 /// a run fails.
 fn time_to_alarm(cfg: &Config, a: &BenchArgs) -> Result<(), Failure> {
@@ -174,22 +209,7 @@ fn time_to_alarm(cfg: &Config, a: &BenchArgs) -> Result<(), Failure> {
     use std::io::Write as _;
     let usage = |e: helmwatch_core::config::ConfigError| Failure::Usage(e.into());
     let member = match &a.member {
-        Some(text) => {
-            let found = crate::tools::eval::fdi::family_members(cfg, Some(text));
-            match <[_; 1]>::try_from(found) {
-                Ok([(_, name, c)]) => Some((name, c)),
-                Err(_) => {
-                    let names: Vec<&str> = (helmwatch_core::sim::config::family().iter())
-                        .skip(1)
-                        .map(|m| m.name)
-                        .collect();
-                    return Err(Failure::Usage(anyhow::anyhow!(
-                        "--member {text:?}: one member's name or part of it, of: {}",
-                        names.join("; ")
-                    )));
-                }
-            }
-        }
+        Some(text) => Some(family_member(cfg, text)?),
         None => None,
     };
     let cfg = member.as_ref().map_or(cfg, |(_, c)| c);
@@ -246,22 +266,7 @@ fn time_to_alarm(cfg: &Config, a: &BenchArgs) -> Result<(), Failure> {
     print(cfg, &o, &faults, &per, &mut out).map_err(|e| Failure::Write(e.into()))?;
     let mut text = String::from_utf8_lossy(&out).into_owned();
     let suffix: String = off.iter().map(|m| format!("-{}", m.name())).collect();
-    let ship: String = member.map_or(String::new(), |(name, _)| {
-        let slug: String = name
-            .chars()
-            .map(|c| match c.is_ascii_alphanumeric() {
-                true => c.to_ascii_lowercase(),
-                false => '-',
-            })
-            .collect();
-        format!(
-            "-{}",
-            slug.split('-')
-                .filter(|w| !w.is_empty())
-                .collect::<Vec<_>>()
-                .join("-")
-        )
-    });
+    let ship: String = member.map_or(String::new(), |(name, _)| format!("-{}", slug(name)));
     let name = format!(
         "time-to-alarm-{}-seed{}{ship}{}",
         o.sea.name(),
