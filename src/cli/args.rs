@@ -242,7 +242,16 @@ pub(crate) struct EvalArgs {
     /// point, from `--seed`); with --results DIR, written to DIR/crb-seed<SEED>.md.
     #[arg(long, conflicts_with_all = ["fdi", "budget"])]
     pub(crate) crb: bool,
-    /// With --fdi: runs per fault scenario; with --crb: seeded tests per point.
+    /// Compute the passive watch's bound instead (docs/passive.md): the Cramer-Rao bound of
+    /// the ship's Nomoto a and b from 10 to 120 minutes of normal operation under the
+    /// autopilot, per sea, beside one CLFRT test's; the shortest record that resolves a 10 %
+    /// displacement step and a 0.5 m/s log bias at the budget; and Whittle's estimator on the
+    /// simulated ship against it (`--runs` records per cell); with --results DIR, written to
+    /// DIR/passive-seed<SEED>.md.
+    #[arg(long, conflicts_with_all = ["fdi", "budget", "crb"])]
+    pub(crate) passive: bool,
+    /// With --fdi: runs per fault scenario; with --crb: seeded tests per point; with
+    /// --passive: records per Monte Carlo cell.
     #[arg(long, default_value_t = 60)]
     pub(crate) runs: usize,
     /// With --fdi: runs per nominal scenario (each of `--tests` tests).

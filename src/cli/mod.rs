@@ -67,6 +67,7 @@ pub fn main() -> i32 {
         Command::Eval(a) if a.fdi => offline::eval_fdi(&cfg, &a),
         Command::Eval(a) if a.budget => offline::eval_budget(&a),
         Command::Eval(a) if a.crb => offline::eval_crb(&cfg, &a),
+        Command::Eval(a) if a.passive => offline::eval_passive(&cfg, &a),
         Command::Run(a) => service::run_daemon(&cfg, a),
         Command::Ship(a) => service::ship(&cfg, a),
         Command::Demo(a) => service::demo(&cfg, a),

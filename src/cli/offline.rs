@@ -275,6 +275,22 @@ pub(crate) fn eval_crb(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
     print_and_write(a, "crb", &body)
 }
 
+/// `eval --passive`: the passive watch's bound and Whittle's estimator against it, printed
+/// and with `--results DIR` written to `DIR/passive-seed<SEED>.md`.
+pub(crate) fn eval_passive(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
+    let threads = a
+        .threads
+        .unwrap_or_else(crate::tools::training::database::default_threads)
+        .max(1);
+    let o = crate::tools::eval::passive::PassiveOptions {
+        runs: a.runs.max(2),
+        seed: a.seed,
+        threads,
+    };
+    let body = crate::tools::eval::passive::passive_table(cfg, &o);
+    print_and_write(a, "passive", &body)
+}
+
 /// The mechanisms `--ablate` names, one set per comma (`a+b`: both off together; `all`:
 /// every one alone); exit 64 naming the allowed ones.
 pub(crate) fn mechanisms(

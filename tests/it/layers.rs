@@ -33,6 +33,7 @@ const CORE_FLOORS: &[&str] = &[
     "monitor::config",
     "dsp",
     "baseline",
+    "passive",
     "estimator",
     // The fault decision, by the flow of a test's evidence: tools, the residual against the
     // design, the vessel's normal, the decision, the report.

@@ -31,6 +31,7 @@
 //! | [`design`] | the HBT and CLFRT test designs (model files record them) |
 //! | [`dsp`] | spectra, multisine design, tone analysis, relay limit-cycle theory |
 //! | [`baseline`] | equation-error least squares of the Nomoto a and b |
+//! | [`passive`] | the closed loop's spectral model under the autopilot, its Fisher information and Whittle's estimator (the passive watch's bound) |
 //! | [`estimator`] | the neural estimator's inference and model files |
 //! | [`fdi`] | parity-space residuals, decision rule, alarm state, isolation |
 //! | [`monitor`] | the monitor: a state machine fed timestamped samples; [`monitor::config::CoreConfig`] |
@@ -50,6 +51,7 @@ pub mod model;
 pub mod monitor;
 pub mod nmea;
 pub mod ownership;
+pub mod passive;
 pub mod sim;
 #[cfg(any(test, feature = "test-support"))]
 pub mod testing;

@@ -6,3 +6,4 @@ pub mod budget;
 pub mod crb;
 pub mod estimator;
 pub mod fdi;
+pub mod passive;
