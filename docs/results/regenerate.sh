@@ -22,6 +22,7 @@ for sea in calm moderate; do
 done
 # One test's Cramer-Rao bound on (u, D) from its features, beside the networks' spread.
 "$hw" eval --crb --family --runs 100 --seed 1 --results "$out" >/dev/null
+"$hw" eval --passive --runs 40 --seed 1 --results "$out" >/dev/null
 # The decision on its own model against the budget (and without the Hotelling calibration).
 "$hw" eval --budget --seed 7 --results "$out" >/dev/null
 # Each mechanism of the decision off in turn (docs/fdi.md, "Mechanisms"), every set, small;
