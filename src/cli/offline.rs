@@ -180,10 +180,7 @@ pub(crate) fn eval_fdi(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
         runs: a.runs,
         nominal_runs: a.nominal_runs,
         tests: a.tests.max(1),
-        threads: a
-            .threads
-            .unwrap_or_else(crate::tools::training::database::default_threads)
-            .max(1),
+        threads: eval_threads(a),
         ..FdiEvalOptions::default()
     };
     o.family = a.family;
@@ -237,12 +234,16 @@ pub(crate) fn eval_fdi(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
 /// `eval --budget`: the decision's Monte Carlo on its own model, printed and with
 /// `--results DIR` written to `DIR/budget-seed<SEED>.md`.
 pub(crate) fn eval_budget(a: &EvalArgs) -> Result<(), Failure> {
-    let threads = a
-        .threads
-        .unwrap_or_else(crate::tools::training::database::default_threads)
-        .max(1);
+    let threads = eval_threads(a);
     let body = crate::tools::eval::budget::budget_table(a.seed, threads);
     print_and_write(a, "budget", &body)
+}
+
+/// `--threads`, or every core; at least one.
+fn eval_threads(a: &EvalArgs) -> usize {
+    a.threads
+        .unwrap_or_else(crate::tools::training::database::default_threads)
+        .max(1)
 }
 
 /// Prints `body`, and with `--results DIR` writes it to `DIR/<what>-seed<SEED>.md`.
@@ -260,10 +261,7 @@ fn print_and_write(a: &EvalArgs, what: &str, body: &str) -> Result<(), Failure> 
 /// `eval --crb`: one test's Cramer-Rao bound beside the networks' spread, printed and with
 /// `--results DIR` written to `DIR/crb-seed<SEED>.md`.
 pub(crate) fn eval_crb(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
-    let threads = a
-        .threads
-        .unwrap_or_else(crate::tools::training::database::default_threads)
-        .max(1);
+    let threads = eval_threads(a);
     let o = crate::tools::eval::crb::CrbOptions {
         tests: a.runs,
         seed: a.seed,
@@ -278,10 +276,7 @@ pub(crate) fn eval_crb(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
 /// `eval --passive`: the passive watch's bound and Whittle's estimator against it, printed
 /// and with `--results DIR` written to `DIR/passive-seed<SEED>.md`.
 pub(crate) fn eval_passive(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
-    let threads = a
-        .threads
-        .unwrap_or_else(crate::tools::training::database::default_threads)
-        .max(1);
+    let threads = eval_threads(a);
     let o = crate::tools::eval::passive::PassiveOptions {
         runs: a.runs.max(2),
         seed: a.seed,

@@ -278,18 +278,23 @@ pub fn information(t: &[f64; N_PARAMS], record_s: f64, dt_s: f64) -> Vec<f64> {
         let Some((_, d)) = whitened_slopes(t, w, dt_s) else {
             continue;
         };
-        for i in 0..N_PARAMS {
-            for j in i..N_PARAMS {
-                let p = mul2(&d[i], &d[j]);
-                let v = (p[0][0] + p[1][1]).re;
-                info[i * N_PARAMS + j] += v;
-                if i != j {
-                    info[j * N_PARAMS + i] += v;
-                }
+        accumulate_record(&mut info, &d);
+    }
+    info
+}
+
+/// `info_ij += tr(D_i D_j)` for one frequency's whitened slopes `D_i = Phi^-1 dPhi/dtheta_i`.
+pub fn accumulate_record(info: &mut [f64], d: &[M2]) {
+    for i in 0..N_PARAMS {
+        for j in i..N_PARAMS {
+            let p = mul2(&d[i], &d[j]);
+            let v = (p[0][0] + p[1][1]).re;
+            info[i * N_PARAMS + j] += v;
+            if i != j {
+                info[j * N_PARAMS + i] += v;
             }
         }
     }
-    info
 }
 
 /// Fisher information about the logarithms `t` of a tone of amplitude `amp_rad` added to the
@@ -306,18 +311,7 @@ pub fn tone_information(
     let Some(pinv) = inv2(&LoopModel::from_logs(t).spectrum(w, dt_s)) else {
         return info;
     };
-    let dc: Vec<[Complex64; 2]> = (0..N_PARAMS)
-        .map(|i| {
-            let (mut up, mut dn) = (*t, *t);
-            up[i] += LOG_STEP;
-            dn[i] -= LOG_STEP;
-            let (cu, cd) = (
-                LoopModel::from_logs(&up).tone_response(w),
-                LoopModel::from_logs(&dn).tone_response(w),
-            );
-            [0, 1].map(|r| (cu[r] - cd[r]) * amp_rad / (2.0 * LOG_STEP))
-        })
-        .collect();
+    let dc = mean_slopes(t, Complex64::new(amp_rad, 0.0), |m| m.tone_response(w));
     accumulate_mean(&mut info, &dc, &pinv, record_s / (4.0 * PI));
     info
 }
@@ -343,21 +337,31 @@ pub fn course_step_information(t: &[f64; N_PARAMS], step_rad: f64, dt_s: f64) ->
             continue;
         };
         let scale = Complex64::new(0.0, -step_rad / w);
-        let dm: Vec<[Complex64; 2]> = (0..N_PARAMS)
-            .map(|i| {
-                let (mut up, mut dn) = (*t, *t);
-                up[i] += LOG_STEP;
-                dn[i] -= LOG_STEP;
-                let (mu, md) = (
-                    LoopModel::from_logs(&up).course_response(w),
-                    LoopModel::from_logs(&dn).course_response(w),
-                );
-                [0, 1].map(|r| (mu[r] - md[r]) * scale / (2.0 * LOG_STEP))
-            })
-            .collect();
+        let dm = mean_slopes(t, scale, |m| m.course_response(w));
         accumulate_mean(&mut info, &dm, &pinv, weight);
     }
     info
+}
+
+/// The slopes in the logarithms `t` of a known mean `scale response(model)` (central
+/// differences).
+fn mean_slopes(
+    t: &[f64; N_PARAMS],
+    scale: Complex64,
+    response: impl Fn(&LoopModel) -> [Complex64; 2],
+) -> Vec<[Complex64; 2]> {
+    (0..N_PARAMS)
+        .map(|i| {
+            let (mut up, mut dn) = (*t, *t);
+            up[i] += LOG_STEP;
+            dn[i] -= LOG_STEP;
+            let (mu, md) = (
+                response(&LoopModel::from_logs(&up)),
+                response(&LoopModel::from_logs(&dn)),
+            );
+            [0, 1].map(|r| (mu[r] - md[r]) * scale / (2.0 * LOG_STEP))
+        })
+        .collect()
 }
 
 /// `info_ij += weight Re(dm_i^H pinv dm_j)`.

@@ -15,7 +15,9 @@
 //! halved, and no logarithm moves by more than [`MAX_LOG_STEP`] a step. Asymptotically this
 //! is efficient: its spread reaches the Cramer-Rao bound of [`super::information`].
 
-use super::{fourier_frequencies, inv2, mul2, whitened_slopes, LoopModel, M2, N_PARAMS};
+use super::{
+    accumulate_record, fourier_frequencies, inv2, mul2, whitened_slopes, LoopModel, M2, N_PARAMS,
+};
 use rustfft::num_complex::Complex64;
 use rustfft::FftPlanner;
 use std::f64::consts::PI;
@@ -99,16 +101,11 @@ fn score_information(
     for (w, p) in pg {
         let (pinv, d) = whitened_slopes(t, *w, dt_s)?;
         let q = mul2(&pinv, p);
-        for i in 0..N_PARAMS {
-            let dq = mul2(&d[i], &q);
-            s[i] += (dq[0][0] + dq[1][1] - d[i][0][0] - d[i][1][1]).re;
-            for j in i..N_PARAMS {
-                let dd = mul2(&d[i], &d[j]);
-                let v = (dd[0][0] + dd[1][1]).re;
-                info[i * N_PARAMS + j] += v;
-                info[j * N_PARAMS + i] = info[i * N_PARAMS + j];
-            }
+        for (si, di) in s.iter_mut().zip(&d) {
+            let dq = mul2(di, &q);
+            *si += (dq[0][0] + dq[1][1] - di[0][0] - di[1][1]).re;
         }
+        accumulate_record(&mut info, &d);
     }
     Some((s, info))
 }
