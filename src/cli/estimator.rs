@@ -508,25 +508,28 @@ fn write_calibration(
     Ok(())
 }
 
-/// `train --calibrate`: the healthy scatter of the networks in `o.out` on the class
-/// (`tools::training::calibrate::healthy_scatter`), into its `calibration.json`.
+/// `train --calibrate`: the healthy scatter and the displacement's direction of the networks
+/// in `o.out` on the class (`tools::training::calibrate`), into its `calibration.json`.
 fn recalibrate(cfg: &Config, o: &TrainOptions, threads: usize) -> Result<(), Failure> {
     let t0 = Instant::now();
     let estimator = Estimator::load_dir(&o.out, &cfg.core())?;
     let mut calibration = estimator.calibration().clone();
-    let prior = crate::tools::training::calibrate::healthy_scatter(
-        cfg,
-        std::sync::Arc::new(estimator),
-        o.family,
-        o.seed,
-        threads,
-    )
-    .ok_or_else(|| {
+    let estimator = std::sync::Arc::new(estimator);
+    use crate::tools::training::calibrate::{
+        displacement_direction, healthy_scatter, scatter_points,
+    };
+    let too_few = |what: &str| {
         Failure::software(anyhow::anyhow!(
-            "too few completed tests to measure the healthy scatter"
+            "too few completed tests to measure the {what}"
         ))
-    })?;
+    };
+    let prior = healthy_scatter(cfg, estimator.clone(), o.family, o.seed, threads)
+        .ok_or_else(|| too_few("healthy scatter"))?;
+    let points = scatter_points(cfg, o.family, o.seed);
+    let direction = displacement_direction(cfg, estimator, &points, threads)
+        .ok_or_else(|| too_few("displacement's direction"))?;
     calibration.healthy_scatter = Some(prior);
+    calibration.displacement_direction = Some(direction);
     write_calibration(std::slice::from_ref(&o.out), &calibration)?;
     for (name, c) in [("clfrt", prior.clfrt), ("hbt", prior.hbt)] {
         let v = |p: [[f64; 3]; 3]| {
@@ -541,8 +544,16 @@ fn recalibrate(cfg: &Config, o: &TrainOptions, threads: usize) -> Result<(), Fai
             c.dof.map(|w| format!("{w:.1}"))
         );
     }
+    for (name, pair) in [("clfrt", direction.clfrt), ("hbt", direction.hbt)] {
+        let v = |d: [f64; 3]| d.map(|x| format!("{x:+.3}"));
+        println!(
+            "displacement direction {name} per unit ln D (e_u m/s, e_D, e_b): calm {:?}, moderate {:?}",
+            v(pair[0]),
+            v(pair[1])
+        );
+    }
     println!(
-        "healthy scatter measured in {:.1} s",
+        "healthy scatter and displacement direction measured in {:.1} s",
         t0.elapsed().as_secs_f64()
     );
     Ok(())

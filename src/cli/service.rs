@@ -266,9 +266,18 @@ fn time_to_alarm(cfg: &Config, a: &BenchArgs) -> Result<(), Failure> {
     print(cfg, &o, &faults, &per, &mut out).map_err(|e| Failure::Write(e.into()))?;
     let mut text = String::from_utf8_lossy(&out).into_owned();
     let suffix: String = off.iter().map(|m| format!("-{}", m.name())).collect();
+    // Models other than the embedded ones: the directory's name (a class's models).
+    let models: String = cfg
+        .estimator
+        .models_dir
+        .as_deref()
+        .and_then(|d| std::path::Path::new(d).file_name())
+        .map_or(String::new(), |n| {
+            format!("-models-{}", slug(&n.to_string_lossy()))
+        });
     let ship: String = member.map_or(String::new(), |(name, _)| format!("-{}", slug(name)));
     let name = format!(
-        "time-to-alarm-{}-seed{}{ship}{}",
+        "time-to-alarm-{}-seed{}{ship}{models}{}",
         o.sea.name(),
         o.seed,
         if off.is_empty() {

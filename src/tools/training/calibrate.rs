@@ -14,12 +14,15 @@ use crate::config::Config;
 use helmwatch_core::drivers::probe::{run_probe, ProbeOptions};
 use helmwatch_core::estimator::Estimator;
 use helmwatch_core::fdi::config::Calibration;
+use helmwatch_core::fdi::config::DisplacementDirection;
 use helmwatch_core::fdi::prior::{ClassScatter, PointVariance, ScatterPrior};
+use helmwatch_core::fdi::sensitivity::ln_gain;
 use helmwatch_core::fdi::stats::{median, Cov, P};
 use helmwatch_core::model::SeaState;
 use helmwatch_core::monitor::Monitor;
+use helmwatch_core::sim::fault::{Fault, FaultKind};
 use helmwatch_core::sim::Scenario;
-use helmwatch_core::wire::{Method, Outcome};
+use helmwatch_core::wire::{Method, Outcome, Report};
 use std::sync::Arc;
 
 /// Operating points per sea the healthy scatter is measured at.
@@ -68,6 +71,29 @@ pub fn calibrate(db: &Database, base: &Calibration) -> Calibration {
     c
 }
 
+/// One completed test at `point` with `faults` from its start (`None`: not completed).
+fn completed(
+    cfg: &Config,
+    point: &Point,
+    seed: u64,
+    faults: Vec<Fault>,
+    opts: &ProbeOptions,
+) -> Option<Report> {
+    let sc = Scenario {
+        speed_mps: point.speed_mps,
+        displacement_t: point.displacement_t,
+        sea: point.sea,
+        faults,
+        seed,
+    };
+    let mut sim = cfg.sim();
+    if let Some(m) = &point.ship {
+        m.apply(&mut sim.structure, &mut sim.autopilot);
+    }
+    let r = run_probe(&cfg.core(), &sim, &sc, opts).ok()?.report;
+    (r.outcome == Outcome::Completed).then_some(r)
+}
+
 /// One healthy test's residual `e` and design spreads `s` (`None`: not completed, or a
 /// component missing).
 fn residual(
@@ -76,22 +102,9 @@ fn residual(
     seed: u64,
     opts: &ProbeOptions,
 ) -> Option<([f64; P], [f64; P])> {
-    let sc = Scenario {
-        speed_mps: point.speed_mps,
-        displacement_t: point.displacement_t,
-        sea: point.sea,
-        faults: Vec::new(),
-        seed,
-    };
-    let mut sim = cfg.sim();
-    if let Some(m) = &point.ship {
-        m.apply(&mut sim.structure, &mut sim.autopilot);
-    }
-    let r = run_probe(&cfg.core(), &sim, &sc, opts).ok()?.report;
-    if r.outcome != Outcome::Completed {
-        return None;
-    }
-    let raw = r.residuals.raw?;
+    let raw = completed(cfg, point, seed, Vec::new(), opts)?
+        .residuals
+        .raw?;
     let e = [raw.speed_mps, raw.displacement, raw.ln_gain?];
     let s = [
         raw.speed_sigma_mps,
@@ -176,6 +189,22 @@ fn pooled(points: &[Vec<[f64; P]>]) -> Option<(Cov, [f64; P])> {
     Some((psi, ClassScatter::weight(&components, total)))
 }
 
+/// The operating points the class's scatter and direction are measured at:
+/// [`SCATTER_POINTS`] per sea of their own Latin hypercube (each its own ship of the family
+/// with `family`).
+pub fn scatter_points(cfg: &Config, family: bool, seed: u64) -> Vec<Point> {
+    let spec = DatabaseSpec {
+        seed,
+        purpose: Purpose::Scatter,
+        points_per_sea: SCATTER_POINTS,
+        seas: vec![SeaState::Calm, SeaState::Moderate],
+        methods: vec![Method::Clfrt, Method::Hbt],
+        faults: Vec::new(),
+        family,
+    };
+    design(cfg, &spec)
+}
+
 /// The estimator's healthy scatter on the class (`helmwatch_core::fdi::prior`): per sea,
 /// [`SCATTER_POINTS`] operating points of their own Latin hypercube (each its own ship of
 /// the family with `family`), [`SCATTER_REPEATS`] seeded tests of each method at each;
@@ -188,16 +217,7 @@ pub fn healthy_scatter(
     seed: u64,
     threads: usize,
 ) -> Option<ScatterPrior> {
-    let spec = DatabaseSpec {
-        seed,
-        purpose: Purpose::Scatter,
-        points_per_sea: SCATTER_POINTS,
-        seas: vec![SeaState::Calm, SeaState::Moderate],
-        methods: vec![Method::Clfrt, Method::Hbt],
-        faults: Vec::new(),
-        family,
-    };
-    let points = design(cfg, &spec);
+    let points = scatter_points(cfg, family, seed);
     let core = cfg.core();
     let multisine = Monitor::design_multisine(&core).ok();
     let per_method = |method: Method| -> Option<ClassScatter> {
@@ -236,6 +256,79 @@ pub fn healthy_scatter(
         clfrt: per_method(Method::Clfrt)?,
         hbt: per_method(Method::Hbt)?,
     })
+}
+
+/// The true displacement's step each side of the declared one for
+/// [`displacement_direction`] [%]: the size of the smallest fault the decision must find.
+pub const DIRECTION_STEP_PCT: f64 = 10.0;
+
+/// `(e_u [m/s], e_D [fraction of the declared], e_b [ln])` as the networks read `r`.
+fn reading(r: &Report, declared_t: f64) -> Option<[f64; P]> {
+    let e = r.estimate.as_ref()?;
+    let v = [
+        e.speed_mps,
+        e.displacement_t / declared_t,
+        ln_gain(&r.features)?,
+    ];
+    v.iter().all(|x| x.is_finite()).then_some(v)
+}
+
+/// The displacement's direction on the class (`helmwatch_core::fdi::raw`, module doc): at
+/// each of `points` (the healthy scatter's, [`scatter_points`]), one seeded test with the true displacement
+/// [`DIRECTION_STEP_PCT`] above the declared and one the same below, the same seed (common
+/// random numbers: the sea and the sensors' noise cancel), their difference per unit of
+/// `ln D`; per method and sea the median of each component over the points.
+pub fn displacement_direction(
+    cfg: &Config,
+    estimator: Arc<Estimator>,
+    points: &[Point],
+    threads: usize,
+) -> Option<DisplacementDirection> {
+    let core = cfg.core();
+    let multisine = Monitor::design_multisine(&core).ok();
+    let step = DIRECTION_STEP_PCT;
+    let per_ln_d = ((1.0 + step / 100.0) / (1.0 - step / 100.0)).ln();
+    let per_method = |method: Method| -> Option<[[f64; P]; 2]> {
+        let mut opts = ProbeOptions::new(&core, method);
+        opts.estimator = Some(estimator.clone());
+        opts.multisine = multisine.clone();
+        let slopes = par_map(points.len(), threads, |i| {
+            let p = &points[i];
+            // Both ends one seed, one the scatter's repeats do not use.
+            let seed = p.seed.wrapping_add(SCATTER_REPEATS as u64);
+            let at = |pct: f64| {
+                let fault = Fault::new(FaultKind::DisplacementPct, pct, 0.0).ok()?;
+                let r = completed(cfg, p, seed, vec![fault], &opts)?;
+                reading(&r, p.displacement_t)
+            };
+            let (hi, lo) = (at(step)?, at(-step)?);
+            Some(std::array::from_fn::<f64, P, _>(|j| {
+                (hi[j] - lo[j]) / per_ln_d
+            }))
+        });
+        let sea = |s: SeaState| -> Option<[f64; P]> {
+            let of: Vec<[f64; P]> = (0..points.len())
+                .filter(|&i| points[i].sea == s)
+                .filter_map(|i| slopes[i])
+                .collect();
+            (!of.is_empty()).then(|| {
+                std::array::from_fn(|j| {
+                    let mut v: Vec<f64> = of.iter().map(|x| x[j]).collect();
+                    median(&mut v)
+                })
+            })
+        };
+        Some([sea(SeaState::Calm)?, sea(SeaState::Moderate)?])
+    };
+    let d = DisplacementDirection {
+        clfrt: per_method(Method::Clfrt)?,
+        hbt: per_method(Method::Hbt)?,
+    };
+    let reads = |m: [[f64; P]; 2]| {
+        m.iter()
+            .all(|v| v.iter().all(|x| x.is_finite()) && v[1] > 0.0)
+    };
+    (reads(d.clfrt) && reads(d.hbt)).then_some(d)
 }
 
 #[cfg(test)]
@@ -313,6 +406,82 @@ mod tests {
         let c = calibrate(&calm_only, &base);
         approx::assert_relative_eq!(c.sea_wave_yaw_deg[0], 0.05, max_relative = 1e-12);
         assert_eq!(c.sea_wave_yaw_deg[1], base.sea_wave_yaw_deg[1]);
+    }
+
+    /// On the design's Nomoto class `D` enters `b` alone, so the direction measured by
+    /// changing the true displacement must be the one the features with `b` scaled give
+    /// through the same networks (`sensitivity::scale_b`, analytic), at the same points and
+    /// seeds. Compared in design spreads (the units the decision whitens them in): per
+    /// method and sea, each component within 20 % of the `b` scaling's norm. The noise: a
+    /// point's slope is two tests' difference over 0.2 in `ln D`, at most `sqrt 2 / 0.2 =
+    /// 7` spreads where their noise does not cancel; the median of eight, about 3, against
+    /// a norm over 30 (`e_D` alone moves about 1 / 0.03 spreads per unit `ln D`).
+    #[test]
+    fn on_the_nomoto_class_the_measured_direction_is_the_b_scalings() {
+        use helmwatch_core::fdi::sensitivity::scale_b;
+        let cfg = Config::default();
+        let estimator = Arc::new(Estimator::embedded(&cfg.core()).unwrap());
+        // Eight seeds at one point per sea: the medians' noise well under the tolerance.
+        const SEEDS: u64 = 8;
+        let points: Vec<Point> = [
+            (SeaState::Calm, 6.0, 6000.0),
+            (SeaState::Moderate, 8.0, 8000.0),
+        ]
+        .iter()
+        .flat_map(|&(sea, speed_mps, displacement_t)| {
+            (0..SEEDS).map(move |seed| Point {
+                sea,
+                speed_mps,
+                displacement_t,
+                seed: 11 + seed,
+                ship: None,
+            })
+        })
+        .collect();
+        let measured = displacement_direction(&cfg, estimator.clone(), &points, 2).unwrap();
+        let core = cfg.core();
+        for method in [Method::Clfrt, Method::Hbt] {
+            let mut opts = ProbeOptions::new(&core, method);
+            opts.estimator = Some(estimator.clone());
+            opts.multisine = Monitor::design_multisine(&core).ok();
+            let b_scaling = |p: &Point| -> ([f64; P], [f64; P]) {
+                let seed = p.seed.wrapping_add(SCATTER_REPEATS as u64);
+                let r = completed(&cfg, p, seed, Vec::new(), &opts).unwrap();
+                let base = reading(&r, p.displacement_t).unwrap();
+                let step: f64 = 0.01;
+                let f = scale_b(&r.features, (-step).exp()).unwrap();
+                let e = estimator
+                    .estimate(method, &f, &mut estimator.scratch())
+                    .unwrap();
+                let raw = r.residuals.raw.unwrap();
+                let s = raw.displacement_sigma;
+                let b = [
+                    (e.speed_mps - base[0]) / step,
+                    (e.displacement_t / p.displacement_t - base[1]) / step,
+                    (ln_gain(&f).unwrap() - base[2]) / step,
+                ];
+                (b, [raw.speed_sigma_mps, s, s])
+            };
+            let mid = |v: &[([f64; P], [f64; P])], j: usize, which: usize| {
+                median(&mut v.iter().map(|x| [x.0, x.1][which][j]).collect::<Vec<_>>())
+            };
+            for (k, sea) in points.chunks(SEEDS as usize).enumerate() {
+                let each: Vec<([f64; P], [f64; P])> = sea.iter().map(b_scaling).collect();
+                // In design spreads, the units the decision whitens them in.
+                let z =
+                    |v: [f64; P]| -> [f64; P] { std::array::from_fn(|j| v[j] / mid(&each, j, 1)) };
+                let b = z(std::array::from_fn(|j| mid(&each, j, 0)));
+                let m = z(measured.of(if method == Method::Clfrt { 0 } else { 1 })[k]);
+                let norm = b.iter().map(|x| x * x).sum::<f64>().sqrt();
+                for j in 0..P {
+                    assert!(
+                        (m[j] - b[j]).abs() <= 0.2 * norm,
+                        "{method:?} {:?} component {j}: measured {m:?}, b scaling {b:?}",
+                        sea[0].sea
+                    );
+                }
+            }
+        }
     }
 
     #[test]

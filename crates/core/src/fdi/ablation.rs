@@ -14,7 +14,8 @@ pub enum Mechanism {
     /// Off: the estimator's bias and spread of a moderate sea whatever the test's wave yaw.
     SeaInterpolation,
     /// Off: no extra network evaluations; the speed log's direction is `(-1, 0, 0)`, the
-    /// displacement's `(0, 1, 0.01)`, the similarity slopes zero.
+    /// displacement's the class's measured one or `(0, 1, 0.01)`, the similarity slopes
+    /// zero.
     NetworkSlopes,
     /// Off: HBT's displacement direction from the first-order harmonic balance, not the
     /// vessel's measured CLFRT response.
@@ -47,14 +48,18 @@ pub enum Mechanism {
     AlertLevel,
     /// Off: no gain residual `e_b` (two residuals, `e_u` and `e_D`).
     GainChannel,
+    /// Off: the displacement's direction is the `b` scaling's at each test, not the class's
+    /// measured one (`calibration.json`'s `displacement-direction`).
+    ClassDirection,
 }
 
 impl Mechanism {
     /// Every mechanism, in the order of a test's evidence.
-    pub const ALL: [Mechanism; 15] = [
+    pub const ALL: [Mechanism; 16] = [
         Mechanism::SeaInterpolation,
         Mechanism::NetworkSlopes,
         Mechanism::GainChannel,
+        Mechanism::ClassDirection,
         Mechanism::LoopShape,
         Mechanism::OwnNoise,
         Mechanism::VesselReference,
@@ -87,6 +92,7 @@ impl Mechanism {
             Mechanism::LogStep => "log-step",
             Mechanism::AlertLevel => "alert-level",
             Mechanism::GainChannel => "gain-channel",
+            Mechanism::ClassDirection => "class-direction",
         }
     }
 

@@ -25,7 +25,7 @@ struct Residual {
     /// Where the sea index falls between the calm and moderate anchors.
     sea_fraction: f64,
     /// The raw residuals, `dD_est / du_log` and the displacement's direction.
-    raw: Option<(raw::Raw, f64, [f64; stats::P])>,
+    raw: Option<raw::NnRaw>,
     servo: Option<crate::wire::residuals::ServoCheck>,
 }
 
@@ -103,9 +103,10 @@ impl Fdi {
     ) -> Evidence {
         let i = method_index(method);
         let d_nom_t = residual.d_nom_t;
-        let source = residual.raw.map(|(r, g, d_dir)| Source {
-            raw: r,
-            directions: [[-1.0, g / d_nom_t, 0.0], d_dir],
+        let source = residual.raw.map(|n| Source {
+            raw: n.raw,
+            directions: [[-1.0, n.log_slope_t / d_nom_t, 0.0], n.displacement_dir],
+            rudder: n.rudder_dir,
         });
         let z_rate = residual
             .servo
@@ -120,8 +121,8 @@ impl Fdi {
         // The log's reading, and its wander over the vessel's learned tests.
         let samples = self.commissioning.iter().flat_map(|c| &c.samples);
         let sigma_mps = isolation::log_wander(samples, self.cfg.floor_speed_mps);
-        let log = residual.raw.map(|(r, _, _)| window::LogReading {
-            now_mps: r.speed_log_mps,
+        let log = residual.raw.map(|n| window::LogReading {
+            now_mps: n.raw.speed_log_mps,
             before_mps: None,
             sigma_mps,
             learned_point: basis.as_ref().is_some_and(Basis::at_learned_point),
@@ -135,6 +136,7 @@ impl Fdi {
                 offset_var: None,
                 epoch,
                 directions: [[0.0; stats::P]; 2],
+                rudder: None,
                 z_rate,
                 source: None,
                 log: None,
@@ -160,7 +162,7 @@ impl Fdi {
         });
         let added = self.learner().learn(
             method_index(evidence.residual.method),
-            evidence.residual.raw.map(|(r, _, _)| r),
+            evidence.residual.raw.map(|n| n.raw),
             evidence.basis.as_ref(),
             step.as_ref(),
             settings,
@@ -224,7 +226,7 @@ impl Fdi {
             sea_index: index,
             sea_fraction: Some(frac),
             displacement_nominal_t: Some(d_nom_t),
-            raw: raw.map(|(r, g, _)| raw_residuals(&r, g)),
+            raw: raw.map(|n| raw_residuals(&n.raw, n.log_slope_t)),
             parameters,
             servo_check: servo,
             model_fit: fit.map(|f| f.report(&self.ship)),
@@ -317,7 +319,7 @@ impl Fdi {
             )),
             (Some(Basis::Vessel(p)), _) if p.nearest > 1.0 => Some(format!(
                 "operating point {:.1} m/s, {:.0} t not yet learned: reference predicted from {:.1} tests' worth",
-                residual.raw.map_or(f64::NAN, |r| r.0.speed_log_mps),
+                residual.raw.map_or(f64::NAN, |n| n.raw.speed_log_mps),
                 residual.d_nom_t,
                 p.support
             )),

@@ -300,10 +300,12 @@ fn vessel(
                 offset_var: meas.offset_var,
                 epoch: 0,
                 directions: DIRECTIONS,
+                rudder: None,
                 z_rate: Some(rng.sample::<f64, _>(StandardNormal).max(0.0)),
                 source: Some(Source {
                     raw,
                     directions: DIRECTIONS,
+                    rudder: None,
                 }),
                 log: None,
             },

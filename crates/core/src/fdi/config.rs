@@ -154,6 +154,11 @@ pub struct Calibration {
     /// (`crate::fdi::prior`; absent: a vessel's own tests alone set its scatter).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub healthy_scatter: Option<ScatterPrior>,
+    /// How a test's residual moves when the ship's true displacement changes, measured on
+    /// the class (`crate::fdi::raw`, "The displacement's direction"; absent: `b ~ 1 / D`
+    /// alone, the Nomoto class's law, read through the networks at each test).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub displacement_direction: Option<DisplacementDirection>,
 }
 
 /// One method's healthy scatter on the models' class, in design-spread units
@@ -177,6 +182,29 @@ pub struct ScatterPrior {
     pub clfrt: ClassScatter,
     /// HBT's.
     pub hbt: ClassScatter,
+}
+
+/// Per method, `[calm, moderate]`: how `(e_u [m/s], e_D [fraction of the declared
+/// displacement], e_b [ln])` move per unit of `ln D` of the ship's true displacement, the
+/// declared one fixed (`calibration.json`'s `displacement-direction`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, rename_all = "kebab-case")]
+pub struct DisplacementDirection {
+    /// CLFRT's.
+    pub clfrt: [[f64; 3]; 2],
+    /// HBT's.
+    pub hbt: [[f64; 3]; 2],
+}
+
+impl DisplacementDirection {
+    /// Method `i`'s (0 CLFRT, 1 HBT).
+    pub fn of(&self, i: usize) -> [[f64; 3]; 2] {
+        if i == 0 {
+            self.clfrt
+        } else {
+            self.hbt
+        }
+    }
 }
 
 /// Symmetric and positive definite (Sylvester's leading minors).
@@ -318,6 +346,20 @@ impl Calibration {
                 }
             }
         }
+        if let Some(d) = &self.displacement_direction {
+            for (name, pair) in [("clfrt", d.clfrt), ("hbt", d.hbt)] {
+                for (sea, v) in ["calm", "moderate"].iter().zip(pair) {
+                    // A direction the displacement reads: finite, and e_D moving with D.
+                    if !(v.iter().all(|x| x.is_finite() && x.abs() <= 100.0) && v[1] > 0.0) {
+                        return Err(fail(
+                            &format!("calibration.displacement-direction.{name}.{sea}"),
+                            format!("{v:?}"),
+                            "[e_u, e_D, e_b] finite within +-100, e_D > 0",
+                        ));
+                    }
+                }
+            }
+        }
         Ok(())
     }
 }
@@ -338,6 +380,24 @@ mod tests {
             "{e}"
         );
         v["sea-wave-yaw-deg"] = serde_json::json!([0.05, 0.18]);
+        // A displacement direction e_D does not move along is no direction of D.
+        let dir = |e_d: f64| {
+            serde_json::json!({
+                "clfrt": [[0.0, 1.0, -0.5], [0.0, 1.0, -0.5]],
+                "hbt": [[0.0, 1.0, -1.0], [0.0, e_d, -1.0]],
+            })
+        };
+        v["displacement-direction"] = dir(0.9);
+        let c = Calibration::from_json(&v.to_string()).unwrap();
+        assert_eq!(c.displacement_direction.unwrap().of(1)[1], [0.0, 0.9, -1.0]);
+        v["displacement-direction"] = dir(-0.1);
+        let e = Calibration::from_json(&v.to_string()).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("calibration.displacement-direction.hbt.moderate"),
+            "{e}"
+        );
+        v["displacement-direction"] = dir(0.9);
         v["unknown-key"] = serde_json::json!(1);
         let e = Calibration::from_json(&v.to_string()).unwrap_err();
         assert!(e.to_string().contains("unknown-key"), "{e}");

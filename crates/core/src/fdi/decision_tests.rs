@@ -17,6 +17,7 @@ pub(crate) fn entry(method: Method, z: [f64; 2], c: Option<f64>) -> Entry {
         offset_var: c,
         epoch: 0,
         directions: [[-1.0, 0.3, 0.0], [0.0, 1.0, 0.0]],
+        rudder: None,
         z_rate: None,
         source: None,
         log: None,

@@ -7,8 +7,14 @@
 //! leaves of the free shift's statistic, its dof the look's components less the sizes:
 //!
 //! ```text
-//! J_log = T_n - T_n,log,    J_D = sum_m (|s_m|^2 - (u_mD . s_m)^2) / k_m
+//! J_log = T_n - T_n,log,    J_D = min over d in {D, b} of sum_m (|s_m|^2 - (u_md . s_m)^2) / k_m
 //! ```
+//!
+//! The displacement's cause has two models, one size per method each: the true
+//! displacement's direction and the rudder effectiveness's, `b` alone. They are one on the
+//! Nomoto class (`D` enters `b` alone) and two where the class's measured displacement
+//! direction is in force (`crate::fdi::raw`, module doc); the cost is the better fit's, at
+//! the same dof (the choice of two is a small look-elsewhere the rule-out's 95 % absorbs).
 //!
 //! - **The log's step.** Where every test of the look was at a point the vessel has learned,
 //!   each model also explains the step `s` of the log's reading from before the fault, spread
@@ -176,13 +182,14 @@ fn fit_log_size(var: f64, beta_hat: f64, s: f64, sigma: f64) -> f64 {
 pub fn costs(window: &VecDeque<Entry>, n: usize, onset: Option<f64>) -> Costs {
     let per = method_sums(window, n);
     let (mut free, mut dof) = (0.0, 0.0);
-    let (mut j_d, mut proj, mut var) = (0.0, 0.0, 0.0);
+    let (mut j_d, mut j_r, mut proj, mut var) = (0.0, 0.0, 0.0, 0.0);
     for p in &per {
         let (s, scale, c) = (p.sum, p.scale(), p.offset_var);
         free += dot(s, s) / scale;
         dof += p.dim as f64;
-        let along = p.along(1);
+        let (along, rudder) = (p.along(1), p.along_rudder());
         j_d += (dot(s, s) - along * along).max(0.0) / scale;
+        j_r += (dot(s, s) - rudder * rudder).max(0.0) / scale;
         let w = p.along_sum[0];
         proj += p.projection[0];
         var += (1.0 - c) * p.norm2[0] + c * dot(w, w);
@@ -193,7 +200,7 @@ pub fn costs(window: &VecDeque<Entry>, n: usize, onset: Option<f64>) -> Costs {
         free
     };
     let mut out = Costs {
-        j: [j_log_min, j_d],
+        j: [j_log_min, j_d.min(j_r)],
         dof: [dof - 1.0, dof - per.len() as f64],
         log_step_mps: None,
     };

@@ -259,6 +259,7 @@ mod tests {
             offset_var: Some(0.1),
             epoch: 0,
             directions: [[-1.0, 0.0, 0.0], [0.0, 1.0, -1.0]],
+            rudder: None,
             z_rate: None,
             source: None,
             log: None,

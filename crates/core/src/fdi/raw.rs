@@ -2,6 +2,17 @@
 //! speed log and the declared displacement, with the design spreads at the test's sea
 //! (interpolated between the model files' calm and moderate figures by the sea index), and
 //! the servo check (docs/fdi.md, "Residuals").
+//!
+//! **The displacement's direction**: how `(e_u [m/s], e_D [fraction], e_b [ln])` move when the
+//! ship's true displacement does, the declared one fixed. On the Nomoto class `D` enters `b`
+//! alone (`b ~ 1 / D`), so the test's own features with `b` 1 % smaller, read through the
+//! networks, give it at the test's point. On a hull whose yaw inertia and damping move with
+//! `D` (an MMG hull: a lighter ship also has a larger `a`), that is not what a change of `D`
+//! does: `train` measures the class's direction instead (the same seeded test at `D`
+//! `+-10 %`, common random numbers, through the networks; per method and sea) and writes it
+//! into `calibration.json`; where it is, it is used, interpolated by the sea index between
+//! its calm and moderate figures. The rudder's effectiveness is not a separate cause: on
+//! every hull it scales `b` alone.
 
 use super::ablation::{self, Mechanism};
 use super::fit::CI90_TO_SIGMA;
@@ -161,8 +172,23 @@ pub fn measurement_cov(
     Some(Cov(cov)).filter(Cov::is_finite)
 }
 
-/// The neural estimator's raw residuals against the design for a completed test, and
-/// `dD_est / du_log` [t per m/s].
+/// The class's measured displacement direction at sea fraction `frac` (clamped to the
+/// measured seas, calm to moderate), per 1 % of `D` as the `b` scaling's (module doc);
+/// `None` where the model files carry none, or with the mechanism off.
+fn class_direction(est: &Estimator, method: Method, frac: f64) -> Option<[f64; P]> {
+    let pair = est
+        .calibration()
+        .displacement_direction
+        .filter(|_| !ablation::off(Mechanism::ClassDirection))?
+        .of(super::window::method_index(method));
+    let at = frac.clamp(0.0, 1.0);
+    Some(std::array::from_fn(|j| {
+        DB_REL * lerp([pair[0][j], pair[1][j]], at)
+    }))
+}
+
+/// The neural estimator's raw residuals against the design for a completed test, with
+/// `dD_est / du_log` and the displacement's and the rudder's directions ([`NnRaw`]).
 #[allow(clippy::too_many_arguments)]
 pub fn nn_raw(
     method: Method,
@@ -173,7 +199,7 @@ pub fn nn_raw(
     scratch: &mut EstimatorScratch,
     frac: f64,
     slopes: Option<sensitivity::ResponseSlopes>,
-) -> Option<(Raw, f64, [f64; P])> {
+) -> Option<NnRaw> {
     let u_log = features.speed_log_mps().filter(|u| u.is_finite())?;
     let (mu, su) = spread(
         &est.model(method, Target::Speed).file.uncertainty,
@@ -196,27 +222,34 @@ pub fn nn_raw(
         (at(u_log + DU_MPS)? - at(u_log - DU_MPS)?) / (2.0 * DU_MPS)
     };
     let ln_gain = sensitivity::ln_gain(features).filter(|_| !ablation::off(Mechanism::GainChannel));
-    // The displacement's direction through the networks and the gain: the same test on
-    // a ship with b 1 % smaller (`sensitivity`); (0, 1, 0.01) when the features cannot
-    // say.
-    let d_dir = sensitivity::scale_b_at(features, 1.0 - DB_REL, slopes)
-        .filter(|_| !no_slopes)
-        .and_then(|f| Some((est.estimate(method, &f, scratch).ok()?, gain_of(&f))))
-        .map(|(e, g)| {
-            [
-                e.speed_mps - estimate.speed_mps,
-                (e.displacement_t - estimate.displacement_t) / d_nom_t,
-                g - ln_gain.unwrap_or(f64::NAN),
-            ]
-        })
-        .filter(|v| v[..2].iter().all(|x| x.is_finite()) && v[1].abs() > 0.0)
-        .map(|mut v| {
-            if !v[2].is_finite() {
-                v[2] = 0.0;
-            }
-            v
-        })
-        .unwrap_or([0.0, 1.0, DB_REL]);
+    // The displacement's direction (module doc): the class's, measured; else through the
+    // networks and the gain, the same test on a ship with b 1 % smaller (`sensitivity`);
+    // (0, 1, 0.01) when the features cannot say.
+    let mut b_dir = || {
+        sensitivity::scale_b_at(features, 1.0 - DB_REL, slopes)
+            .filter(|_| !no_slopes)
+            .and_then(|f| Some((est.estimate(method, &f, scratch).ok()?, gain_of(&f))))
+            .map(|(e, g)| {
+                [
+                    e.speed_mps - estimate.speed_mps,
+                    (e.displacement_t - estimate.displacement_t) / d_nom_t,
+                    g - ln_gain.unwrap_or(f64::NAN),
+                ]
+            })
+            .filter(|v| v[..2].iter().all(|x| x.is_finite()) && v[1].abs() > 0.0)
+            .map(|mut v| {
+                if !v[2].is_finite() {
+                    v[2] = 0.0;
+                }
+                v
+            })
+    };
+    // With the class's, the `b` scaling's is the rudder effectiveness's (the isolation's
+    // other model of the same cause).
+    let (d_dir, rudder_dir) = match class_direction(est, method, frac) {
+        Some(d) => (d, b_dir()),
+        None => (b_dir().unwrap_or([0.0, 1.0, DB_REL]), None),
+    };
     // How the residual moves when the ship itself goes faster (`sensitivity::scale_speed`),
     // per m/s: the networks read the same ship's features at the other speed.
     let mut similar = |u: f64| -> Option<[f64; P]> {
@@ -271,7 +304,26 @@ pub fn nn_raw(
         .all(|x| x.is_finite())
         && raw.speed_sigma_mps > 0.0
         && raw.displacement_sigma > 0.0;
-    ok.then_some((raw, g, d_dir))
+    ok.then_some(NnRaw {
+        raw,
+        log_slope_t: g,
+        displacement_dir: d_dir,
+        rudder_dir,
+    })
+}
+
+/// A test's raw residuals and its cause directions, before whitening ([`nn_raw`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NnRaw {
+    /// The raw residuals.
+    pub raw: Raw,
+    /// `dD_est / du_log` [t per m/s].
+    pub log_slope_t: f64,
+    /// How they move per 1 % of the true displacement (module doc).
+    pub displacement_dir: [f64; P],
+    /// How they move per 1 % less `b` (the rudder's effectiveness) where that differs from
+    /// the displacement's (the class's measured one in force); `None`: the same.
+    pub rudder_dir: Option<[f64; P]>,
 }
 
 /// The servo check of a test: `rho` and `z_rate` with `sigma` the healthy rate ratio's

@@ -354,3 +354,57 @@ fn a_commissioning_test_beyond_the_wide_limits_joins_the_sample() {
     assert_eq!(added, Added::Sample);
     assert_eq!(fdi.commissioning[1].tests, 1);
 }
+
+/// With the class's displacement direction in the models' calibration, a test's
+/// displacement direction is that direction at its sea (1 % of it, interpolated by hand
+/// between calm and moderate, clamped to them) and the rudder's is the `b` scaling's the
+/// same networks give without it; without it, the `b` scaling's is the displacement's and
+/// the rudder has none of its own (`raw`, module doc).
+#[test]
+fn the_class_direction_is_the_displacements_and_the_b_scaling_the_rudders() {
+    use crate::estimator::model::Model;
+    use crate::estimator::{Estimator, EMBEDDED_MODELS};
+    use crate::fdi::config::DisplacementDirection;
+    use crate::wire::{Estimate, Method};
+    let cfg = CoreConfig::default();
+    let models = || {
+        EMBEDDED_MODELS
+            .iter()
+            .map(|(n, t)| (n.to_string(), Model::from_json(t, n).unwrap()))
+            .collect::<Vec<_>>()
+    };
+    let pair = [[0.01, 0.9, -0.4], [-0.03, 0.8, -0.6]];
+    let class_cal = Calibration {
+        displacement_direction: Some(DisplacementDirection {
+            clfrt: pair,
+            hbt: pair,
+        }),
+        ..Calibration::default()
+    };
+    let design = Estimator::from_models(models(), Calibration::default(), &cfg).unwrap();
+    let class = Estimator::from_models(models(), class_cal, &cfg).unwrap();
+    let mut c = nomoto_tones(0.0146, 5.98e-4, &[0.032, 0.0745, 0.181]);
+    c.speed_log_mps = Some(7.0);
+    let f = Features::Clfrt(c);
+    let run = |est: &Estimator, frac: f64| {
+        let mut scratch = est.scratch();
+        let e: Estimate = est.estimate(Method::Clfrt, &f, &mut scratch).unwrap();
+        raw::nn_raw(Method::Clfrt, &f, &e, 7000.0, est, &mut scratch, frac, None).unwrap()
+    };
+    for (frac, at) in [(0.0, 0.0), (0.25, 0.25), (1.0, 1.0), (2.5, 1.0)] {
+        let without = run(&design, frac);
+        assert_eq!(without.rudder_dir, None);
+        assert!(without.displacement_dir[1] > 0.0, "{without:?}");
+        let with = run(&class, frac);
+        for (got, (c, m)) in with
+            .displacement_dir
+            .iter()
+            .zip(pair[0].iter().zip(pair[1]))
+        {
+            let want = 0.01 * (c + at * (m - c));
+            approx::assert_relative_eq!(*got, want, max_relative = 1e-12);
+        }
+        assert_eq!(with.rudder_dir, Some(without.displacement_dir));
+        assert_eq!(with.raw, without.raw);
+    }
+}

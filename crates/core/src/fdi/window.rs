@@ -43,6 +43,10 @@ pub struct Entry {
     pub epoch: u32,
     /// The whitened directions of the parameter causes (speed log, displacement).
     pub directions: [[f64; P]; 2],
+    /// The rudder effectiveness's whitened direction, where it is not the displacement's
+    /// (`Source::rudder`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rudder: Option<[f64; P]>,
     /// The servo check's score (`None`: no servo check).
     pub z_rate: Option<f64>,
     /// What it was measured from, to measure it again against a newer reference of its
@@ -64,6 +68,11 @@ pub struct Source {
     pub raw: Raw,
     /// The causes' directions in `(e_u, e_D, e_b)`.
     pub directions: [[f64; P]; 2],
+    /// The rudder effectiveness's, where it is not the displacement's (a class whose
+    /// displacement moves more than `b`: `crate::fdi::raw::NnRaw::rudder_dir`); the
+    /// isolation's other model of that cause.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rudder: Option<[f64; P]>,
 }
 
 impl Entry {
@@ -87,6 +96,9 @@ pub struct MethodSums {
     pub sum: [f64; P],
     /// Sum of its tests' unit cause directions (speed log, displacement).
     pub directions: [[f64; P]; 2],
+    /// Sum of its tests' unit rudder-effectiveness directions (the displacement's where a
+    /// test has none of its own).
+    pub rudder: [f64; P],
     /// Per cause, the sum of its tests' whitened directions as they are (per unit of the
     /// cause: m/s of log bias, the displacement's step).
     pub along_sum: [[f64; P]; 2],
@@ -113,6 +125,11 @@ impl MethodSums {
     pub fn along(&self, j: usize) -> f64 {
         dot(unit(self.directions[j]), self.sum)
     }
+
+    /// The sum's component along the rudder effectiveness's unit mean direction.
+    pub fn along_rudder(&self) -> f64 {
+        dot(unit(self.rudder), self.sum)
+    }
 }
 
 /// The per-method sums of the newest `n` entries (`n = 1`: the newest alone, wide or not;
@@ -124,6 +141,7 @@ pub fn method_sums(window: &VecDeque<Entry>, n: usize) -> Vec<MethodSums> {
             continue;
         };
         let d = e.directions.map(unit);
+        let r = unit(e.rudder.unwrap_or(e.directions[1]));
         let v = e.directions;
         let projection = v.map(|v| dot(v, z));
         let norm2 = v.map(|v| dot(v, v));
@@ -135,6 +153,7 @@ pub fn method_sums(window: &VecDeque<Entry>, n: usize) -> Vec<MethodSums> {
                     for (acc, di) in o.directions.iter_mut().zip(&d) {
                         acc[i] += di[i];
                     }
+                    o.rudder[i] += r[i];
                     for (acc, vi) in o.along_sum.iter_mut().zip(&v) {
                         acc[i] += vi[i];
                     }
@@ -150,6 +169,7 @@ pub fn method_sums(window: &VecDeque<Entry>, n: usize) -> Vec<MethodSums> {
                 method: e.method,
                 sum: z,
                 directions: d,
+                rudder: r,
                 along_sum: v,
                 projection,
                 norm2,
@@ -189,8 +209,9 @@ pub fn measure_entry(
         }
     }
     // The components not measured take no part.
-    let directions =
-        directions.map(|v| std::array::from_fn(|j| if j < m.dim { v[j] } else { 0.0 }));
+    let measured =
+        |v: [f64; P]| -> [f64; P] { std::array::from_fn(|j| if j < m.dim { v[j] } else { 0.0 }) };
+    let directions = directions.map(measured);
     let entry = Entry {
         method,
         z: m.whitened(),
@@ -198,6 +219,7 @@ pub fn measure_entry(
         offset_var: m.offset_var,
         epoch,
         directions: directions.map(|d| m.cov.whiten(d).unwrap_or([0.0; P])),
+        rudder: source.rudder.and_then(|d| m.cov.whiten(measured(d))),
         z_rate,
         source: Some(source),
         log: None,
