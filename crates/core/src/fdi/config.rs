@@ -144,7 +144,7 @@ pub struct Calibration {
     pub slope_speed: [f64; 2],
     /// The same for `e_b` [ln per m/s] (its other slopes take `e_D`'s).
     pub slope_speed_gain: f64,
-    /// Prior sd of the slope in declared loading about `b ~ 1 / D`'s [per unit ln D].
+    /// Prior sd of the slope in declared loading about `Raw::loading_slope` [per unit ln D].
     pub slope_loading: [f64; 2],
     /// Prior sd of the slope in the excitation's scale [per unit ln s].
     pub slope_excitation: [f64; 2],

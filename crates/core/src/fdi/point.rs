@@ -23,8 +23,8 @@ pub struct Sample {
     /// (`crate::fdi::sensitivity::scale_speed`): the speed slope's prior mean.
     #[serde(default)]
     pub speed_slope: [f64; P],
-    /// How it moves per unit of `ln D` of a declared loading, `b` scaling by `1 / D`
-    /// (`crate::fdi::sensitivity::scale_b`): the loading slope's prior mean.
+    /// How it moves per unit of `ln D` of a declared loading (`crate::fdi::raw::Raw::
+    /// loading_slope`): the loading slope's prior mean.
     #[serde(default)]
     pub loading_slope: [f64; P],
     /// The test's sea index (`crate::fdi::sea_index`, its wave yaw [deg]); `None` in a

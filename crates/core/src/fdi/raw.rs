@@ -11,7 +11,7 @@
 //! does: `train` measures the class's direction instead (the same seeded test at `D`
 //! `+-10 %`, common random numbers, through the networks; per method and sea) and writes it
 //! into `calibration.json`; where it is, it is used, interpolated by the sea index between
-//! its calm and moderate figures. The rudder's effectiveness is not a separate cause: on
+//! its calm and moderate figures, and a declared loading's slope follows it. The rudder's effectiveness is not a separate cause: on
 //! every hull it scales `b` alone.
 
 use super::ablation::{self, Mechanism};
@@ -173,8 +173,8 @@ pub fn measurement_cov(
 }
 
 /// The class's measured displacement direction at sea fraction `frac` (clamped to the
-/// measured seas, calm to moderate), per 1 % of `D` as the `b` scaling's (module doc);
-/// `None` where the model files carry none, or with the mechanism off.
+/// measured seas, calm to moderate), per unit of `ln D` (module doc); `None` where the model
+/// files carry none, or with the mechanism off.
 fn class_direction(est: &Estimator, method: Method, frac: f64) -> Option<[f64; P]> {
     let pair = est
         .calibration()
@@ -182,9 +182,7 @@ fn class_direction(est: &Estimator, method: Method, frac: f64) -> Option<[f64; P
         .filter(|_| !ablation::off(Mechanism::ClassDirection))?
         .of(super::window::method_index(method));
     let at = frac.clamp(0.0, 1.0);
-    Some(std::array::from_fn(|j| {
-        DB_REL * lerp([pair[0][j], pair[1][j]], at)
-    }))
+    Some(std::array::from_fn(|j| lerp([pair[0][j], pair[1][j]], at)))
 }
 
 /// The neural estimator's raw residuals against the design for a completed test, with
@@ -246,8 +244,9 @@ pub fn nn_raw(
     };
     // With the class's, the `b` scaling's is the rudder effectiveness's (the isolation's
     // other model of the same cause).
-    let (d_dir, rudder_dir) = match class_direction(est, method, frac) {
-        Some(d) => (d, b_dir()),
+    let class = class_direction(est, method, frac);
+    let (d_dir, rudder_dir) = match class {
+        Some(d) => (d.map(|x| DB_REL * x), b_dir()),
         None => (b_dir().unwrap_or([0.0, 1.0, DB_REL]), None),
     };
     // How the residual moves when the ship itself goes faster (`sensitivity::scale_speed`),
@@ -266,9 +265,10 @@ pub fn nn_raw(
     } else {
         central(similar(u_hi), similar(u_lo), u_hi - u_lo)
     };
-    // How it moves per unit of ln D when the ship is declared and is `D` heavier: `b`
-    // scales by `1 / D` (`sensitivity::scale_b`), the residual is taken against the new
-    // declared displacement.
+    // How it moves per unit of ln D when the ship is declared and is `D` heavier: as the
+    // true displacement's direction, the residual taken against the new declared
+    // displacement (`e_D` less `D_est / D_nom`); without the class's, `b` scales by `1 / D`
+    // (`sensitivity::scale_b`).
     let mut loaded = |dl: f64| -> Option<[f64; P]> {
         let f = sensitivity::scale_b_at(features, (-dl).exp(), slopes)?;
         let e = est.estimate(method, &f, scratch).ok()?;
@@ -278,10 +278,10 @@ pub fn nn_raw(
             gain_of(&f),
         ])
     };
-    let loading_slope = if no_slopes {
-        [0.0; P]
-    } else {
-        central(loaded(DL_SIMILAR), loaded(-DL_SIMILAR), 2.0 * DL_SIMILAR)
+    let loading_slope = match class {
+        _ if no_slopes => [0.0; P],
+        Some(c) => [c[0], c[1] - estimate.displacement_t / d_nom_t, c[2]],
+        None => central(loaded(DL_SIMILAR), loaded(-DL_SIMILAR), 2.0 * DL_SIMILAR),
     };
     let raw = Raw {
         speed_slope,
@@ -373,8 +373,9 @@ pub struct Raw {
     /// How `(e_u, e_D, e_b)` move per m/s of the ship's own speed by the similarity law
     /// (`crate::fdi::sensitivity::scale_speed`) [(m/s, fraction, ln) per m/s].
     pub speed_slope: [f64; P],
-    /// How they move per unit of `ln D` of a declared change of loading, `b` scaling by
-    /// `1 / D` (`crate::fdi::sensitivity::scale_b`) [(m/s, fraction, ln) per unit ln D].
+    /// How they move per unit of `ln D` of a declared change of loading: the class's
+    /// displacement direction less the declaration, or without it `b` scaling by `1 / D`
+    /// (`crate::fdi::sensitivity::scale_b`) [(m/s, fraction, ln) per unit ln D].
     pub loading_slope: [f64; P],
     /// The residual's covariance from the test's own tone intervals
     /// (`crate::fdi::raw::measurement_cov`, physical units; `None`: HBT, or the

@@ -359,7 +359,8 @@ fn a_commissioning_test_beyond_the_wide_limits_joins_the_sample() {
 /// displacement direction is that direction at its sea (1 % of it, interpolated by hand
 /// between calm and moderate, clamped to them) and the rudder's is the `b` scaling's the
 /// same networks give without it; without it, the `b` scaling's is the displacement's and
-/// the rudder has none of its own (`raw`, module doc).
+/// the rudder has none of its own (`raw`, module doc). A declared loading's slope follows the
+/// class's direction too.
 #[test]
 fn the_class_direction_is_the_displacements_and_the_b_scaling_the_rudders() {
     use crate::estimator::model::Model;
@@ -405,6 +406,26 @@ fn the_class_direction_is_the_displacements_and_the_b_scaling_the_rudders() {
             approx::assert_relative_eq!(*got, want, max_relative = 1e-12);
         }
         assert_eq!(with.rudder_dir, Some(without.displacement_dir));
-        assert_eq!(with.raw, without.raw);
+        // A declared loading moves it as the true displacement does, less the declaration.
+        let e = design
+            .estimate(Method::Clfrt, &f, &mut design.scratch())
+            .unwrap();
+        let want: [f64; 3] = std::array::from_fn(|j| {
+            let c = pair[0][j] + at * (pair[1][j] - pair[0][j]);
+            c - if j == 1 {
+                e.displacement_t / 7000.0
+            } else {
+                0.0
+            }
+        });
+        for (got, want) in with.raw.loading_slope.iter().zip(want) {
+            approx::assert_relative_eq!(*got, want, max_relative = 1e-12);
+        }
+        assert_ne!(without.raw.loading_slope, with.raw.loading_slope);
+        let same = super::raw::Raw {
+            loading_slope: without.raw.loading_slope,
+            ..with.raw
+        };
+        assert_eq!(same, without.raw);
     }
 }
