@@ -39,3 +39,18 @@ for member in KVLCC2 Mariner; do for sea in calm moderate; do
   "$hw" bench --time-to-alarm --seed 1 --runs 12 --sea "$sea" --intervals 3600 --member "$member" \
     --results "$out" >/dev/null
 done; done
+# The same hulls with their own class's models (config/classes/ names them), and what the
+# class's measured displacement direction buys there.
+for class in "kvlcc2-120 KVLCC2" "mariner-120 Mariner"; do
+  set -- $class
+  for sea in calm moderate; do
+    "$hw" --config "config/classes/$1.toml" bench --time-to-alarm --seed 1 --runs 12 --sea "$sea" \
+      --intervals 3600 --member "$2" --results "$out" >/dev/null
+  done
+done
+for sea in calm moderate; do
+  "$hw" --config config/classes/mariner-120.toml bench --time-to-alarm --seed 1 --runs 12 \
+    --sea "$sea" --intervals 3600 --member Mariner --ablate class-direction --results "$out/ablation" >/dev/null
+done
+"$hw" --config config/classes/kvlcc2-120.toml bench --time-to-alarm --seed 1 --runs 12 \
+  --sea calm --intervals 3600 --member KVLCC2 --ablate class-direction --results "$out/ablation" >/dev/null

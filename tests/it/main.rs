@@ -15,6 +15,7 @@ mod common;
 
 mod baseline;
 mod bridge_nmea;
+mod class_models;
 mod clock_steps;
 mod commissioning;
 mod config_example;
