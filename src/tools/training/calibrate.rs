@@ -471,7 +471,7 @@ mod tests {
                 let z =
                     |v: [f64; P]| -> [f64; P] { std::array::from_fn(|j| v[j] / mid(&each, j, 1)) };
                 let b = z(std::array::from_fn(|j| mid(&each, j, 0)));
-                let m = z(measured.of(if method == Method::Clfrt { 0 } else { 1 })[k]);
+                let m = z(measured.of(method)[k]);
                 let norm = b.iter().map(|x| x * x).sum::<f64>().sqrt();
                 for j in 0..P {
                     assert!(

@@ -197,12 +197,11 @@ pub struct DisplacementDirection {
 }
 
 impl DisplacementDirection {
-    /// Method `i`'s (0 CLFRT, 1 HBT).
-    pub fn of(&self, i: usize) -> [[f64; 3]; 2] {
-        if i == 0 {
-            self.clfrt
-        } else {
-            self.hbt
+    /// `method`'s.
+    pub fn of(&self, method: crate::wire::Method) -> [[f64; 3]; 2] {
+        match method {
+            crate::wire::Method::Clfrt => self.clfrt,
+            crate::wire::Method::Hbt => self.hbt,
         }
     }
 }
@@ -389,7 +388,12 @@ mod tests {
         };
         v["displacement-direction"] = dir(0.9);
         let c = Calibration::from_json(&v.to_string()).unwrap();
-        assert_eq!(c.displacement_direction.unwrap().of(1)[1], [0.0, 0.9, -1.0]);
+        assert_eq!(
+            c.displacement_direction
+                .unwrap()
+                .of(crate::wire::Method::Hbt)[1],
+            [0.0, 0.9, -1.0]
+        );
         v["displacement-direction"] = dir(-0.1);
         let e = Calibration::from_json(&v.to_string()).unwrap_err();
         assert!(

@@ -180,7 +180,7 @@ fn class_direction(est: &Estimator, method: Method, frac: f64) -> Option<[f64; P
         .calibration()
         .displacement_direction
         .filter(|_| !ablation::off(Mechanism::ClassDirection))?
-        .of(super::window::method_index(method));
+        .of(method);
     let at = frac.clamp(0.0, 1.0);
     Some(std::array::from_fn(|j| lerp([pair[0][j], pair[1][j]], at)))
 }
