@@ -54,3 +54,6 @@ for sea in calm moderate; do
 done
 "$hw" --config config/classes/kvlcc2-120.toml bench --time-to-alarm --seed 1 --runs 12 \
   --sea calm --intervals 3600 --member KVLCC2 --ablate class-direction --results "$out/ablation" >/dev/null
+"$hw" --config config/classes/mariner-120.toml eval --fdi --in-turn --family --member Mariner \
+  --models models/classes/mariner-120 --scenarios envelope --sea moderate --seed 1 --runs 6 \
+  --nominal-runs 6 --tests 4 --ablate class-direction --results "$out/ablation" >/dev/null
