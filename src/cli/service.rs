@@ -202,6 +202,36 @@ fn slug(name: &str) -> String {
         .join("-")
 }
 
+/// The time-to-alarm page's name: `time-to-alarm-<sea>-seed<S>[-<member>][-models-<dir>]
+/// [-<mechanisms>-off]`, `<dir>` the models directory's name when one is set (a class's).
+fn page_name(
+    cfg: &Config,
+    o: &crate::tools::time_to_alarm::TimeToAlarmOptions,
+    member: Option<&str>,
+    off: &[helmwatch_core::fdi::ablation::Mechanism],
+) -> String {
+    let models: String = cfg
+        .estimator
+        .models_dir
+        .as_deref()
+        .and_then(|d| std::path::Path::new(d).file_name())
+        .map_or(String::new(), |n| {
+            format!("-models-{}", slug(&n.to_string_lossy()))
+        });
+    let ship: String = member.map_or(String::new(), |name| format!("-{}", slug(name)));
+    let off: String = if off.is_empty() {
+        String::new()
+    } else {
+        let names: String = off.iter().map(|m| format!("-{}", m.name())).collect();
+        format!("{names}-off")
+    };
+    format!(
+        "time-to-alarm-{}-seed{}{ship}{models}{off}",
+        o.sea.name(),
+        o.seed
+    )
+}
+
 /// `helmwatch bench --time-to-alarm`: exit 64 for a bad interval, run count or cap, 70 when
 /// a run fails.
 fn time_to_alarm(cfg: &Config, a: &BenchArgs) -> Result<(), Failure> {
@@ -265,27 +295,7 @@ fn time_to_alarm(cfg: &Config, a: &BenchArgs) -> Result<(), Failure> {
     }
     print(cfg, &o, &faults, &per, &mut out).map_err(|e| Failure::Write(e.into()))?;
     let mut text = String::from_utf8_lossy(&out).into_owned();
-    let suffix: String = off.iter().map(|m| format!("-{}", m.name())).collect();
-    // Models other than the embedded ones: the directory's name (a class's models).
-    let models: String = cfg
-        .estimator
-        .models_dir
-        .as_deref()
-        .and_then(|d| std::path::Path::new(d).file_name())
-        .map_or(String::new(), |n| {
-            format!("-models-{}", slug(&n.to_string_lossy()))
-        });
-    let ship: String = member.map_or(String::new(), |(name, _)| format!("-{}", slug(name)));
-    let name = format!(
-        "time-to-alarm-{}-seed{}{ship}{models}{}",
-        o.sea.name(),
-        o.seed,
-        if off.is_empty() {
-            String::new()
-        } else {
-            format!("{suffix}-off")
-        }
-    );
+    let name = page_name(cfg, &o, member.as_ref().map(|(name, _)| *name), &off);
     if let Some(dir) = &a.compare {
         let path = dir.join(format!("{name}.md"));
         let before = std::fs::read_to_string(&path).map_err(|e| Failure::io(&path, e))?;

@@ -228,19 +228,14 @@ pub fn nn_raw(
             .filter(|_| !no_slopes)
             .and_then(|f| Some((est.estimate(method, &f, scratch).ok()?, gain_of(&f))))
             .map(|(e, g)| {
+                let gain = g - ln_gain.unwrap_or(f64::NAN);
                 [
                     e.speed_mps - estimate.speed_mps,
                     (e.displacement_t - estimate.displacement_t) / d_nom_t,
-                    g - ln_gain.unwrap_or(f64::NAN),
+                    if gain.is_finite() { gain } else { 0.0 },
                 ]
             })
             .filter(|v| v[..2].iter().all(|x| x.is_finite()) && v[1].abs() > 0.0)
-            .map(|mut v| {
-                if !v[2].is_finite() {
-                    v[2] = 0.0;
-                }
-                v
-            })
     };
     // With the class's, the `b` scaling's is the rudder effectiveness's (the isolation's
     // other model of the same cause).
