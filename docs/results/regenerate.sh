@@ -34,6 +34,16 @@ done
   --tests 4 --ablate own-noise,hotelling-calibration --results "$out/ablation" >/dev/null
 "$hw" eval --fdi --in-turn --family --member "120 m" --seed 5 --runs 8 --nominal-runs 4 \
   --tests 4 --ablate loop-shape,log-step --results "$out/ablation" >/dev/null
+# The time to alarm on every other member of the family, with the design's networks (its class),
+# at the watch's default interval.
+for member in "nomoto2 T2/T1 0.05 T3/T1 0.12" "nomoto2 T2/T1 0.1 T3/T1 0.25" "norrbin n3 3000 s^2" \
+  "norrbin n3 30000 s^2" "dead band 0.5 deg" "dead band 1 deg" "backlash 0.5 deg" "backlash 1 deg" \
+  "fixed-gain autopilot" "all at the upper strength"; do
+  for sea in calm moderate; do
+    "$hw" bench --time-to-alarm --seed 1 --runs 12 --sea "$sea" --intervals 3600 --member "$member" \
+      --results "$out" >/dev/null
+  done
+done
 # The time to alarm on the family's two surge-sway-yaw hulls, at the watch's default interval.
 for member in KVLCC2 Mariner; do for sea in calm moderate; do
   "$hw" bench --time-to-alarm --seed 1 --runs 12 --sea "$sea" --intervals 3600 --member "$member" \
