@@ -1,5 +1,6 @@
 //! The `helmwatch train` and `helmwatch eval` subcommands: thin drivers around
-//! [`crate::tools::training::database`], [`crate::tools::training::build`] and [`crate::tools::eval::estimator`] that print what they do.
+//! [`crate::tools::training::database`], [`crate::tools::training::build`] and
+//! [`crate::tools::eval::estimator`] that print what they do.
 //!
 //! `train` simulates the training database (both methods at every point, calm and moderate
 //! seas), trains the four networks with Levenberg-Marquardt (the shipped models, written to

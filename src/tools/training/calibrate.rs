@@ -274,10 +274,11 @@ fn reading(r: &Report, declared_t: f64) -> Option<[f64; P]> {
 }
 
 /// The displacement's direction on the class (`helmwatch_core::fdi::raw`, module doc): at
-/// each of `points` (the healthy scatter's, [`scatter_points`]), one seeded test with the true displacement
-/// [`DIRECTION_STEP_PCT`] above the declared and one the same below, the same seed (common
-/// random numbers: the sea and the sensors' noise cancel), their difference per unit of
-/// `ln D`; per method and sea the median of each component over the points.
+/// each of `points` (the healthy scatter's, [`scatter_points`]), one seeded test with the
+/// true displacement [`DIRECTION_STEP_PCT`] above the declared and one the same below, the
+/// same seed (common random numbers: the sea and the sensors' noise cancel), their
+/// difference per unit of `ln D`; per method and sea the median of each component over the
+/// points.
 pub fn displacement_direction(
     cfg: &Config,
     estimator: Arc<Estimator>,

@@ -11,8 +11,8 @@
 //! does: `train` measures the class's direction instead (the same seeded test at `D`
 //! `+-10 %`, common random numbers, through the networks; per method and sea) and writes it
 //! into `calibration.json`; where it is, it is used, interpolated by the sea index between
-//! its calm and moderate figures, and a declared loading's slope follows it. The rudder's effectiveness is not a separate cause: on
-//! every hull it scales `b` alone.
+//! its calm and moderate figures, and a declared loading's slope follows it. The rudder's
+//! effectiveness is not a separate cause: on every hull it scales `b` alone.
 
 use super::ablation::{self, Mechanism};
 use super::fit::CI90_TO_SIGMA;

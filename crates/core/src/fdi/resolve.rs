@@ -6,8 +6,9 @@
 //! a log bias moves `e_u` by -1 and `e_D` by the networks' slope in the log
 //! (`Raw::log_slope`) per m/s; an undeclared displacement change moves the residual as a
 //! declared one does (`Raw::loading_slope`: the class's displacement direction, or `b ~ 1 /
-//! D`) but for the declaration itself, `e_D` by 1 more per unit. It must reach, with 95 % power over [`RESOLVE_TESTS`] tests, the
-//! statistic whose calibrated value crosses the single-test limit `h_1`. `Sigma` is the pooled
+//! D`) but for the declaration itself, `e_D` by 1 more per unit. It must reach, with 95 %
+//! power over [`RESOLVE_TESTS`] tests, the statistic whose calibrated value crosses the
+//! single-test limit `h_1`. `Sigma` is the pooled
 //! shape at the mean design spreads with its mean's error and the floors, `A` its learned
 //! part, `nu_d` the dof along `d` (`prior::along`), the floors' share adding dof:
 //!
