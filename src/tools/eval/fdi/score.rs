@@ -220,11 +220,15 @@ pub struct CalibratedFit {
     pub after_speed_change: usize,
     /// Their 95th percentile of `|u_cal - u_log|` [m/s] (NaN: none).
     pub after_speed_change_p95_mps: f64,
+    /// The same two percentiles over each method's tests alone, CLFRT's then HBT's: which
+    /// test's reading is the wider (`(tests, speed [m/s], displacement)`; NaN: no test).
+    pub by_method: [(usize, f64, f64); 2],
 }
 
 /// The calibrated estimates of `runs` against the log and the declared displacement.
 pub fn calibrated_fit(runs: &[RunOutcome]) -> CalibratedFit {
     let (mut du, mut dd, mut after) = (Vec::new(), Vec::new(), Vec::new());
+    let mut per: [(Vec<f64>, Vec<f64>); 2] = Default::default();
     let mut missing = 0;
     let mut covered = [0; 2];
     for r in runs {
@@ -237,8 +241,12 @@ pub fn calibrated_fit(runs: &[RunOutcome]) -> CalibratedFit {
                 continue;
             }
             let e = (u - t.speed_log_mps).abs();
+            let ed = (d / t.displacement_nominal_t - 1.0).abs();
             du.push(e);
-            dd.push((d / t.displacement_nominal_t - 1.0).abs());
+            dd.push(ed);
+            let m = &mut per[usize::from(t.method == Method::Hbt)];
+            m.0.push(e);
+            m.1.push(ed);
             covered[0] += usize::from(e <= u_half);
             covered[1] += usize::from((d - t.displacement_nominal_t).abs() <= d_half);
             if r.speed_after_mps.is_finite() && t.phase == Phase::AfterChange {
@@ -254,6 +262,8 @@ pub fn calibrated_fit(runs: &[RunOutcome]) -> CalibratedFit {
         covered,
         after_speed_change: after.len(),
         after_speed_change_p95_mps: quantile(&mut after, 0.95),
+        by_method: per
+            .map(|(mut u, mut d)| (u.len(), quantile(&mut u, 0.95), quantile(&mut d, 0.95))),
     }
 }
 

@@ -190,10 +190,17 @@ fn calibrated_note(label: &str, runs: &[RunOutcome]) -> Option<String> {
     } else {
         String::new()
     };
+    let by_method: Vec<String> = ["CLFRT", "HBT"]
+        .iter()
+        .zip(c.by_method)
+        .filter(|(_, (n, _, _))| *n > 0)
+        .map(|(m, (n, u, d))| format!("{m} {u:.3} m/s, {:.2} % ({n} tests)", 100.0 * d))
+        .collect();
     Some(format!(
-        "{label}: calibrated estimate, 95th percentile of |u_cal - u_log| {:.3} m/s, of |D_cal / D_nom - 1| {:.2} %; its 95 % interval holds the log in {}, the declared D in {} ({} tests after commissioning, {} without a vessel reference){after}",
+        "{label}: calibrated estimate, 95th percentile of |u_cal - u_log| {:.3} m/s, of |D_cal / D_nom - 1| {:.2} % (by method: {}); its 95 % interval holds the log in {}, the declared D in {} ({} tests after commissioning, {} without a vessel reference){after}",
         c.speed_p95_mps,
         100.0 * c.displacement_p95,
+        by_method.join("; "),
         pct(c.covered[0], c.tests),
         pct(c.covered[1], c.tests),
         c.tests,

@@ -99,6 +99,41 @@ fn the_naming_at_the_end_is_the_last_of_each_method() {
 
 /// One JSON line per test, commissioning first, the run's index and phase on each, NaN
 /// written as null (JSON has no NaN), the raw residuals as they came.
+/// The calibrated estimates' 95th percentiles, over all tests and each method's alone,
+/// against the nearest-rank percentile worked by hand: twenty CLFRT tests 0.01..0.20 m/s and
+/// 0.1..2.0 % from the log and the declared, ten HBT tests 0.1..1.0 m/s and 1..10 %.
+#[test]
+fn the_calibrated_fit_splits_by_method() {
+    let test = |method, k: f64, du: f64, dd: f64| TestOutcome {
+        method,
+        calibrated: [7.0 + k * du, 6000.0 * (1.0 + k * dd), 1.0, 1.0],
+        ..outcome(Decision::Nominal, 0.0)
+    };
+    let mut tests: Vec<TestOutcome> = (1..=20)
+        .map(|k| test(Method::Clfrt, k as f64, 0.01, 0.001))
+        .collect();
+    tests.extend((1..=10).map(|k| test(Method::Hbt, k as f64, 0.1, 0.01)));
+    let run = RunOutcome {
+        speed_mps: 7.0,
+        displacement_t: 6000.0,
+        speed_after_mps: f64::NAN,
+        declared_after_t: f64::NAN,
+        commissioning: Vec::new(),
+        tests,
+        error: None,
+    };
+    let c = score::calibrated_fit(&[run]);
+    let close = |a: f64, b: f64| (a - b).abs() < 1e-9;
+    assert_eq!(c.tests, 30);
+    // All 30: the 29th smallest (ceil(0.95 * 30)), HBT's 0.9 m/s and 9 %.
+    assert!(close(c.speed_p95_mps, 0.9) && close(c.displacement_p95, 0.09), "{c:?}");
+    // CLFRT's 20: the 19th, 0.19 m/s and 1.9 %; HBT's 10: the 10th, 1.0 m/s and 10 %.
+    let [(nc, uc, dc), (nh, uh, dh)] = c.by_method;
+    assert_eq!((nc, nh), (20, 10));
+    assert!(close(uc, 0.19) && close(dc, 0.019), "{c:?}");
+    assert!(close(uh, 1.0) && close(dh, 0.1), "{c:?}");
+}
+
 #[test]
 fn outcomes_are_one_json_line_per_test() {
     let runs = vec![RunOutcome {
