@@ -218,9 +218,10 @@ pub(crate) struct EvalArgs {
     /// Seed of the held-out database (drawn on other random streams than training's).
     #[arg(long, default_value_t = 1)]
     pub(crate) seed: u64,
-    /// Directory of the model files (Levenberg-Marquardt; Fletcher-Reeves in `traincgf/`).
-    #[arg(long, default_value = "models")]
-    pub(crate) models: PathBuf,
+    /// Directory of the model files (Levenberg-Marquardt; Fletcher-Reeves in `traincgf/`);
+    /// default: the configuration's `estimator.models-dir`, else `models`.
+    #[arg(long)]
+    pub(crate) models: Option<PathBuf>,
     /// Held-out points per sea state.
     #[arg(long, default_value_t = DEFAULT_EVAL_POINTS)]
     pub(crate) points: usize,
@@ -239,7 +240,8 @@ pub(crate) struct EvalArgs {
     pub(crate) budget: bool,
     /// Compute one test's Cramer-Rao bound on (u, D) from its features instead, per method
     /// and sea at the nominal point, beside the networks' spread (`--runs` seeded tests per
-    /// point, from `--seed`); with --results DIR, written to DIR/crb-seed<SEED>.md.
+    /// point, from `--seed`); with --results DIR, written to
+    /// DIR/crb-seed<SEED>[-<member>][-models-<dir>].md.
     #[arg(long, conflicts_with_all = ["fdi", "budget"])]
     pub(crate) crb: bool,
     /// Compute the passive watch's bound instead (docs/passive.md): the Cramer-Rao bound of

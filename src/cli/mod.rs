@@ -83,7 +83,10 @@ pub fn main() -> i32 {
             Ok(c) => estimator::train(&c, &a.into()),
             Err(e) => Err(e),
         },
-        Command::Eval(a) => estimator::eval(&cfg, &a.into()),
+        Command::Eval(mut a) => {
+            a.models = Some(a.models_dir(&cfg));
+            estimator::eval(&cfg, &a.into())
+        }
     };
     match result {
         Ok(()) => 0,
@@ -154,7 +157,7 @@ impl From<EvalArgs> for EvalOptions {
     fn from(a: EvalArgs) -> Self {
         Self {
             seed: a.seed,
-            models: a.models,
+            models: a.models.unwrap_or_else(|| "models".into()),
             points: a.points,
             drift: a.drift,
             lengths: !a.no_lengths,

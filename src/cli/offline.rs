@@ -4,11 +4,13 @@
 
 use super::args::{EvalArgs, PlotArgs, ProbeArgs, ReplayArgs, ShipArgs, SimulateArgs};
 use super::print::{print_baseline, print_estimate, print_features};
+use super::service::{models_suffix, slug};
 use super::Failure;
 use crate::config::Config;
 use helmwatch_core::drivers::probe::{run_probe, ProbeOptions};
 use helmwatch_core::estimator::Estimator;
 use helmwatch_core::sim::{Fault, Scenario};
+use std::path::PathBuf;
 use std::sync::Arc;
 
 pub(crate) fn scenario(cfg: &Config, a: &ShipArgs) -> Result<Scenario, Failure> {
@@ -170,11 +172,31 @@ pub(crate) fn check_config(cfg: &Config) -> Result<(), Failure> {
     Ok(())
 }
 
+impl EvalArgs {
+    /// The models `eval` reads: `--models`, else the configuration's `estimator.models-dir`
+    /// (a class's, as every other subcommand reads it), else `models`.
+    pub(crate) fn models_dir(&self, cfg: &Config) -> PathBuf {
+        (self.models.clone())
+            .or_else(|| cfg.estimator.models_dir.as_ref().map(PathBuf::from))
+            .unwrap_or_else(|| PathBuf::from("models"))
+    }
+
+    /// The results page's name after `-seed<S>`: `-<member>` for `--member TEXT`, and
+    /// `-models-<dir>` when a models directory is named (by `--models` or the configuration),
+    /// as `bench --time-to-alarm` names its pages.
+    fn page_suffix(&self, cfg: &Config) -> String {
+        let member = (self.member.as_deref()).map_or(String::new(), |m| format!("-{}", slug(m)));
+        let named =
+            (self.models.clone()).or_else(|| cfg.estimator.models_dir.as_ref().map(PathBuf::from));
+        format!("{member}{}", models_suffix(named.as_deref()))
+    }
+}
+
 pub(crate) fn eval_fdi(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
     use crate::tools::eval::fdi::compare::{compare_table, suite_name};
     use crate::tools::eval::fdi::{run_suite, FdiEvalOptions};
     let t0 = std::time::Instant::now();
-    let est = helmwatch_core::estimator::Estimator::load_dir(&a.models, &cfg.core())?;
+    let est = helmwatch_core::estimator::Estimator::load_dir(&a.models_dir(cfg), &cfg.core())?;
     let mut o = FdiEvalOptions {
         seed: a.seed,
         runs: a.runs,
@@ -199,7 +221,8 @@ pub(crate) fn eval_fdi(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
     let res = run_suite(cfg, est.clone(), &o);
     let mut body = res.text.clone();
     if let Some(dir) = &a.compare {
-        let before = read_figures(&dir.join(format!("{}.json", suite_name(&o))))?;
+        let name = format!("{}{}", suite_name(&o), a.page_suffix(cfg));
+        let before = read_figures(&dir.join(format!("{name}.json")))?;
         body.push_str(&format!(
             "\n## Before and after\n\nBefore: `{}`. A count marked **(differs)** is past Monte Carlo noise (pooled two-proportion |z| > 2).\n\n{}",
             dir.display(),
@@ -218,7 +241,7 @@ pub(crate) fn eval_fdi(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
     }
     print!("{body}");
     if let Some(dir) = &a.results {
-        let name = suite_name(&o);
+        let name = format!("{}{}", suite_name(&o), a.page_suffix(cfg));
         let io = |e: std::io::Error| Failure::io(dir, e);
         let path = crate::tools::results::write(dir, &name, o.seed, &body).map_err(io)?;
         let json = serde_json::to_vec_pretty(&res.figures).map_err(Failure::software)?;
@@ -236,7 +259,7 @@ pub(crate) fn eval_fdi(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
 pub(crate) fn eval_budget(a: &EvalArgs) -> Result<(), Failure> {
     let threads = eval_threads(a);
     let body = crate::tools::eval::budget::budget_table(a.seed, threads);
-    print_and_write(a, "budget", &body)
+    print_and_write(a, &format!("budget-seed{}", a.seed), &body)
 }
 
 /// `--threads`, or every core; at least one.
@@ -246,21 +269,26 @@ fn eval_threads(a: &EvalArgs) -> usize {
         .max(1)
 }
 
-/// Prints `body`, and with `--results DIR` writes it to `DIR/<what>-seed<SEED>.md`.
-fn print_and_write(a: &EvalArgs, what: &str, body: &str) -> Result<(), Failure> {
+/// Prints `body`, and with `--results DIR` writes it to `DIR/<name>.md`.
+fn print_and_write(a: &EvalArgs, name: &str, body: &str) -> Result<(), Failure> {
     print!("{body}");
     if let Some(dir) = &a.results {
-        let name = format!("{what}-seed{}", a.seed);
-        let path = crate::tools::results::write(dir, &name, a.seed, body)
+        let path = crate::tools::results::write(dir, name, a.seed, body)
             .map_err(|e| Failure::io(dir, e))?;
         eprintln!("wrote {}", path.display());
     }
     Ok(())
 }
 
-/// `eval --crb`: one test's Cramer-Rao bound beside the networks' spread, printed and with
-/// `--results DIR` written to `DIR/crb-seed<SEED>.md`.
+/// `eval --crb`: one test's Cramer-Rao bound beside the networks' spread (theirs of
+/// `--models`, else the configuration's), printed and with `--results DIR` written to
+/// `DIR/crb-seed<SEED>[-<member>][-models-<dir>].md`.
 pub(crate) fn eval_crb(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
+    let mut cfg = cfg.clone();
+    if let Some(dir) = &a.models {
+        cfg.estimator.models_dir = Some(dir.to_string_lossy().into_owned());
+    }
+    let cfg = &cfg;
     let threads = eval_threads(a);
     let o = crate::tools::eval::crb::CrbOptions {
         tests: a.runs,
@@ -270,7 +298,11 @@ pub(crate) fn eval_crb(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
         member: a.member.clone(),
     };
     let body = crate::tools::eval::crb::crb_table(cfg, &o);
-    print_and_write(a, "crb", &body)
+    print_and_write(
+        a,
+        &format!("crb-seed{}{}", a.seed, a.page_suffix(cfg)),
+        &body,
+    )
 }
 
 /// `eval --passive`: the passive watch's bound and Whittle's estimator against it, printed
@@ -283,7 +315,7 @@ pub(crate) fn eval_passive(cfg: &Config, a: &EvalArgs) -> Result<(), Failure> {
         threads,
     };
     let body = crate::tools::eval::passive::passive_table(cfg, &o);
-    print_and_write(a, "passive", &body)
+    print_and_write(a, &format!("passive-seed{}", a.seed), &body)
 }
 
 /// The mechanisms `--ablate` names, one set per comma (`a+b`: both off together; `all`:
@@ -368,4 +400,47 @@ pub(crate) fn plot(cfg: &Config, a: PlotArgs) -> Result<(), Failure> {
         a.out.display()
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::args::{Cli, Command};
+    use super::*;
+    use clap::Parser as _;
+
+    fn eval_args(argv: &[&str]) -> EvalArgs {
+        let argv = ["helmwatch", "eval", "--crb"].iter().chain(argv);
+        match Cli::try_parse_from(argv).unwrap().command {
+            Command::Eval(a) => a,
+            other => panic!("not eval: {other:?}"),
+        }
+    }
+
+    /// `eval` reads the models every other subcommand reads (the configuration's class),
+    /// `--models` before it, `models` without either; its page is named after the member and
+    /// a named models directory, as `bench --time-to-alarm`'s are.
+    #[test]
+    fn eval_reads_the_configured_models_and_names_its_page_after_them() {
+        let design = Config::default();
+        let mut class = Config::default();
+        class.estimator.models_dir = Some("models/classes/kvlcc2-120".into());
+        let plain = eval_args(&[]);
+        assert_eq!(plain.models_dir(&design), PathBuf::from("models"));
+        assert_eq!(plain.page_suffix(&design), "");
+        assert_eq!(
+            plain.models_dir(&class),
+            PathBuf::from("models/classes/kvlcc2-120")
+        );
+        assert_eq!(plain.page_suffix(&class), "-models-kvlcc2-120");
+        let named = eval_args(&[
+            "--family",
+            "--member",
+            "120 m",
+            "--models",
+            "/srv/m/Mariner",
+        ]);
+        assert_eq!(named.models_dir(&class), PathBuf::from("/srv/m/Mariner"));
+        assert_eq!(named.page_suffix(&class), "-120-m-models-mariner");
+        assert_eq!(named.page_suffix(&design), "-120-m-models-mariner");
+    }
 }

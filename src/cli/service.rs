@@ -188,7 +188,7 @@ fn family_member(cfg: &Config, text: &str) -> Result<(&'static str, Config), Fai
 
 /// `name` in a file name: lower case, each run of other characters than letters and digits
 /// one `-` ("KVLCC2 MMG 120 m": "kvlcc2-mmg-120-m").
-fn slug(name: &str) -> String {
+pub(crate) fn slug(name: &str) -> String {
     let s: String = name
         .chars()
         .map(|c| match c.is_ascii_alphanumeric() {
@@ -202,6 +202,14 @@ fn slug(name: &str) -> String {
         .join("-")
 }
 
+/// A results page's name's part for a models directory that is set (a class's):
+/// `-models-<its name>`; empty for none (the design's models).
+pub(crate) fn models_suffix(dir: Option<&std::path::Path>) -> String {
+    dir.and_then(|d| d.file_name()).map_or(String::new(), |n| {
+        format!("-models-{}", slug(&n.to_string_lossy()))
+    })
+}
+
 /// The time-to-alarm page's name: `time-to-alarm-<sea>-seed<S>[-<member>][-models-<dir>]
 /// [-<mechanisms>-off]`, `<dir>` the models directory's name when one is set (a class's).
 fn page_name(
@@ -210,14 +218,12 @@ fn page_name(
     member: Option<&str>,
     off: &[helmwatch_core::fdi::ablation::Mechanism],
 ) -> String {
-    let models: String = cfg
-        .estimator
-        .models_dir
-        .as_deref()
-        .and_then(|d| std::path::Path::new(d).file_name())
-        .map_or(String::new(), |n| {
-            format!("-models-{}", slug(&n.to_string_lossy()))
-        });
+    let models = models_suffix(
+        cfg.estimator
+            .models_dir
+            .as_deref()
+            .map(std::path::Path::new),
+    );
     let ship: String = member.map_or(String::new(), |name| format!("-{}", slug(name)));
     let off: String = if off.is_empty() {
         String::new()

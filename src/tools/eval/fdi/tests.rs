@@ -126,7 +126,10 @@ fn the_calibrated_fit_splits_by_method() {
     let close = |a: f64, b: f64| (a - b).abs() < 1e-9;
     assert_eq!(c.tests, 30);
     // All 30: the 29th smallest (ceil(0.95 * 30)), HBT's 0.9 m/s and 9 %.
-    assert!(close(c.speed_p95_mps, 0.9) && close(c.displacement_p95, 0.09), "{c:?}");
+    assert!(
+        close(c.speed_p95_mps, 0.9) && close(c.displacement_p95, 0.09),
+        "{c:?}"
+    );
     // CLFRT's 20: the 19th, 0.19 m/s and 1.9 %; HBT's 10: the 10th, 1.0 m/s and 10 %.
     let [(nc, uc, dc), (nh, uh, dh)] = c.by_method;
     assert_eq!((nc, nh), (20, 10));
