@@ -126,18 +126,12 @@ async fn commissioning_survives_a_restart_then_a_fault_raises_the_alarm() {
         (f(&res["parameters"]["displacement_t"]) - want_d).abs() < 1e-6,
         "{res}"
     );
-    // The estimate calibrated to the vessel: the networks' reading less the validation bias
-    // and the reference's offset, i.e. the log plus the raw residual less the offset. It
-    // reads the displacement the ship now has (30 % over the declared) and the log's speed.
+    // The estimate calibrated to the vessel: the residual against the reference's offset
+    // read as a log bias and a displacement change at once (the unit tests of
+    // `fdi::report::cause_reading` check the arithmetic). It reads the displacement the ship
+    // now has (30 % over the declared) and the log's speed.
     let cal = &reports[0]["calibrated_estimate"];
     let u_log = f(&res["raw"]["speed_log_mps"]);
-    let want_u = u_log + want_u;
-    let want_d = d_nom + want_d;
-    assert!((f(&cal["speed_mps"]) - want_u).abs() < 1e-9, "{cal} {res}");
-    assert!(
-        (f(&cal["displacement_t"]) - want_d).abs() < 1e-6,
-        "{cal} {res}"
-    );
     assert_eq!(cal["reference"], "commissioned", "{cal}");
     assert!(
         (f(&cal["speed_mps"]) - u_log).abs() < 0.5,

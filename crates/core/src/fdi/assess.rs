@@ -260,8 +260,11 @@ impl Fdi {
         if let Some(n) = &notification {
             self.last_notification = Some(n.clone());
         }
+        // The test read as its two causes, along the directions the isolation weighs them by.
+        let reading = (evidence.measured.as_ref().zip(raw.as_ref()))
+            .and_then(|((m, _), n)| report::cause_reading(m, n.cause_directions(d_nom_t)));
         Assessment {
-            calibrated_estimate: report::calibrated_estimate(&residuals),
+            calibrated_estimate: report::calibrated_estimate(&residuals, reading),
             residuals,
             decision,
             isolation,

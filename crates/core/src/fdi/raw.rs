@@ -321,6 +321,18 @@ pub struct NnRaw {
     pub rudder_dir: Option<[f64; P]>,
 }
 
+impl NnRaw {
+    /// How the residuals move per m/s of speed-log bias and per unit fraction of the true
+    /// displacement: `[-1, dD_est/du_log / D_nom, 0]` and the displacement's direction
+    /// over its 1 % step.
+    pub fn cause_directions(&self, d_nom_t: f64) -> [[f64; P]; 2] {
+        [
+            [-1.0, self.log_slope_t / d_nom_t, 0.0],
+            self.displacement_dir.map(|x| x / DB_REL),
+        ]
+    }
+}
+
 /// The servo check of a test: `rho` and `z_rate` with `sigma` the healthy rate ratio's
 /// spread (`calibration.actuator-rate-sigma`).
 pub fn servo_check(features: &Features, sigma: f64) -> Option<ServoCheck> {

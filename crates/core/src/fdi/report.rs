@@ -339,10 +339,65 @@ pub(super) fn parameter_report(m: &Measured, z: [f64; P], d_nom_t: f64) -> Param
     }
 }
 
-/// The report's `calibrated_estimate` from its `residuals` (`crate::wire::CalibratedEstimate`
-/// states the model): `None` without a speed log, parameter residuals or the vessel's own
+/// A test's residual read as its two parameter causes ([`cause_reading`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct CauseReading {
+    /// `(b, g)`: the speed-log bias [m/s] and the displacement change [fraction of `D_nom`].
+    pub value: [f64; 2],
+    /// Their covariance.
+    pub cov: [[f64; 2]; 2],
+}
+
+/// A measured residual `m` read as its two parameter causes at once
+/// (`crate::wire::CalibratedEstimate` states the model): a speed-log bias [m/s] along
+/// `directions[0]` and a displacement change [fraction of `D_nom`] along `directions[1]`
+/// (`NnRaw::cause_directions`), by generalised least squares over the measured components:
+///
+/// ```text
+/// V = [v_log v_D]  (their first `dim` components),  cov = (V' Sigma^-1 V)^-1,
+/// value = cov V' Sigma^-1 r
+/// ```
+///
+/// `None` where `Sigma` is not positive definite or the two directions cannot be told apart.
+pub(super) fn cause_reading(m: &Measured, directions: [[f64; P]; 2]) -> Option<CauseReading> {
+    let keep =
+        |v: [f64; P]| -> [f64; P] { std::array::from_fn(|j| if j < m.dim { v[j] } else { 0.0 }) };
+    let v = directions.map(keep);
+    let r = keep(m.r);
+    let w = [m.cov.solve(v[0])?, m.cov.solve(v[1])?];
+    let a = [
+        [dot(v[0], w[0]), dot(v[0], w[1])],
+        [dot(v[1], w[0]), dot(v[1], w[1])],
+    ];
+    let det = a[0][0] * a[1][1] - a[0][1] * a[1][0];
+    // Told apart: the two directions' whitened angle is not within about 0.1 deg.
+    if !(det.is_finite() && det > 1e-6 * a[0][0] * a[1][1]) {
+        return None;
+    }
+    let cov = [
+        [a[1][1] / det, -a[0][1] / det],
+        [-a[1][0] / det, a[0][0] / det],
+    ];
+    let y = [dot(w[0], r), dot(w[1], r)];
+    let value = [
+        cov[0][0] * y[0] + cov[0][1] * y[1],
+        cov[1][0] * y[0] + cov[1][1] * y[1],
+    ];
+    (value
+        .iter()
+        .chain(cov.iter().flatten())
+        .all(|x| x.is_finite()))
+    .then_some(CauseReading { value, cov })
+}
+
+/// The report's `calibrated_estimate` from its `residuals` and the test's `reading` of its
+/// two causes (`crate::wire::CalibratedEstimate` states the model; without a reading, each
+/// component alone): `None` without a speed log, parameter residuals or the vessel's own
 /// reference.
-pub(super) fn calibrated_estimate(r: &Residuals) -> Option<CalibratedEstimate> {
+pub(super) fn calibrated_estimate(
+    r: &Residuals,
+    reading: Option<CauseReading>,
+) -> Option<CalibratedEstimate> {
     let reference = r.reference.as_ref()?.kind;
     if !matches!(
         reference,
@@ -351,19 +406,152 @@ pub(super) fn calibrated_estimate(r: &Residuals) -> Option<CalibratedEstimate> {
         return None;
     }
     let p = r.parameters.as_ref()?;
-    let u = r.raw.as_ref()?.speed_log_mps + p.speed_mps;
-    let d = r.displacement_nominal_t? + p.displacement_t;
+    let u_log = r.raw.as_ref()?.speed_log_mps;
+    let d_nom = r.displacement_nominal_t?;
+    let [(u, su), (d, sd)] = match reading {
+        Some(c) => [
+            (u_log - c.value[0], c.cov[0][0].sqrt()),
+            (d_nom * (1.0 + c.value[1]), d_nom * c.cov[1][1].sqrt()),
+        ],
+        None => [
+            (u_log + p.speed_mps, p.speed_sigma_mps),
+            (d_nom + p.displacement_t, p.displacement_sigma_t),
+        ],
+    };
     let z = normal_isf(0.025);
     let interval = |x: f64, sd: f64| [x - z * sd, x + z * sd];
     let c = CalibratedEstimate {
         speed_mps: u,
-        speed_interval_mps: interval(u, p.speed_sigma_mps),
+        speed_interval_mps: interval(u, su),
         displacement_t: d,
-        displacement_interval_t: interval(d, p.displacement_sigma_t),
+        displacement_interval_t: interval(d, sd),
         reference,
     };
     (c.speed_interval_mps.iter())
         .chain(&c.displacement_interval_t)
         .all(|x| x.is_finite())
         .then_some(c)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fdi::stats::Cov;
+    use nalgebra::{Matrix2, Matrix3, Matrix3x2, Vector2, Vector3};
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, StandardNormal};
+
+    /// A residual of covariance `cov` (correlated, as a vessel's are), all three measured.
+    fn measured(r: [f64; P], cov: [[f64; P]; P], dim: usize) -> Measured {
+        Measured {
+            r,
+            cov: Cov(cov),
+            offset_var: Some(0.0),
+            dof: f64::INFINITY,
+            learned: Cov(cov),
+            dim,
+            bounded: false,
+            noise_ratio: 1.0,
+        }
+    }
+
+    const SIGMA: [[f64; P]; P] = [
+        [0.04, 0.002, -0.001],
+        [0.002, 0.0004, -0.0002],
+        [-0.001, -0.0002, 0.0009],
+    ];
+    /// A log bias moves `e_u` by -1 and `e_D` by the networks' slope; a displacement change
+    /// moves `e_D` by about 1 and the gain by about -1 (`b ~ 1 / D`).
+    const DIRS: [[f64; P]; 2] = [[-1.0, 0.08, 0.0], [-0.02, 0.97, -1.05]];
+
+    /// The generalised least squares of nalgebra's own inverse: `(V' S^-1 V)^-1 V' S^-1 r`.
+    fn by_nalgebra(r: [f64; P]) -> (Vector2<f64>, Matrix2<f64>) {
+        let s = Matrix3::from_fn(|i, j| SIGMA[i][j]);
+        let v = Matrix3x2::from_fn(|i, j| DIRS[j][i]);
+        let si = s.try_inverse().unwrap();
+        let cov = (v.transpose() * si * v).try_inverse().unwrap();
+        (cov * v.transpose() * si * Vector3::from(r), cov)
+    }
+
+    /// Against an independent answer: a residual made of the two causes alone is read back
+    /// exactly, any residual as nalgebra's inverse reads it, with its covariance.
+    #[test]
+    fn the_cause_reading_is_the_generalised_least_squares() {
+        let (b, g) = (0.4, -0.12);
+        let pure: [f64; P] = std::array::from_fn(|j| b * DIRS[0][j] + g * DIRS[1][j]);
+        let c = cause_reading(&measured(pure, SIGMA, 3), DIRS).unwrap();
+        assert!(
+            (c.value[0] - b).abs() < 1e-12 && (c.value[1] - g).abs() < 1e-12,
+            "{c:?}"
+        );
+        let r = [0.3, -0.05, 0.02];
+        let c = cause_reading(&measured(r, SIGMA, 3), DIRS).unwrap();
+        let (value, cov) = by_nalgebra(r);
+        for i in 0..2 {
+            assert!(
+                (c.value[i] - value[i]).abs() < 1e-12 * value[i].abs().max(1.0),
+                "{c:?}"
+            );
+            for j in 0..2 {
+                assert!(
+                    (c.cov[i][j] - cov[(i, j)]).abs() < 1e-9 * cov[(i, i)],
+                    "{c:?} {cov}"
+                );
+            }
+        }
+    }
+
+    /// With two components measured the third is not read, whatever it holds; two
+    /// directions that are one cannot be told apart.
+    #[test]
+    fn the_cause_reading_reads_the_measured_components_only() {
+        let r = [0.3, -0.05, 0.0];
+        let two = cause_reading(&measured(r, SIGMA, 2), DIRS).unwrap();
+        let junk = cause_reading(&measured([0.3, -0.05, 7.0], SIGMA, 2), DIRS).unwrap();
+        assert_eq!(two, junk);
+        // Two equations in two unknowns: the exact solution of the 2 x 2 system.
+        let m = Matrix2::new(DIRS[0][0], DIRS[1][0], DIRS[0][1], DIRS[1][1]);
+        let want = m.try_inverse().unwrap() * Vector2::new(r[0], r[1]);
+        assert!((two.value[0] - want[0]).abs() < 1e-12 && (two.value[1] - want[1]).abs() < 1e-12);
+        let same = [DIRS[0], DIRS[0].map(|x| 2.0 * x)];
+        assert_eq!(cause_reading(&measured(r, SIGMA, 3), same), None);
+    }
+
+    /// Monte Carlo of healthy residuals: the reading is unbiased, its spread is the stated
+    /// covariance, and its speed is read closer than the speed component alone (`e_u`'s
+    /// sd), which ignores what `e_D` and the gain say. 20 000 draws: a variance's relative
+    /// standard error is sqrt(2 / 20 000) = 1 %, so +-5 % is five of them.
+    #[test]
+    fn the_cause_reading_has_its_stated_spread_and_beats_one_component() {
+        let l = Matrix3::from_fn(|i, j| SIGMA[i][j]).cholesky().unwrap().l();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let n = 20_000;
+        let (mut sum, mut sq) = ([0.0; 2], [0.0; 2]);
+        let mut stated = [[0.0; 2]; 2];
+        for _ in 0..n {
+            let e = Vector3::from_fn(|_, _| StandardNormal.sample(&mut rng));
+            let r: [f64; P] = (l * e).into();
+            let c = cause_reading(&measured(r, SIGMA, 3), DIRS).unwrap();
+            stated = c.cov;
+            for i in 0..2 {
+                sum[i] += c.value[i];
+                sq[i] += c.value[i] * c.value[i];
+            }
+        }
+        for i in 0..2 {
+            let mean = sum[i] / n as f64;
+            let var = sq[i] / n as f64 - mean * mean;
+            assert!(
+                mean.abs() < 4.0 * (stated[i][i] / n as f64).sqrt(),
+                "{i}: mean {mean}"
+            );
+            let ratio = var / stated[i][i];
+            assert!(
+                (0.95..1.05).contains(&ratio),
+                "{i}: {var} against {}",
+                stated[i][i]
+            );
+        }
+        assert!(stated[0][0] < SIGMA[0][0], "{stated:?}");
+    }
 }

@@ -77,18 +77,21 @@ pub struct Estimate {
 /// is the number a person reads.
 ///
 /// ```text
-/// speed        u_cal = u_est - m_u - mu_u(x)          = u_log + r_u        [m/s]
-/// displacement D_cal = D_est - (m_D + mu_D(x)) D_nom  = D_nom (1 + r_D)    [t]
-/// interval     value -+ 1.96 sd,   sd = sqrt(Sigma_jj)  (the residual's, under the reference)
+/// (b, g) = (V' Sigma^-1 V)^-1 V' Sigma^-1 r,  V = [v_log v_D]   (the two causes at once)
+/// speed        u_cal = u_log - b          [m/s]
+/// displacement D_cal = D_nom (1 + g)      [t]
+/// interval     value -+ 1.96 sd,   sd from (V' Sigma^-1 V)^-1
 /// ```
 ///
-/// `m` is the networks' validation bias, `mu(x)` the vessel's learned offset, `r` the
-/// residual against the reference in force (`residuals.parameters`). Only against the
+/// `r` is the residual against the reference in force (`residuals.parameters`: the networks'
+/// reading less their validation bias and the vessel's learned offset), `Sigma` its
+/// covariance, `v_log` and `v_D` how it moves per m/s of speed-log bias and per unit fraction
+/// of the true displacement (`crate::fdi::report::cause_reading`); where the two cannot be
+/// told apart, each component alone (`u_log + r_u`, `D_nom (1 + r_D)`). Only against the
 /// vessel's own reference (`commissioned` or `predicted`): before it (the design's, or
 /// commissioning's wide limits) there is no offset to correct by, and the report carries
-/// `null`. A speed-log fault leaves `u_cal` at the speed through the water the hull shows
-/// (the log cancels out of `u_log + r_u`). Made by the FDI with the report's residuals
-/// (`crate::fdi::report::calibrated_estimate`).
+/// `null`. A speed-log fault leaves `u_cal` at the speed through the water the hull shows.
+/// Made by the FDI with the report's residuals (`crate::fdi::report::calibrated_estimate`).
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
 pub struct CalibratedEstimate {
     /// `u_cal` [m/s].
