@@ -391,9 +391,10 @@ pub(super) fn cause_reading(m: &Measured, directions: [[f64; P]; 2]) -> Option<C
 }
 
 /// The report's `calibrated_estimate` from its `residuals` and the test's `reading` of its
-/// two causes (`crate::wire::CalibratedEstimate` states the model; without a reading, each
-/// component alone): `None` without a speed log, parameter residuals or the vessel's own
-/// reference.
+/// two causes (`crate::wire::CalibratedEstimate` states the model): the speed from the
+/// reading (without one, the speed component alone), the displacement from its component,
+/// which is the displacement network's reading given the log. `None` without a speed log,
+/// parameter residuals or the vessel's own reference.
 pub(super) fn calibrated_estimate(
     r: &Residuals,
     reading: Option<CauseReading>,
@@ -408,16 +409,11 @@ pub(super) fn calibrated_estimate(
     let p = r.parameters.as_ref()?;
     let u_log = r.raw.as_ref()?.speed_log_mps;
     let d_nom = r.displacement_nominal_t?;
-    let [(u, su), (d, sd)] = match reading {
-        Some(c) => [
-            (u_log - c.value[0], c.cov[0][0].sqrt()),
-            (d_nom * (1.0 + c.value[1]), d_nom * c.cov[1][1].sqrt()),
-        ],
-        None => [
-            (u_log + p.speed_mps, p.speed_sigma_mps),
-            (d_nom + p.displacement_t, p.displacement_sigma_t),
-        ],
+    let (u, su) = match reading {
+        Some(c) => (u_log - c.value[0], c.cov[0][0].sqrt()),
+        None => (u_log + p.speed_mps, p.speed_sigma_mps),
     };
+    let (d, sd) = (d_nom + p.displacement_t, p.displacement_sigma_t);
     let z = normal_isf(0.025);
     let interval = |x: f64, sd: f64| [x - z * sd, x + z * sd];
     let c = CalibratedEstimate {

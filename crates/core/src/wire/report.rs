@@ -78,16 +78,18 @@ pub struct Estimate {
 ///
 /// ```text
 /// (b, g) = (V' Sigma^-1 V)^-1 V' Sigma^-1 r,  V = [v_log v_D]   (the two causes at once)
-/// speed        u_cal = u_log - b          [m/s]
-/// displacement D_cal = D_nom (1 + g)      [t]
-/// interval     value -+ 1.96 sd,   sd from (V' Sigma^-1 V)^-1
+/// speed        u_cal = u_log - b          [m/s],  sd from (V' Sigma^-1 V)^-1
+/// displacement D_cal = D_nom (1 + r_D)    [t],    sd = sqrt(Sigma_DD)
+/// interval     value -+ 1.96 sd
 /// ```
 ///
 /// `r` is the residual against the reference in force (`residuals.parameters`: the networks'
 /// reading less their validation bias and the vessel's learned offset), `Sigma` its
 /// covariance, `v_log` and `v_D` how it moves per m/s of speed-log bias and per unit fraction
 /// of the true displacement (`crate::fdi::report::cause_reading`); where the two cannot be
-/// told apart, each component alone (`u_log + r_u`, `D_nom (1 + r_D)`). Only against the
+/// told apart, the speed component alone (`u_log + r_u`). The displacement is its own
+/// component: the displacement network's reading given the log. Read with the log bias it
+/// would take in the speed network's noise through the network's slope in the log. Only against the
 /// vessel's own reference (`commissioned` or `predicted`): before it (the design's, or
 /// commissioning's wide limits) there is no offset to correct by, and the report carries
 /// `null`. A speed-log fault leaves `u_cal` at the speed through the water the hull shows.
