@@ -58,6 +58,11 @@ for class in "kvlcc2-120 KVLCC2" "mariner-120 Mariner"; do
       --intervals 3600 --member "$2" --results "$out" >/dev/null
   done
 done
+# One test's bound on the two classes, their own networks beside it.
+"$hw" --config config/classes/mariner-120.toml eval --crb --family --member Mariner --runs 100 \
+  --seed 1 --results "$out" >/dev/null
+"$hw" --config config/classes/kvlcc2-120.toml eval --crb --family --member KVLCC2 --runs 100 \
+  --seed 1 --results "$out" >/dev/null
 for sea in calm moderate; do
   "$hw" --config config/classes/mariner-120.toml bench --time-to-alarm --seed 1 --runs 12 \
     --sea "$sea" --intervals 3600 --member Mariner --ablate class-direction --results "$out/ablation" >/dev/null
