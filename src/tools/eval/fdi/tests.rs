@@ -45,6 +45,19 @@ fn outcome(decision: Decision, raw0: f64) -> TestOutcome {
     }
 }
 
+/// A run at 7 m/s and 6000 t, its operating point unchanged, of `tests`.
+fn healthy_run(tests: Vec<TestOutcome>) -> RunOutcome {
+    RunOutcome {
+        speed_mps: 7.0,
+        displacement_t: 6000.0,
+        speed_after_mps: f64::NAN,
+        declared_after_t: f64::NAN,
+        commissioning: Vec::new(),
+        tests,
+        error: None,
+    }
+}
+
 /// The run's naming at its end: with one method the last test's (nominal: none, even
 /// after an earlier test named a cause); with the methods in turn, the latest naming of
 /// the last test of each method (a healthy-looking last HBT test leaves CLFRT's in force).
@@ -56,15 +69,7 @@ fn the_naming_at_the_end_is_the_last_of_each_method() {
         isolation: iso,
         ..outcome(decision, 0.0)
     };
-    let run = |tests| RunOutcome {
-        speed_mps: 7.0,
-        displacement_t: 6000.0,
-        speed_after_mps: f64::NAN,
-        declared_after_t: f64::NAN,
-        commissioning: Vec::new(),
-        tests,
-        error: None,
-    };
+    let run = healthy_run;
     let one = vec![run(vec![
         outcome(Decision::Fault, 0.0),
         outcome(Decision::Nominal, 0.0),
@@ -113,16 +118,7 @@ fn the_calibrated_fit_splits_by_method() {
         .map(|k| test(Method::Clfrt, k as f64, 0.01, 0.001))
         .collect();
     tests.extend((1..=10).map(|k| test(Method::Hbt, k as f64, 0.1, 0.01)));
-    let run = RunOutcome {
-        speed_mps: 7.0,
-        displacement_t: 6000.0,
-        speed_after_mps: f64::NAN,
-        declared_after_t: f64::NAN,
-        commissioning: Vec::new(),
-        tests,
-        error: None,
-    };
-    let c = score::calibrated_fit(&[run]);
+    let c = score::calibrated_fit(&[healthy_run(tests)]);
     let close = |a: f64, b: f64| (a - b).abs() < 1e-9;
     assert_eq!(c.tests, 30);
     // All 30: the 29th smallest (ceil(0.95 * 30)), HBT's 0.9 m/s and 9 %.
