@@ -4,9 +4,9 @@
 
 use super::args::{EvalArgs, PlotArgs, ProbeArgs, ReplayArgs, ShipArgs, SimulateArgs};
 use super::print::{print_baseline, print_estimate, print_features};
-use super::service::{models_suffix, slug};
 use super::Failure;
 use crate::config::Config;
+use crate::tools::results::{models_suffix, slug};
 use helmwatch_core::drivers::probe::{run_probe, ProbeOptions};
 use helmwatch_core::estimator::Estimator;
 use helmwatch_core::sim::{Fault, Scenario};

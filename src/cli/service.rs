@@ -5,6 +5,7 @@ use super::args::{BenchArgs, DemoArgs, NmeaBridgeArgs, RunArgs, ShipPeerArgs};
 use super::offline::scenario;
 use super::Failure;
 use crate::config::Config;
+use crate::tools::results::{models_suffix, slug};
 use helmwatch_core::sim::Fault;
 use std::path::Path;
 
@@ -184,30 +185,6 @@ fn family_member(cfg: &Config, text: &str) -> Result<(&'static str, Config), Fai
             )))
         }
     }
-}
-
-/// `name` in a file name: lower case, each run of other characters than letters and digits
-/// one `-` ("KVLCC2 MMG 120 m": "kvlcc2-mmg-120-m").
-pub(crate) fn slug(name: &str) -> String {
-    let s: String = name
-        .chars()
-        .map(|c| match c.is_ascii_alphanumeric() {
-            true => c.to_ascii_lowercase(),
-            false => '-',
-        })
-        .collect();
-    s.split('-')
-        .filter(|w| !w.is_empty())
-        .collect::<Vec<_>>()
-        .join("-")
-}
-
-/// A results page's name's part for a models directory that is set (a class's):
-/// `-models-<its name>`; empty for none (the design's models).
-pub(crate) fn models_suffix(dir: Option<&std::path::Path>) -> String {
-    dir.and_then(|d| d.file_name()).map_or(String::new(), |n| {
-        format!("-models-{}", slug(&n.to_string_lossy()))
-    })
 }
 
 /// The time-to-alarm page's name: `time-to-alarm-<sea>-seed<S>[-<member>][-models-<dir>]

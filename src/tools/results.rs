@@ -78,6 +78,30 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     std::fs::rename(&tmp, path)
 }
 
+/// `name` in a file name: lower case, each run of other characters than letters and digits
+/// one `-` ("KVLCC2 MMG 120 m": "kvlcc2-mmg-120-m").
+pub fn slug(name: &str) -> String {
+    let s: String = name
+        .chars()
+        .map(|c| match c.is_ascii_alphanumeric() {
+            true => c.to_ascii_lowercase(),
+            false => '-',
+        })
+        .collect();
+    s.split('-')
+        .filter(|w| !w.is_empty())
+        .collect::<Vec<_>>()
+        .join("-")
+}
+
+/// A results page's name's part for a models directory that is set (a class's):
+/// `-models-<its name>`; empty for none (the design's models).
+pub fn models_suffix(dir: Option<&std::path::Path>) -> String {
+    dir.and_then(|d| d.file_name()).map_or(String::new(), |n| {
+        format!("-models-{}", slug(&n.to_string_lossy()))
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
