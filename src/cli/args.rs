@@ -206,9 +206,9 @@ pub(crate) struct TrainArgs {
     /// damping, dead band, backlash, fixed-gain autopilot; docs/estimator.md).
     #[arg(long)]
     pub(crate) family: bool,
-    /// Keep the networks in `--out`: measure only their calibration's healthy scatter and
-    /// displacement direction on the class (seeded tests at fixed points; docs/fdi.md, "The
-    /// class's prior", "Isolation") and rewrite its `calibration.json`.
+    /// Keep the networks in `--out`: measure only their calibration's healthy scatter,
+    /// displacement direction and slope in speed on the class (seeded tests at fixed points;
+    /// docs/fdi.md, "The class's prior", "Residuals") and rewrite its `calibration.json`.
     #[arg(long)]
     pub(crate) calibrate: bool,
 }

@@ -509,8 +509,8 @@ fn write_calibration(
     Ok(())
 }
 
-/// `train --calibrate`: the healthy scatter and the displacement's direction of the networks
-/// in `o.out` on the class (`tools::training::calibrate`), into its `calibration.json`.
+/// `train --calibrate`: the healthy scatter, the displacement's direction and the speed's slope
+/// of the networks in `o.out` on the class (`tools::training::calibrate`), into its `calibration.json`.
 fn recalibrate(cfg: &Config, o: &TrainOptions, threads: usize) -> Result<(), Failure> {
     let t0 = Instant::now();
     let estimator = Estimator::load_dir(&o.out, &cfg.core())?;
@@ -519,6 +519,7 @@ fn recalibrate(cfg: &Config, o: &TrainOptions, threads: usize) -> Result<(), Fai
     use crate::tools::training::calibrate::{
         displacement_direction, healthy_scatter, scatter_points,
     };
+    use crate::tools::training::speed_slope::speed_slope;
     let too_few = |what: &str| {
         Failure::software(anyhow::anyhow!(
             "too few completed tests to measure the {what}"
@@ -527,8 +528,13 @@ fn recalibrate(cfg: &Config, o: &TrainOptions, threads: usize) -> Result<(), Fai
     let prior = healthy_scatter(cfg, estimator.clone(), o.family, o.seed, threads)
         .ok_or_else(|| too_few("healthy scatter"))?;
     let points = scatter_points(cfg, o.family, o.seed);
-    let direction = displacement_direction(cfg, estimator, &points, threads)
+    let direction = displacement_direction(cfg, estimator.clone(), &points, threads)
         .ok_or_else(|| too_few("displacement's direction"))?;
+    let (slope, slope_speed, slope_speed_gain) =
+        speed_slope(cfg, estimator, &points, threads).ok_or_else(|| too_few("slope in speed"))?;
+    calibration.speed_slope = Some(slope);
+    calibration.slope_speed = slope_speed;
+    calibration.slope_speed_gain = slope_speed_gain;
     calibration.healthy_scatter = Some(prior);
     calibration.displacement_direction = Some(direction);
     write_calibration(std::slice::from_ref(&o.out), &calibration)?;
@@ -553,8 +559,23 @@ fn recalibrate(cfg: &Config, o: &TrainOptions, threads: usize) -> Result<(), Fai
             v(pair[1])
         );
     }
+    let kept = |m: [Option<[f64; 2]>; 3]| {
+        m.map(|c| {
+            c.map_or("the law".to_string(), |p| {
+                format!("{:+.4} / {:+.4}", p[0], p[1])
+            })
+        })
+    };
     println!(
-        "healthy scatter and displacement direction measured in {:.1} s",
+        "slope in speed per m/s (e_u, e_D, e_b), the class's calm / moderate or the similarity law: clfrt {:?}, hbt {:?}; prior sd about it: e_u {:.3} m/s, e_D {:.4}, e_b {:.4} ln",
+        kept(slope.clfrt),
+        kept(slope.hbt),
+        slope_speed[0],
+        slope_speed[1],
+        slope_speed_gain
+    );
+    println!(
+        "healthy scatter, displacement direction and slope in speed measured in {:.1} s",
         t0.elapsed().as_secs_f64()
     );
     Ok(())

@@ -4,10 +4,13 @@
 //!
 //! Measured on the database: the sea index's anchors, the median wave yaw of the completed
 //! tests in a calm and in a moderate sea [deg] (the heading's rms in the wave band: how the
-//! class's hulls answer the seas the networks were trained in). The others are carried from
-//! the calibration in force (the shipped models' unless a models directory is given): they
-//! describe hulls and servos beyond the simulated class (the commissioning spreads, the
-//! servo's spread, the slope priors), which one class's simulations cannot measure.
+//! class's hulls answer the seas the networks were trained in). Measured on seeded tests at
+//! the class's fixed points ([`scatter_points`]): the healthy scatter, the displacement's
+//! direction, and the speed's slope with its prior sd (`super::speed_slope`). The others are
+//! carried from the calibration in force (the shipped models' unless a models directory is
+//! given): they describe hulls and servos beyond the simulated class (the commissioning
+//! spreads, the servo's spread, the other slope priors), which one class's simulations
+//! cannot measure.
 
 use super::database::{design, par_map, Database, DatabaseSpec, Point, Purpose};
 use crate::config::Config;
@@ -72,7 +75,7 @@ pub fn calibrate(db: &Database, base: &Calibration) -> Calibration {
 }
 
 /// One completed test at `point` with `faults` from its start (`None`: not completed).
-fn completed(
+pub(super) fn completed(
     cfg: &Config,
     point: &Point,
     seed: u64,
@@ -263,7 +266,7 @@ pub fn healthy_scatter(
 pub const DIRECTION_STEP_PCT: f64 = 10.0;
 
 /// `(e_u [m/s], e_D [fraction of the declared], e_b [ln])` as the networks read `r`.
-fn reading(r: &Report, declared_t: f64) -> Option<[f64; P]> {
+pub(super) fn reading(r: &Report, declared_t: f64) -> Option<[f64; P]> {
     let e = r.estimate.as_ref()?;
     let v = [
         e.speed_mps,

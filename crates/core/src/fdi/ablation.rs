@@ -48,8 +48,9 @@ pub enum Mechanism {
     AlertLevel,
     /// Off: no gain residual `e_b` (two residuals, `e_u` and `e_D`).
     GainChannel,
-    /// Off: the displacement's direction is the `b` scaling's at each test, not the class's
-    /// measured one (`calibration.json`'s `displacement-direction`).
+    /// Off: the displacement's direction is the `b` scaling's and the speed's slope the
+    /// similarity law's at each test, not the class's measured ones (`calibration.json`'s
+    /// `displacement-direction`, `speed-slope`).
     ClassDirection,
 }
 

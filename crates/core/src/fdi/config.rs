@@ -159,6 +159,12 @@ pub struct Calibration {
     /// alone, the Nomoto class's law, read through the networks at each test).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub displacement_direction: Option<DisplacementDirection>,
+    /// How a test's residual moves per m/s of the ship's true speed, measured on the class,
+    /// for the components where that describes the class better than the similarity law
+    /// (`crate::fdi::raw`; absent, or a component null: the law, read through the networks
+    /// at each test).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub speed_slope: Option<SpeedSlope>,
 }
 
 /// One method's healthy scatter on the models' class, in design-spread units
@@ -203,6 +209,44 @@ impl DisplacementDirection {
             crate::wire::Method::Clfrt => self.clfrt,
             crate::wire::Method::Hbt => self.hbt,
         }
+    }
+}
+
+/// Per method and component `(e_u [m/s], e_D [fraction], e_b [ln])`: the class's slope per
+/// m/s of the ship's true speed, `[calm, moderate]`, or null where the similarity law is the
+/// better centre (`calibration.json`'s `speed-slope`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, rename_all = "kebab-case")]
+pub struct SpeedSlope {
+    /// CLFRT's.
+    pub clfrt: [Option<[f64; 2]>; 3],
+    /// HBT's.
+    pub hbt: [Option<[f64; 2]>; 3],
+}
+
+impl SpeedSlope {
+    /// `method`'s.
+    pub fn of(&self, method: crate::wire::Method) -> [Option<[f64; 2]>; 3] {
+        match method {
+            crate::wire::Method::Clfrt => self.clfrt,
+            crate::wire::Method::Hbt => self.hbt,
+        }
+    }
+
+    /// Every slope given finite within +-10 per m/s; the error names the method's key.
+    fn check(&self) -> Result<(), ConfigError> {
+        for (name, per) in [("clfrt", self.clfrt), ("hbt", self.hbt)] {
+            for pair in per.iter().flatten() {
+                if !pair.iter().all(|x| x.is_finite() && x.abs() <= 10.0) {
+                    return Err(fail(
+                        &format!("calibration.speed-slope.{name}"),
+                        format!("{pair:?}"),
+                        "per component null or [calm, moderate] finite within +-10 per m/s",
+                    ));
+                }
+            }
+        }
+        Ok(())
     }
 }
 
@@ -359,7 +403,7 @@ impl Calibration {
                 }
             }
         }
-        Ok(())
+        self.speed_slope.as_ref().map_or(Ok(()), SpeedSlope::check)
     }
 }
 
@@ -402,6 +446,19 @@ mod tests {
             "{e}"
         );
         v["displacement-direction"] = dir(0.9);
+        // The speed's slope: a component null is the similarity law's; a NaN names its key.
+        v["speed-slope"] = serde_json::json!({
+            "clfrt": [[0.01, 0.02], null, null],
+            "hbt": [null, [-0.003, -0.004], null],
+        });
+        let c = Calibration::from_json(&v.to_string()).unwrap();
+        let s = c.speed_slope.unwrap();
+        assert_eq!(s.of(crate::wire::Method::Clfrt)[0], Some([0.01, 0.02]));
+        assert_eq!(s.of(crate::wire::Method::Hbt)[0], None);
+        v["speed-slope"]["hbt"][1] = serde_json::json!([0.0, 11.0]);
+        let e = Calibration::from_json(&v.to_string()).unwrap_err();
+        assert!(e.to_string().contains("calibration.speed-slope.hbt"), "{e}");
+        v["speed-slope"]["hbt"][1] = serde_json::Value::Null;
         v["unknown-key"] = serde_json::json!(1);
         let e = Calibration::from_json(&v.to_string()).unwrap_err();
         assert!(e.to_string().contains("unknown-key"), "{e}");

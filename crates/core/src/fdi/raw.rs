@@ -13,6 +13,17 @@
 //! into `calibration.json`; where it is, it is used, interpolated by the sea index between
 //! its calm and moderate figures, and a declared loading's slope follows it. The rudder's
 //! effectiveness is not a separate cause: on every hull it scales `b` alone.
+//!
+//! **The speed's slope**: how they move per m/s when the ship itself goes faster. The
+//! similarity law (`sensitivity::scale_speed`: every time constant scales with `l / u`) read
+//! through the networks gives it at the test's point; exact on the Nomoto class. On an MMG
+//! hull the law does not hold, and the class's own networks read the class's speed changes
+//! near unbiased whatever the law says: `train` measures, per component, the class's slope
+//! (the same seeded test at the point's speed `+-1 m/s`) and its scatter over the class's
+//! points about each of the two centres, and keeps the class's slope where its scatter is
+//! the smaller (`calibration.json`'s `speed-slope`, interpolated by the sea index like the
+//! displacement's). The scatter about the centre kept is the prior sd of the offset's slope
+//! in speed (`slope-speed`, `slope-speed-gain`; `envelope`).
 
 use super::ablation::{self, Mechanism};
 use super::fit::CI90_TO_SIGMA;
@@ -185,6 +196,21 @@ fn class_direction(est: &Estimator, method: Method, frac: f64) -> Option<[f64; P
     Some(std::array::from_fn(|j| lerp([pair[0][j], pair[1][j]], at)))
 }
 
+/// The class's measured slope per m/s of the ship's speed at sea fraction `frac`, per
+/// component where the model files carry one (else `None`: the similarity law's), none with
+/// the mechanism off.
+fn class_speed_slope(est: &Estimator, method: Method, frac: f64) -> [Option<f64>; P] {
+    let Some(s) = est
+        .calibration()
+        .speed_slope
+        .filter(|_| !ablation::off(Mechanism::ClassDirection))
+    else {
+        return [None; P];
+    };
+    let at = frac.clamp(0.0, 1.0);
+    s.of(method).map(|pair| pair.map(|p| lerp(p, at)))
+}
+
 /// The neural estimator's raw residuals against the design for a completed test, with
 /// `dD_est / du_log` and the displacement's and the rudder's directions ([`NnRaw`]).
 #[allow(clippy::too_many_arguments)]
@@ -258,7 +284,9 @@ pub fn nn_raw(
     let speed_slope = if no_slopes {
         [0.0; P]
     } else {
-        central(similar(u_hi), similar(u_lo), u_hi - u_lo)
+        let law = central(similar(u_hi), similar(u_lo), u_hi - u_lo);
+        let class = class_speed_slope(est, method, frac);
+        std::array::from_fn(|j| class[j].unwrap_or(law[j]))
     };
     // How it moves per unit of ln D when the ship is declared and is `D` heavier: as the
     // true displacement's direction, the residual taken against the new declared

@@ -355,6 +355,32 @@ fn a_commissioning_test_beyond_the_wide_limits_joins_the_sample() {
     assert_eq!(fdi.commissioning[1].tests, 1);
 }
 
+/// The embedded networks under `calibration`.
+fn embedded_with(calibration: Calibration) -> crate::estimator::Estimator {
+    use crate::estimator::model::Model;
+    use crate::estimator::{Estimator, EMBEDDED_MODELS};
+    let models = EMBEDDED_MODELS
+        .iter()
+        .map(|(n, t)| (n.to_string(), Model::from_json(t, n).unwrap()))
+        .collect::<Vec<_>>();
+    Estimator::from_models(models, calibration, &CoreConfig::default()).unwrap()
+}
+
+/// A CLFRT test of the design's Nomoto ship with its log at 7 m/s.
+fn clfrt_at_7_mps() -> Features {
+    let mut c = nomoto_tones(0.0146, 5.98e-4, &[0.032, 0.0745, 0.181]);
+    c.speed_log_mps = Some(7.0);
+    Features::Clfrt(c)
+}
+
+/// `f`'s raw residuals through `est` at sea fraction `frac`, declared 7000 t.
+fn clfrt_raw(est: &crate::estimator::Estimator, f: &Features, frac: f64) -> raw::NnRaw {
+    use crate::wire::Method;
+    let mut scratch = est.scratch();
+    let e = est.estimate(Method::Clfrt, f, &mut scratch).unwrap();
+    raw::nn_raw(Method::Clfrt, f, &e, 7000.0, est, &mut scratch, frac, None).unwrap()
+}
+
 /// With the class's displacement direction in the models' calibration, a test's
 /// displacement direction is that direction at its sea (1 % of it, interpolated by hand
 /// between calm and moderate, clamped to them) and the rudder's is the `b` scaling's the
@@ -363,35 +389,19 @@ fn a_commissioning_test_beyond_the_wide_limits_joins_the_sample() {
 /// class's direction too.
 #[test]
 fn the_class_direction_is_the_displacements_and_the_b_scaling_the_rudders() {
-    use crate::estimator::model::Model;
-    use crate::estimator::{Estimator, EMBEDDED_MODELS};
     use crate::fdi::config::DisplacementDirection;
-    use crate::wire::{Estimate, Method};
-    let cfg = CoreConfig::default();
-    let models = || {
-        EMBEDDED_MODELS
-            .iter()
-            .map(|(n, t)| (n.to_string(), Model::from_json(t, n).unwrap()))
-            .collect::<Vec<_>>()
-    };
+    use crate::wire::Method;
     let pair = [[0.01, 0.9, -0.4], [-0.03, 0.8, -0.6]];
-    let class_cal = Calibration {
+    let design = embedded_with(Calibration::default());
+    let class = embedded_with(Calibration {
         displacement_direction: Some(DisplacementDirection {
             clfrt: pair,
             hbt: pair,
         }),
         ..Calibration::default()
-    };
-    let design = Estimator::from_models(models(), Calibration::default(), &cfg).unwrap();
-    let class = Estimator::from_models(models(), class_cal, &cfg).unwrap();
-    let mut c = nomoto_tones(0.0146, 5.98e-4, &[0.032, 0.0745, 0.181]);
-    c.speed_log_mps = Some(7.0);
-    let f = Features::Clfrt(c);
-    let run = |est: &Estimator, frac: f64| {
-        let mut scratch = est.scratch();
-        let e: Estimate = est.estimate(Method::Clfrt, &f, &mut scratch).unwrap();
-        raw::nn_raw(Method::Clfrt, &f, &e, 7000.0, est, &mut scratch, frac, None).unwrap()
-    };
+    });
+    let f = clfrt_at_7_mps();
+    let run = |est: &crate::estimator::Estimator, frac: f64| clfrt_raw(est, &f, frac);
     for (frac, at) in [(0.0, 0.0), (0.25, 0.25), (1.0, 1.0), (2.5, 1.0)] {
         let without = run(&design, frac);
         assert_eq!(without.rudder_dir, None);
@@ -427,5 +437,40 @@ fn the_class_direction_is_the_displacements_and_the_b_scaling_the_rudders() {
             ..with.raw
         };
         assert_eq!(same, without.raw);
+    }
+}
+
+/// With the class's speed slope in the models' calibration, a test's `speed_slope` takes it
+/// on the components it names (interpolated by hand between calm and moderate, clamped to
+/// them) and keeps the similarity law's, as the same networks give it without, on the null
+/// ones; nothing else moves (`raw`, module doc).
+#[test]
+fn the_class_speed_slope_replaces_the_law_where_it_is_given() {
+    use crate::fdi::config::SpeedSlope;
+    let e_d = [-0.01, -0.03];
+    let law = embedded_with(Calibration::default());
+    let class = embedded_with(Calibration {
+        speed_slope: Some(SpeedSlope {
+            clfrt: [None, Some(e_d), None],
+            hbt: [None; 3],
+        }),
+        ..Calibration::default()
+    });
+    let f = clfrt_at_7_mps();
+    let run = |est: &crate::estimator::Estimator, frac: f64| clfrt_raw(est, &f, frac);
+    for (frac, at) in [(0.0, 0.0), (0.25, 0.25), (1.0, 1.0), (2.5, 1.0)] {
+        let (without, with) = (run(&law, frac), run(&class, frac));
+        // The law's slope is the networks' own: e_b's near 2 / u (b ~ u^2) on this ship.
+        assert!(without.raw.speed_slope[2] > 0.0, "{without:?}");
+        let want = e_d[0] + at * (e_d[1] - e_d[0]);
+        approx::assert_relative_eq!(with.raw.speed_slope[1], want, max_relative = 1e-12);
+        assert_ne!(without.raw.speed_slope[1], want);
+        let same = super::raw::Raw {
+            speed_slope: without.raw.speed_slope,
+            ..with.raw
+        };
+        assert_eq!(same, without.raw);
+        assert_eq!(with.raw.speed_slope[0], without.raw.speed_slope[0]);
+        assert_eq!(with.raw.speed_slope[2], without.raw.speed_slope[2]);
     }
 }
