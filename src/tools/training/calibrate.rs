@@ -33,6 +33,20 @@ pub const SCATTER_POINTS: usize = 60;
 /// Seeded repeats at each: the scatter of one vessel at one point.
 pub const SCATTER_REPEATS: usize = 10;
 
+/// The probe options of the calibration's seeded tests: `method`, read by the class's
+/// `estimator`, with the multisine designed once (not per test).
+pub(super) fn calibration_probe(
+    cfg: &Config,
+    method: Method,
+    estimator: &Arc<Estimator>,
+) -> ProbeOptions {
+    let core = cfg.core();
+    let mut opts = ProbeOptions::new(&core, method);
+    opts.estimator = Some(estimator.clone());
+    opts.multisine = Monitor::design_multisine(&core).ok();
+    opts
+}
+
 /// The median wave yaw [deg] of the completed tests of `db` in `sea`, both methods.
 pub fn wave_yaw_deg(db: &Database, sea: SeaState) -> f64 {
     let mut v = db
@@ -221,12 +235,8 @@ pub fn healthy_scatter(
     threads: usize,
 ) -> Option<ScatterPrior> {
     let points = scatter_points(cfg, family, seed);
-    let core = cfg.core();
-    let multisine = Monitor::design_multisine(&core).ok();
     let per_method = |method: Method| -> Option<ClassScatter> {
-        let mut opts = ProbeOptions::new(&core, method);
-        opts.estimator = Some(estimator.clone());
-        opts.multisine = multisine.clone();
+        let opts = calibration_probe(cfg, method, &estimator);
         let jobs = points.len() * SCATTER_REPEATS;
         let z = par_map(jobs, threads, |j| {
             let p = &points[j / SCATTER_REPEATS];
@@ -288,14 +298,10 @@ pub fn displacement_direction(
     points: &[Point],
     threads: usize,
 ) -> Option<DisplacementDirection> {
-    let core = cfg.core();
-    let multisine = Monitor::design_multisine(&core).ok();
     let step = DIRECTION_STEP_PCT;
     let per_ln_d = ((1.0 + step / 100.0) / (1.0 - step / 100.0)).ln();
     let per_method = |method: Method| -> Option<[[f64; P]; 2]> {
-        let mut opts = ProbeOptions::new(&core, method);
-        opts.estimator = Some(estimator.clone());
-        opts.multisine = multisine.clone();
+        let opts = calibration_probe(cfg, method, &estimator);
         let slopes = par_map(points.len(), threads, |i| {
             let p = &points[i];
             // Both ends one seed, one the scatter's repeats do not use.
@@ -443,11 +449,8 @@ mod tests {
         })
         .collect();
         let measured = displacement_direction(&cfg, estimator.clone(), &points, 2).unwrap();
-        let core = cfg.core();
         for method in [Method::Clfrt, Method::Hbt] {
-            let mut opts = ProbeOptions::new(&core, method);
-            opts.estimator = Some(estimator.clone());
-            opts.multisine = Monitor::design_multisine(&core).ok();
+            let opts = calibration_probe(&cfg, method, &estimator);
             let b_scaling = |p: &Point| -> ([f64; P], [f64; P]) {
                 let seed = p.seed.wrapping_add(SCATTER_REPEATS as u64);
                 let r = completed(&cfg, p, seed, Vec::new(), &opts).unwrap();

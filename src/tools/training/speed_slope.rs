@@ -3,15 +3,13 @@
 //! `speed-slope`, `slope-speed` and `slope-speed-gain` at the class's fixed points
 //! (`calibrate::scatter_points`).
 
-use super::calibrate::{completed, reading, SCATTER_REPEATS};
+use super::calibrate::{calibration_probe, completed, reading, SCATTER_REPEATS};
 use super::database::{par_map, Point};
 use crate::config::Config;
-use helmwatch_core::drivers::probe::ProbeOptions;
 use helmwatch_core::estimator::Estimator;
 use helmwatch_core::fdi::config::SpeedSlope;
 use helmwatch_core::fdi::stats::P;
 use helmwatch_core::model::SeaState;
-use helmwatch_core::monitor::Monitor;
 use helmwatch_core::wire::Method;
 use std::sync::Arc;
 
@@ -60,13 +58,9 @@ pub fn speed_slope(
     points: &[Point],
     threads: usize,
 ) -> Option<(SpeedSlope, [f64; 2], f64)> {
-    let core = cfg.core();
-    let multisine = Monitor::design_multisine(&core).ok();
     let mut sd = [0.0f64; P];
     let mut per_method = |method: Method| -> Option<[Option<[f64; 2]>; P]> {
-        let mut opts = ProbeOptions::new(&core, method);
-        opts.estimator = Some(estimator.clone());
-        opts.multisine = multisine.clone();
+        let opts = calibration_probe(cfg, method, &estimator);
         let pair = |p: &Point, seed: u64| -> Option<SlopePair> {
             let at = |du: f64| {
                 let q = Point {

@@ -105,7 +105,7 @@ impl Fdi {
         let d_nom_t = residual.d_nom_t;
         let source = residual.raw.map(|n| Source {
             raw: n.raw,
-            directions: [[-1.0, n.log_slope_t / d_nom_t, 0.0], n.displacement_dir],
+            directions: [n.log_direction(d_nom_t), n.displacement_dir],
             rudder: n.rudder_dir,
         });
         let z_rate = residual

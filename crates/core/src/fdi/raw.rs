@@ -21,7 +21,8 @@
 //! near unbiased whatever the law says: `train` measures, per component, the class's slope
 //! (the same seeded test at the point's speed `+-1 m/s`) and its scatter over the class's
 //! points about each of the two centres, and keeps the class's slope where its scatter is
-//! the smaller (`calibration.json`'s `speed-slope`, interpolated by the sea index like the
+//! smaller than the law's by more than twice its standard error (`calibration.json`'s
+//! `speed-slope`, interpolated by the sea index like the
 //! displacement's). The scatter about the centre kept is the prior sd of the offset's slope
 //! in speed (`slope-speed`, `slope-speed-gain`; `envelope`).
 
@@ -350,12 +351,18 @@ pub struct NnRaw {
 }
 
 impl NnRaw {
+    /// How the residuals move per m/s of speed-log bias: `[-1, dD_est/du_log / D_nom, 0]`
+    /// (`e_u` is the estimate less the log, and the displacement's network reads the log).
+    pub fn log_direction(&self, d_nom_t: f64) -> [f64; P] {
+        [-1.0, self.log_slope_t / d_nom_t, 0.0]
+    }
+
     /// How the residuals move per m/s of speed-log bias and per unit fraction of the true
-    /// displacement: `[-1, dD_est/du_log / D_nom, 0]` and the displacement's direction
-    /// over its 1 % step.
+    /// displacement: [`Self::log_direction`] and the displacement's direction over its 1 %
+    /// step.
     pub fn cause_directions(&self, d_nom_t: f64) -> [[f64; P]; 2] {
         [
-            [-1.0, self.log_slope_t / d_nom_t, 0.0],
+            self.log_direction(d_nom_t),
             self.displacement_dir.map(|x| x / DB_REL),
         ]
     }
