@@ -155,6 +155,11 @@ impl Learner<'_> {
                 Basis::Commissioning { .. } => {
                     let order = reference::next_order(self.commissioning);
                     added = self.commissioning[i].add(&settings.method(i), &r, order);
+                    if added == Added::Sample
+                        && reference::complete_on_other(self.commissioning, i, settings)
+                    {
+                        added = Added::Completed;
+                    }
                     if added == Added::Completed {
                         self.generation[i] += 1;
                         if !ablation::off(Mechanism::CommissioningCheck)

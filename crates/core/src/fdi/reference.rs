@@ -16,7 +16,8 @@
 //! [`MethodReference::add`] takes only finite tests with positive spreads and displacement, none
 //! with commissioning off, and keeps at most [`MEMORY_TESTS`] (`envelope::forget`). The sample
 //! ends at `K = fdi.commissioning-tests`, or from `min(K, MIN_TESTS)` tests once it resolves
-//! `reference.resolve-*` (`resolve`).
+//! `reference.resolve-*` (`resolve`) or the vessel's other method, commissioned, resolves
+//! them ([`complete_on_other`]).
 //!
 //! A completed sample goes to the change-point test (`changepoint`).
 
@@ -558,6 +559,25 @@ pub fn looks(k_max: u32) -> usize {
 pub fn confirmation_looks(k_max: u32) -> usize {
     let k = k_max.max(MIN_TESTS as u32) as usize;
     2 * k * (4 * k - 1)
+}
+
+/// Ends method `i`'s commissioning on the vessel's other method (docs/fdi.md,
+/// "Commissioning"): at `min(K, MIN_TESTS)` tests or more, when the other method is
+/// commissioned and its sample resolves the faults. The vessel's decision weighs both
+/// methods' tests, each at its own dof: the promised detection rests on the resolved one,
+/// and `i`'s reference, Hotelling-wide at its few tests, keeps learning. Returns whether it
+/// ended.
+pub fn complete_on_other(c: &mut [MethodReference; 2], i: usize, s: &Settings) -> bool {
+    let (x, other) = (&c[i], &c[1 - i]);
+    let done = x.phase == Phase::Commissioning
+        && x.tests >= s.tests.min(MIN_TESTS as u32)
+        && other.phase == Phase::Learning
+        && other.resolved(&s.method(1 - i));
+    if done {
+        c[i].phase = Phase::Learning;
+        c[i].summarize(&s.method(i));
+    }
+    done
 }
 
 /// The vessel's number for its next test: one past the newest sample's of either method

@@ -216,6 +216,46 @@ fn commissioning_is_wide_and_ends_as_soon_as_the_sample_resolves_its_faults() {
     }
 }
 
+/// A method whose own tests do not resolve the faults ends its commissioning at six tests
+/// once the vessel's other method is commissioned and resolves them; not before six, not
+/// while the other gathers, not when the other ended at K unresolved.
+#[test]
+fn a_method_ends_commissioning_on_the_other_that_resolves_the_faults() {
+    let s = Settings {
+        floor_speed_mps: 0.05,
+        floor_displacement: 0.004,
+        ..settings(8)
+    };
+    let tight = [0.0, 0.02, -0.02, 0.01, -0.01, 0.0, 0.015, -0.015];
+    let sample = |k: f64| tight.map(|w| raw(1.0 + k * w, -0.2 + w / 20.0));
+    let (quiet, noisy) = (sample(1.0), sample(15.0));
+    let mut c = [MethodReference::default(), MethodReference::default()];
+    for t in &noisy[..5] {
+        c[1].add(&s, t, 0);
+    }
+    for t in &quiet[..6] {
+        c[0].add(&s, t, 0);
+    }
+    assert_eq!(c[0].phase, Phase::Learning);
+    assert!(!complete_on_other(&mut c, 1, &s), "five tests");
+    assert_eq!(c[1].add(&s, &noisy[5], 0), Added::Sample);
+    assert!(complete_on_other(&mut c, 1, &s));
+    assert_eq!((c[1].phase, c[1].tests), (Phase::Learning, 6));
+    assert!(c[1].reference.is_some());
+    // The other still gathering, or ended at K unresolved: no early end.
+    let mut d = [MethodReference::default(), MethodReference::default()];
+    for t in &noisy[..6] {
+        d[1].add(&s, t, 0);
+    }
+    assert!(!complete_on_other(&mut d, 1, &s), "the other gathering");
+    for t in &noisy {
+        d[0].add(&s, t, 0);
+    }
+    assert_eq!((d[0].phase, d[0].tests), (Phase::Learning, 8));
+    assert!(!complete_on_other(&mut d, 1, &s), "the other unresolved");
+    assert_eq!(d[1].phase, Phase::Commissioning);
+}
+
 /// With the class's prior (its centre this vessel's own scatter, 30 dof a component) six
 /// tests resolve the faults eight do not resolve alone; a vessel three times as noisy (sd)
 /// is outside its class: the scatter test drops the prior, and commissioning runs to K.
