@@ -58,6 +58,12 @@ for class in "kvlcc2-120 KVLCC2" "mariner-120 Mariner"; do
       --intervals 3600 --member "$2" --results "$out" >/dev/null
   done
 done
+# What ending a method's commissioning on the other's resolution buys: the hours on the hulls
+# where one method reads noisier than its class.
+"$hw" bench --time-to-alarm --seed 1 --runs 12 --sea moderate --intervals 3600 \
+  --member "all at the upper strength" --ablate one-resolved --results "$out/ablation" >/dev/null
+"$hw" --config config/classes/mariner-120.toml bench --time-to-alarm --seed 1 --runs 12 \
+  --sea moderate --intervals 3600 --member Mariner --ablate one-resolved --results "$out/ablation" >/dev/null
 # One test's bound on the two classes, their own networks beside it.
 "$hw" --config config/classes/mariner-120.toml eval --crb --family --member Mariner --runs 100 \
   --seed 1 --results "$out" >/dev/null

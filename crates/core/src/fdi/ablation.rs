@@ -35,6 +35,9 @@ pub enum Mechanism {
     /// Off: no test of the commissioning sample for a change inside it, neither when it
     /// completes nor as the tests after it are learned.
     CommissioningCheck,
+    /// Off: each method's commissioning ends on its own sample's resolution (or at `K`),
+    /// not on the vessel's other method's (`reference::complete_on_other`).
+    OneResolved,
     /// Off: no test is learned after commissioning (the commissioning sample alone,
     /// predicted over the envelope).
     Learning,
@@ -56,7 +59,7 @@ pub enum Mechanism {
 
 impl Mechanism {
     /// Every mechanism, in the order of a test's evidence.
-    pub const ALL: [Mechanism; 16] = [
+    pub const ALL: [Mechanism; 17] = [
         Mechanism::SeaInterpolation,
         Mechanism::NetworkSlopes,
         Mechanism::GainChannel,
@@ -67,6 +70,7 @@ impl Mechanism {
         Mechanism::EnvelopeSlopes,
         Mechanism::HotellingCalibration,
         Mechanism::ClassPrior,
+        Mechanism::OneResolved,
         Mechanism::CommissioningCheck,
         Mechanism::Learning,
         Mechanism::WindowGlr,
@@ -86,6 +90,7 @@ impl Mechanism {
             Mechanism::EnvelopeSlopes => "envelope-slopes",
             Mechanism::HotellingCalibration => "hotelling-calibration",
             Mechanism::ClassPrior => "class-prior",
+            Mechanism::OneResolved => "one-resolved",
             Mechanism::CommissioningCheck => "commissioning-check",
             Mechanism::Learning => "learning",
             Mechanism::WindowGlr => "window-glr",

@@ -21,6 +21,7 @@
 //!
 //! A completed sample goes to the change-point test (`changepoint`).
 
+use super::ablation::{self, Mechanism};
 use super::config::{Calibration, FdiConfig, ReferenceConfig};
 use super::envelope::{self, Shape};
 use super::limits::DecisionLimits;
@@ -569,7 +570,8 @@ pub fn confirmation_looks(k_max: u32) -> usize {
 /// ended.
 pub fn complete_on_other(c: &mut [MethodReference; 2], i: usize, s: &Settings) -> bool {
     let (x, other) = (&c[i], &c[1 - i]);
-    let done = x.phase == Phase::Commissioning
+    let done = !ablation::off(Mechanism::OneResolved)
+        && x.phase == Phase::Commissioning
         && x.tests >= s.tests.min(MIN_TESTS as u32)
         && other.phase == Phase::Learning
         && other.resolved(&s.method(1 - i));
